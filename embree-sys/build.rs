@@ -90,20 +90,32 @@ fn find() -> Result<Found, String> {
     if let Ok(dir) = env::var("EMBREE_DIR") {
         let dir = PathBuf::from(dir);
         let include = dir.join("include");
-        let (major, version) = probe_header_dir(&include)
-            .ok_or_else(|| format!("EMBREE_DIR={} has no include/embree{{4,3}}/rtcore.h", dir.display()))?;
+        let (major, version) = probe_header_dir(&include).ok_or_else(|| {
+            format!(
+                "EMBREE_DIR={} has no include/embree{{4,3}}/rtcore.h",
+                dir.display()
+            )
+        })?;
         let lib_dirs = ["lib", "lib64"]
             .iter()
             .map(|l| dir.join(l))
             .filter(|p| p.is_dir())
             .collect();
-        return Ok(Found { include_dir: include, major, version, lib_dirs });
+        return Ok(Found {
+            include_dir: include,
+            major,
+            version,
+            lib_dirs,
+        });
     }
     for name in ["embree4", "embree3"] {
         // Only probe; pkg-config's own link lines would be emitted before we know the header.
         if let Ok(lib) = pkg_config::Config::new().cargo_metadata(false).probe(name) {
             for inc in &lib.include_paths {
-                for candidate in [inc.clone(), inc.parent().map(Path::to_path_buf).unwrap_or_default()] {
+                for candidate in [
+                    inc.clone(),
+                    inc.parent().map(Path::to_path_buf).unwrap_or_default(),
+                ] {
                     if let Some((major, version)) = probe_header_dir(&candidate) {
                         return Ok(Found {
                             include_dir: candidate,
@@ -118,7 +130,12 @@ fn find() -> Result<Found, String> {
     }
     for dir in STANDARD_INCLUDE_DIRS {
         if let Some((major, version)) = probe_header_dir(Path::new(dir)) {
-            return Ok(Found { include_dir: PathBuf::from(dir), major, version, lib_dirs: Vec::new() });
+            return Ok(Found {
+                include_dir: PathBuf::from(dir),
+                major,
+                version,
+                lib_dirs: Vec::new(),
+            });
         }
     }
     Err("no embree4/rtcore.h or embree3/rtcore.h in EMBREE_DIR, pkg-config or the standard include directories".into())
@@ -142,7 +159,8 @@ fn read_version(config: &str) -> Option<String> {
     let field = |name: &str| -> Option<String> {
         config.lines().find_map(|l| {
             let mut it = l.split_whitespace();
-            (it.next() == Some("#define") && it.next() == Some(name)).then(|| it.next().map(str::to_string))?
+            (it.next() == Some("#define") && it.next() == Some(name))
+                .then(|| it.next().map(str::to_string))?
         })
     };
     if let Some(s) = field("RTC_VERSION_STRING") {

@@ -1,3 +1,3 @@
 fn main() {
-    println!("Hello, world!");
+    println!("ftpd3d {}", ftpd3d::version_string());
 }

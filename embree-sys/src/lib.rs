@@ -5,7 +5,12 @@
 //! Header-inline functions (`rtcInitIntersectContext`, `rtcInitIntersectArguments`, ...) and the
 //! `RTC_INVALID_GEOMETRY_ID` macro are not visible to bindgen; the constants are given here, the
 //! functions are written in the safe crate.
-#![allow(non_upper_case_globals, non_camel_case_types, non_snake_case, clippy::all)]
+#![allow(
+    non_upper_case_globals,
+    non_camel_case_types,
+    non_snake_case,
+    clippy::all
+)]
 
 include!(concat!(env!("OUT_DIR"), "/bindings.rs"));
 

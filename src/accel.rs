@@ -1,0 +1,422 @@
+//! The only module with `unsafe` Embree calls: a process-wide device, a committed triangle scene that
+//! owns its Embree handles (RAII), and thread-safe `intersect` / `occluded` queries.
+//!
+//! Embree 3 and 4 share this code; the build script of `embree-sys` detects the header's major version
+//! and the top-level build script turns it into the cfg `embree3` or `embree4`. Differences handled:
+//! - Embree 3's queries take an `RTCIntersectContext`, initialised by a header-inline function that
+//!   bindgen cannot see: it is initialised here in Rust (flags, no filter, invalid instance ids).
+//! - Embree 4's queries take optional argument structs: passing null selects the defaults.
+//!
+//! Object lifecycle: a device is created once per process (its TBB thread pool is process-wide); a
+//! scene is created, given one triangle geometry whose vertex and index buffers Embree allocates
+//! (`rtcSetNewGeometryBuffer`, which also pads the vertex buffer as Embree requires), committed, and
+//! released on drop. After commit the scene is immutable and queries may run on any thread.
+
+use embree_sys as sys;
+use glam::Vec3;
+use std::cell::RefCell;
+use std::ffi::{CStr, c_char, c_void};
+use std::sync::OnceLock;
+
+/// Errors reported by Embree, through its error callback or its error code.
+#[derive(Debug, thiserror::Error)]
+pub enum AccelError {
+    #[error("Embree error {code} during {during}: {message}")]
+    Embree {
+        code: u32,
+        during: &'static str,
+        message: String,
+    },
+    #[error("Embree device could not be created: {0}")]
+    Device(String),
+    #[error("scene too large for Embree: {0} triangles, {1} vertices (limit 2^32-1)")]
+    TooLarge(usize, usize),
+}
+
+thread_local! {
+    /// The message of the last error Embree reported on this thread (Embree calls the error callback
+    /// on the thread of the failing API call). Read and cleared after every checked call.
+    static LAST_ERROR: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+/// Error callback: never unwinds into C, only records the message.
+unsafe extern "C" fn error_callback(_user: *mut c_void, code: sys::RTCError, msg: *const c_char) {
+    let text = if msg.is_null() {
+        String::new()
+    } else {
+        // SAFETY: Embree passes a NUL-terminated string that lives for the duration of the callback.
+        unsafe { CStr::from_ptr(msg) }
+            .to_string_lossy()
+            .into_owned()
+    };
+    let _ = LAST_ERROR.try_with(|slot| {
+        if let Ok(mut slot) = slot.try_borrow_mut() {
+            *slot = Some(format!("{text} (code {code})"));
+        }
+    });
+}
+
+struct Device(sys::RTCDevice);
+
+// SAFETY: an Embree device is thread-safe by contract (its API may be called from any thread); the
+// handle is only released at process exit, never while shared.
+unsafe impl Send for Device {}
+// SAFETY: as above; `&Device` only hands out the raw handle to thread-safe Embree calls.
+unsafe impl Sync for Device {}
+
+static DEVICE: OnceLock<Result<Device, String>> = OnceLock::new();
+
+fn device() -> Result<sys::RTCDevice, AccelError> {
+    let dev = DEVICE.get_or_init(|| {
+        // SAFETY: a null config string selects Embree's defaults.
+        let raw = unsafe { sys::rtcNewDevice(std::ptr::null()) };
+        if raw.is_null() {
+            // SAFETY: rtcGetDeviceError accepts null and then reports the device-creation error.
+            let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(format!("rtcNewDevice failed with code {code}"));
+        }
+        // SAFETY: raw is a live device; the callback is a plain function that never unwinds.
+        unsafe { sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), std::ptr::null_mut()) };
+        Ok(Device(raw))
+    });
+    match dev {
+        Ok(d) => Ok(d.0),
+        Err(e) => Err(AccelError::Device(e.clone())),
+    }
+}
+
+/// Checks the device's error code and the callback slot after an Embree call.
+fn check(dev: sys::RTCDevice, during: &'static str) -> Result<(), AccelError> {
+    // SAFETY: dev is the live process-wide device.
+    let code = unsafe { sys::rtcGetDeviceError(dev) };
+    let message = LAST_ERROR.with(|s| s.borrow_mut().take());
+    if code != sys::RTCError_RTC_ERROR_NONE {
+        return Err(AccelError::Embree {
+            code,
+            during,
+            message: message.unwrap_or_default(),
+        });
+    }
+    Ok(())
+}
+
+/// One hit returned by [`Accel::intersect`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawHit {
+    /// Ray parameter of the hit (the ray direction need not be unit).
+    pub t: f32,
+    /// Index of the triangle in the buffer given to [`Accel::new`].
+    pub prim: u32,
+    /// Barycentric coordinates of the hit: p = (1-u-v) v0 + u v1 + v v2.
+    pub u: f32,
+    pub v: f32,
+}
+
+/// A committed Embree scene of triangles; immutable and shareable across threads.
+pub struct Accel {
+    scene: sys::RTCScene,
+}
+
+// SAFETY: a committed Embree scene is read-only; Embree documents rtcIntersect1/rtcOccluded1 as safe
+// to call concurrently from many threads on the same committed scene.
+unsafe impl Send for Accel {}
+// SAFETY: as above; no method mutates the scene after commit.
+unsafe impl Sync for Accel {}
+
+impl Drop for Accel {
+    fn drop(&mut self) {
+        // SAFETY: self.scene is a live scene handle owned by this value and released exactly once.
+        unsafe { sys::rtcReleaseScene(self.scene) };
+    }
+}
+
+impl Accel {
+    /// Builds and commits a scene of `triangles` over `positions`. Vertex and index data are copied
+    /// into buffers Embree allocates, so the inputs need not outlive the scene. Triangles must index
+    /// valid vertices (the scene loader guarantees it and drops degenerate ones).
+    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Accel, AccelError> {
+        if triangles.len() >= u32::MAX as usize || positions.len() >= u32::MAX as usize {
+            return Err(AccelError::TooLarge(triangles.len(), positions.len()));
+        }
+        debug_assert!(
+            triangles
+                .iter()
+                .flatten()
+                .all(|&i| (i as usize) < positions.len())
+        );
+        let dev = device()?;
+        // SAFETY: dev is a live device; the scene is released by Drop (or below on error).
+        let scene = unsafe { sys::rtcNewScene(dev) };
+        check(dev, "rtcNewScene")?;
+        let accel = Accel { scene };
+        // SAFETY: scene is live. Robust mode avoids optimisations that can let rays slip through
+        // shared edges and vertices, which the FTPD walks cross often.
+        unsafe {
+            sys::rtcSetSceneFlags(scene, sys::RTCSceneFlags_RTC_SCENE_FLAG_ROBUST);
+            sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality_RTC_BUILD_QUALITY_HIGH);
+        }
+        if !triangles.is_empty() {
+            // SAFETY: dev is live; the geometry is released after being attached (the scene keeps a
+            // reference).
+            let geom = unsafe {
+                sys::rtcNewGeometry(dev, sys::RTCGeometryType_RTC_GEOMETRY_TYPE_TRIANGLE)
+            };
+            check(dev, "rtcNewGeometry")?;
+            // SAFETY: Embree allocates a buffer of positions.len() items of 12 bytes (plus its own
+            // padding) and returns a pointer to it, or null on failure (checked).
+            let vbuf = unsafe {
+                sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTCBufferType_RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    sys::RTCFormat_RTC_FORMAT_FLOAT3,
+                    12,
+                    positions.len(),
+                )
+            } as *mut f32;
+            check(dev, "vertex buffer")?;
+            // SAFETY: as above, triangles.len() items of 3 u32.
+            let ibuf = unsafe {
+                sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTCBufferType_RTC_BUFFER_TYPE_INDEX,
+                    0,
+                    sys::RTCFormat_RTC_FORMAT_UINT3,
+                    12,
+                    triangles.len(),
+                )
+            } as *mut u32;
+            check(dev, "index buffer")?;
+            if vbuf.is_null() || ibuf.is_null() {
+                // SAFETY: geom is live and not yet attached.
+                unsafe { sys::rtcReleaseGeometry(geom) };
+                return Err(AccelError::Embree {
+                    code: 0,
+                    during: "buffer allocation",
+                    message: "null buffer".into(),
+                });
+            }
+            // SAFETY: vbuf has room for positions.len()*3 f32 and ibuf for triangles.len()*3 u32
+            // (requested above); the sources are plain arrays of f32/u32 of exactly that length, and
+            // the regions cannot overlap (Embree's fresh allocations).
+            unsafe {
+                std::ptr::copy_nonoverlapping(
+                    positions.as_ptr() as *const f32,
+                    vbuf,
+                    positions.len() * 3,
+                );
+                std::ptr::copy_nonoverlapping(
+                    triangles.as_ptr() as *const u32,
+                    ibuf,
+                    triangles.len() * 3,
+                );
+            }
+            // SAFETY: geom and scene are live; after attaching, the scene holds its own reference,
+            // so releasing ours is the documented pattern.
+            unsafe {
+                sys::rtcCommitGeometry(geom);
+                sys::rtcAttachGeometry(scene, geom);
+                sys::rtcReleaseGeometry(geom);
+            }
+            check(dev, "geometry commit")?;
+        }
+        // SAFETY: scene is live and fully described.
+        unsafe { sys::rtcCommitScene(scene) };
+        check(dev, "rtcCommitScene")?;
+        Ok(accel)
+    }
+
+    /// Closest hit along `o + t d` for t in (tnear, tfar), or `None`.
+    #[inline]
+    pub fn intersect(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<RawHit> {
+        let mut rh = sys::RTCRayHit {
+            ray: make_ray(o, d, tnear, tfar),
+            hit: sys::RTCHit::default(),
+        };
+        rh.hit.geomID = sys::RTC_INVALID_GEOMETRY_ID;
+        rh.hit.primID = sys::RTC_INVALID_GEOMETRY_ID;
+        for id in rh.hit.instID.iter_mut() {
+            *id = sys::RTC_INVALID_GEOMETRY_ID;
+        }
+        #[cfg(embree3)]
+        {
+            let mut ctx = context();
+            // SAFETY: the scene is committed and immutable; ctx and rh are valid, properly aligned
+            // (bindgen keeps RTCRayHit's 16-byte alignment) and live for the call.
+            unsafe { sys::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: as above; a null argument struct selects Embree 4's default query arguments.
+            unsafe { sys::rtcIntersect1(self.scene, &mut rh, std::ptr::null_mut()) };
+        }
+        (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
+            t: rh.ray.tfar,
+            prim: rh.hit.primID,
+            u: rh.hit.u,
+            v: rh.hit.v,
+        })
+    }
+
+    /// True when anything lies along `o + t d` for t in (tnear, tfar).
+    #[inline]
+    pub fn occluded(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> bool {
+        let mut ray = make_ray(o, d, tnear, tfar);
+        #[cfg(embree3)]
+        {
+            let mut ctx = context();
+            // SAFETY: as in `intersect`.
+            unsafe { sys::rtcOccluded1(self.scene, &mut ctx, &mut ray) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: as in `intersect`.
+            unsafe { sys::rtcOccluded1(self.scene, &mut ray, std::ptr::null_mut()) };
+        }
+        // Embree sets tfar to -inf on a hit.
+        ray.tfar < 0.0
+    }
+}
+
+/// A ray with all mask bits set (Embree 4 geometries default to mask 1) and no motion blur time.
+#[inline]
+fn make_ray(o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: o.x,
+        org_y: o.y,
+        org_z: o.z,
+        tnear,
+        dir_x: d.x,
+        dir_y: d.y,
+        dir_z: d.z,
+        time: 0.0,
+        tfar,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+/// Embree 3's `rtcInitIntersectContext`, which is header-inline: incoherent rays, no filter, no
+/// instance on the stack.
+#[cfg(embree3)]
+#[inline]
+fn context() -> sys::RTCIntersectContext {
+    let mut ctx = sys::RTCIntersectContext {
+        flags: sys::RTCIntersectContextFlags_RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+        filter: None,
+        ..Default::default()
+    };
+    for id in ctx.instID.iter_mut() {
+        *id = sys::RTC_INVALID_GEOMETRY_ID;
+    }
+    ctx
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one_triangle() -> Accel {
+        let p = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        Accel::new(&p, &[[0, 1, 2]]).expect("scene builds")
+    }
+
+    #[test]
+    fn ray_hits_triangle_at_analytic_t() {
+        let a = one_triangle();
+        // From (0.25, 0.25, 2) straight down: t = 2, barycentrics u = 0.25 (v1), v = 0.25 (v2).
+        let h = a
+            .intersect(
+                Vec3::new(0.25, 0.25, 2.0),
+                Vec3::new(0.0, 0.0, -1.0),
+                0.0,
+                f32::INFINITY,
+            )
+            .unwrap();
+        assert_eq!(h.prim, 0);
+        assert!((h.t - 2.0).abs() < 1e-6, "t = {}", h.t);
+        assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.25).abs() < 1e-6);
+        // A slanted ray: from (0.1, 0.2, 3) towards (0.1, 0.2, 0) + (0.3, 0.3, 0): t = 1 with d unnormalised.
+        let d = Vec3::new(0.3, 0.3, -3.0);
+        let h = a
+            .intersect(Vec3::new(0.1, 0.2, 3.0), d, 0.0, f32::INFINITY)
+            .unwrap();
+        assert!((h.t - 1.0).abs() < 1e-6);
+        assert!(a.occluded(
+            Vec3::new(0.25, 0.25, 2.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            0.0,
+            3.0
+        ));
+        assert!(
+            !a.occluded(
+                Vec3::new(0.25, 0.25, 2.0),
+                Vec3::new(0.0, 0.0, -1.0),
+                0.0,
+                1.5
+            ),
+            "tfar before the hit"
+        );
+    }
+
+    #[test]
+    fn misses_miss() {
+        let a = one_triangle();
+        assert_eq!(
+            a.intersect(
+                Vec3::new(0.8, 0.8, 2.0),
+                Vec3::new(0.0, 0.0, -1.0),
+                0.0,
+                f32::INFINITY
+            ),
+            None
+        );
+        assert_eq!(
+            a.intersect(
+                Vec3::new(0.25, 0.25, 2.0),
+                Vec3::new(0.0, 0.0, 1.0),
+                0.0,
+                f32::INFINITY
+            ),
+            None
+        );
+        assert!(!a.occluded(
+            Vec3::new(0.8, 0.8, 2.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            0.0,
+            f32::INFINITY
+        ));
+        let empty = Accel::new(&[], &[]).unwrap();
+        assert_eq!(
+            empty.intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY),
+            None
+        );
+    }
+
+    #[test]
+    fn queries_from_many_threads() {
+        let a = one_triangle();
+        let hits: usize = std::thread::scope(|s| {
+            let hs: Vec<_> = (0..4)
+                .map(|_| {
+                    s.spawn(|| {
+                        (0..1000)
+                            .filter(|i| {
+                                let x = (*i as f32 + 0.5) / 1000.0;
+                                a.intersect(Vec3::new(x, 0.1, 1.0), -Vec3::Z, 0.0, 10.0)
+                                    .is_some()
+                            })
+                            .count()
+                    })
+                })
+                .collect();
+            hs.into_iter().map(|h| h.join().unwrap()).sum()
+        });
+        assert_eq!(hits, 4 * 900, "x < 0.9 hits for y = 0.1");
+    }
+}

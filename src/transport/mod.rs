@@ -1,0 +1,3 @@
+//! Light transport: sampling warps, scattering models, and the random walks built from them.
+pub mod bsdf;
+pub mod sampling;

@@ -1,0 +1,1 @@
+//! BSDF validation: sampling densities, energy, reciprocity, Fresnel.

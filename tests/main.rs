@@ -1,0 +1,2 @@
+//! One integration-test binary (as ripgrep does): each capability is a module.
+mod bsdf;
