@@ -3,18 +3,26 @@
 //! Structures of Light Transport", Computer Graphics Forum 34(3), 2015 (sections 5 and 6).
 //!
 //! Data flows one way: [`scene`] (load) → [`accel`] (Embree) → [`domain`] (where samples start) →
-//! [`ftpd`] (one sample, moments) → [`render`] (parallel passes) → [`output`] (EXR, PNG).
+//! [`ftpd`] (one sample, moments) → [`render`] (parallel passes) → [`field`] → [`output`] (EXR, PNG).
 
 pub mod accel;
+pub mod app;
+pub mod domain;
+pub mod field;
+pub mod ftpd;
 pub mod math;
+pub mod output;
+pub mod render;
 pub mod rng;
+pub mod scene;
 pub mod transport;
 
 /// Tool version and the Embree version it was built against, e.g. `0.1.0 (Embree 3.13.5)`.
 pub fn version_string() -> String {
-    format!(
-        "{} (Embree {})",
-        env!("CARGO_PKG_VERSION"),
-        env!("FTPD3D_EMBREE_VERSION")
-    )
+    format!("{} (Embree {})", env!("CARGO_PKG_VERSION"), embree_version())
+}
+
+/// The Embree version found at build time.
+pub fn embree_version() -> &'static str {
+    env!("FTPD3D_EMBREE_VERSION")
 }

@@ -1,3 +1,4 @@
 //! Light transport: sampling warps, scattering models, and the random walks built from them.
 pub mod bsdf;
 pub mod sampling;
+pub mod walk;

@@ -1,0 +1,185 @@
+//! OpenEXR output of 2D fields (exr crate): one single-part file, f32 channels named by quantity,
+//! the raw sums kept exact as pairs of u32 channels holding the high and low 32 bits of each f64, and
+//! the run's description as string header attributes.
+//!
+//! | channel                      | type | meaning                                                  |
+//! |------------------------------|------|----------------------------------------------------------|
+//! | `ftpd`                       | f32  | σ (eq. 14); 0 where `valid` = 0                          |
+//! | `ftpd.mean`, `ftpd.m2`       | f32  | weighted mean and second moment of Δ                     |
+//! | `ftpd.stderr`, `ftpd.relerr` | f32  | standard error of σ from independent batches, and /σ    |
+//! | `weight`                     | f32  | mean contribution weight ΣP / samples                    |
+//! | `fluence.R/G/B`              | f32  | incident radiance integrated over the sphere (radiance weighting only) |
+//! | `samples`                    | u32  | samples taken at the cell                                |
+//! | `valid`                      | f32  | 1 where σ is defined (ΣP > 0)                             |
+//! | `sum.w`, `sum.wd`, `sum.wd2` | f32  | ΣP, ΣPΔ, ΣPΔ² rounded, for viewing                        |
+//! | `exact.<sum>.hi/.lo`         | u32  | the exact f64 bits of every sum (ΣP, ΣPΔ, ΣPΔ², fluence, batch σ sums) |
+//! | `batches`                    | u32  | batches with a defined σ                                 |
+//!
+//! Image rows run top to bottom, so the first row is the plane's largest v.
+
+use crate::field::Field;
+use crate::ftpd::moments::Moments;
+use anyhow::{Context, bail};
+use exr::prelude::*;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The sums stored exactly, by name, with accessors.
+type Getter = fn(&Moments) -> f64;
+type Setter = fn(&mut Moments, f64);
+const EXACT: &[(&str, Getter, Setter)] = &[
+    ("sum.w", |m| m.s0, |m, v| m.s0 = v),
+    ("sum.wd", |m| m.s1, |m, v| m.s1 = v),
+    ("sum.wd2", |m| m.s2, |m, v| m.s2 = v),
+    ("sum.fluence.R", |m| m.fluence.x, |m, v| m.fluence.x = v),
+    ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
+    ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
+    ("batch.sigma", |m| m.batch_sigma, |m, v| m.batch_sigma = v),
+    ("batch.sigma2", |m| m.batch_sigma2, |m, v| m.batch_sigma2 = v),
+];
+
+/// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).
+fn f32_of(x: f64) -> f32 {
+    let y = x as f32;
+    if y.is_finite() { y } else if x > 0.0 { f32::MAX } else if x < 0.0 { f32::MIN } else { 0.0 }
+}
+
+/// Writes a 2D field (depth 1) with optional extra f32 channels (e.g. `grad.x`), each one value per
+/// cell in field order. Written to a temporary name, then renamed.
+pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyhow::Result<()> {
+    let (w, h) = (field.width, field.height);
+    if field.depth != 1 || w == 0 || h == 0 {
+        bail!("{}: an EXR holds one 2D slice (got {}x{}x{})", path.display(), w, h, field.depth);
+    }
+    // Field row 0 is the bottom (v minimal); EXR row 0 is the top.
+    let order: Vec<usize> = (0..h).rev().flat_map(|j| (0..w).map(move |i| j * w + i)).collect();
+    let vals = field.values();
+    let per = |f: &dyn Fn(usize) -> f64| -> Vec<f32> { order.iter().map(|&k| f32_of(f(k))).collect() };
+    let mut chans: Vec<AnyChannel<FlatSamples>> = Vec::new();
+    let mut f32ch = |name: &str, data: Vec<f32>| chans.push(AnyChannel::new(name, FlatSamples::F32(data)));
+    f32ch("ftpd", per(&|k| vals[k].sigma));
+    f32ch("ftpd.mean", per(&|k| vals[k].mean));
+    f32ch("ftpd.m2", per(&|k| vals[k].m2));
+    f32ch("ftpd.stderr", per(&|k| vals[k].stderr));
+    f32ch(
+        "ftpd.relerr",
+        per(&|k| if vals[k].valid && vals[k].sigma > 0.0 { vals[k].stderr / vals[k].sigma } else { 0.0 }),
+    );
+    f32ch("weight", per(&|k| vals[k].weight));
+    f32ch("valid", per(&|k| if vals[k].valid { 1.0 } else { 0.0 }));
+    f32ch("sum.w", per(&|k| field.cells[k].s0));
+    f32ch("sum.wd", per(&|k| field.cells[k].s1));
+    f32ch("sum.wd2", per(&|k| field.cells[k].s2));
+    if field.meta.get("weighting").is_some_and(|w| w == "radiance") {
+        let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
+        f32ch("fluence.R", per(&|k| fl[k].x));
+        f32ch("fluence.G", per(&|k| fl[k].y));
+        f32ch("fluence.B", per(&|k| fl[k].z));
+    }
+    for (name, data) in extra {
+        if data.len() != w * h {
+            bail!("channel {name}: {} values for {} cells", data.len(), w * h);
+        }
+        f32ch(name, per(&|k| data[k]));
+    }
+    let mut u32ch = |name: String, data: Vec<u32>| chans.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)));
+    if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
+        bail!("{}: a cell holds {} samples, more than an EXR u32 channel can count", path.display(), c.n);
+    }
+    u32ch("samples".into(), order.iter().map(|&k| field.cells[k].n as u32).collect());
+    u32ch("batches".into(), order.iter().map(|&k| field.cells[k].batches.min(u32::MAX as u64) as u32).collect());
+    for (name, get, _) in EXACT {
+        let bits: Vec<u64> = order.iter().map(|&k| get(&field.cells[k]).to_bits()).collect();
+        u32ch(format!("exact.{name}.hi"), bits.iter().map(|b| (b >> 32) as u32).collect());
+        u32ch(format!("exact.{name}.lo"), bits.iter().map(|b| *b as u32).collect());
+    }
+
+    let mut attrs = LayerAttributes::default();
+    for (k, v) in &field.meta {
+        attrs.other.insert(Text::from(format!("ftpd3d.{k}").as_str()), AttributeValue::Text(Text::from(v.as_str())));
+    }
+    let layer = Layer::new((w, h), attrs, Encoding::SMALL_LOSSLESS, AnyChannels::sort(chans.into()));
+    let image = Image::from_layer(layer);
+    crate::output::write_atomically(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| anyhow::anyhow!("{e}"))
+    })
+}
+
+/// Reads a field written by [`write_exr`] back (exact sums, sample counts, metadata).
+pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| anyhow::anyhow!("{}: not a readable EXR file ({e})", path.display()))?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.x(), layer.size.y());
+    let chan = |name: &str| -> anyhow::Result<&FlatSamples> {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq(name))
+            .map(|c| &c.sample_data)
+            .with_context(|| format!("{}: channel '{name}' missing (not an ftpd3d field?)", path.display()))
+    };
+    let u32s = |name: &str| -> anyhow::Result<Vec<u32>> {
+        match chan(name)? {
+            FlatSamples::U32(v) => Ok(v.clone()),
+            _ => bail!("{}: channel '{name}' is not u32", path.display()),
+        }
+    };
+    let mut field = Field::new(w, h, 1);
+    // EXR row r holds field row h-1-r.
+    let idx = |e: usize| -> usize { (h - 1 - e / w) * w + e % w };
+    for (e, n) in u32s("samples")?.into_iter().enumerate() {
+        field.cells[idx(e)].n = n as u64;
+    }
+    for (e, n) in u32s("batches")?.into_iter().enumerate() {
+        field.cells[idx(e)].batches = n as u64;
+    }
+    for (name, _, set) in EXACT {
+        let hi = u32s(&format!("exact.{name}.hi"))?;
+        let lo = u32s(&format!("exact.{name}.lo"))?;
+        for e in 0..w * h {
+            set(&mut field.cells[idx(e)], f64::from_bits(((hi[e] as u64) << 32) | lo[e] as u64));
+        }
+    }
+    let mut meta = BTreeMap::new();
+    for (k, v) in &layer.attributes.other {
+        if let (Some(key), AttributeValue::Text(t)) = (k.to_string().strip_prefix("ftpd3d."), v) {
+            meta.insert(key.to_string(), t.to_string());
+        }
+    }
+    field.meta = meta;
+    Ok(field)
+}
+
+/// Reads one f32 channel of an EXR in field order (row 0 = bottom), for tests and tools.
+pub fn read_channel(path: &Path, name: &str) -> anyhow::Result<(usize, usize, Vec<f32>)> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.x(), layer.size.y());
+    let c = layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.eq(name))
+        .with_context(|| format!("{}: no channel '{name}'", path.display()))?;
+    let v: Vec<f32> = c.sample_data.values_as_f32().collect();
+    let mut out = vec![0.0; w * h];
+    for (e, x) in v.into_iter().enumerate() {
+        out[(h - 1 - e / w) * w + e % w] = x;
+    }
+    Ok((w, h, out))
+}

@@ -1,0 +1,68 @@
+//! Which effects a scene calls for, decided once at load time. The sample kernel is chosen from this
+//! set, so a scene never pays for effects it does not have.
+
+use crate::scene::light::{Light, LightSet};
+use crate::scene::material::Material;
+use crate::transport::bsdf::Bsdf;
+use std::fmt;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    pub diffuse: bool,
+    pub glossy: bool,
+    pub mirror: bool,
+    pub dielectric: bool,
+    pub area_lights: bool,
+    pub point_lights: bool,
+}
+
+impl Features {
+    /// The effects of the materials actually used by triangles, and of the lights.
+    pub fn of(materials: &[Material], tri_material: &[u32], lights: &LightSet) -> Features {
+        let mut used = vec![false; materials.len()];
+        for &m in tri_material {
+            used[m as usize] = true;
+        }
+        let mut f = Features::default();
+        for (m, _) in materials.iter().zip(&used).filter(|(_, u)| **u) {
+            match &m.bsdf {
+                Bsdf::Black => {}
+                Bsdf::Diffuse { .. } => f.diffuse = true,
+                Bsdf::Glossy { kd, .. } => {
+                    f.glossy = true;
+                    f.diffuse |= *kd != crate::math::Rgb::ZERO;
+                }
+                Bsdf::Mirror { kd, .. } => {
+                    f.mirror = true;
+                    f.diffuse |= *kd != crate::math::Rgb::ZERO;
+                }
+                Bsdf::Dielectric { .. } => f.dielectric = true,
+            }
+        }
+        for l in &lights.lights {
+            match l {
+                Light::Triangle { .. } => f.area_lights = true,
+                Light::Point { .. } => f.point_lights = true,
+            }
+        }
+        f
+    }
+}
+
+impl fmt::Display for Features {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names: Vec<&str> = [
+            (self.diffuse, "diffuse"),
+            (self.glossy, "glossy"),
+            (self.mirror, "mirror"),
+            (self.dielectric, "dielectric"),
+            (self.area_lights, "area-lights"),
+            (self.point_lights, "point-lights"),
+        ]
+        .iter()
+        .filter(|(on, _)| *on)
+        .map(|(_, n)| *n)
+        .collect();
+        if names.is_empty() { write!(f, "(nothing)") } else { write!(f, "{}", names.join(" ")) }
+    }
+}

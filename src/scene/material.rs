@@ -1,0 +1,49 @@
+//! Materials: a scattering model ([`Bsdf`]) and an emitted radiance.
+//!
+//! OBJ/MTL mapping (the loader's table, also in the README):
+//!
+//! | MTL                                   | material                                              |
+//! |---------------------------------------|-------------------------------------------------------|
+//! | `illum 0`, `illum 1`                  | Lambertian `Kd`                                       |
+//! | `illum 2` (or none) with `Ks` > 0     | `Kd` Lambertian + normalised Phong `Ks`, exponent `Ns` |
+//! | `illum 2` (or none) with `Ks` = 0     | Lambertian `Kd`                                       |
+//! | `illum 3`, `5`, `8`                   | `Kd` Lambertian + perfect mirror `Ks` (default 1)     |
+//! | `illum 4`, `6`, `7`, `9`              | smooth dielectric, index `Ni` (default 1.5), tint `Tf` |
+//! | `Ke` > 0 (any illum)                  | area light of radiance `Ke`, front side only          |
+//! | no `Kd`                               | `Kd` = 0.5 grey (0 when the material emits)           |
+//!
+//! Albedos whose sum exceeds 1 in some channel are scaled down to 1 (energy conservation) with a
+//! warning.
+
+use crate::math::Rgb;
+use crate::transport::bsdf::Bsdf;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub bsdf: Bsdf,
+    /// Emitted radiance (front side of the triangle only).
+    pub emission: Rgb,
+}
+
+impl Material {
+    pub fn default_grey() -> Material {
+        Material { name: "default".into(), bsdf: Bsdf::Diffuse { kd: Rgb::splat(0.5) }, emission: Rgb::ZERO }
+    }
+
+    pub fn diffuse(name: &str, kd: Rgb) -> Material {
+        Material { name: name.into(), bsdf: Bsdf::Diffuse { kd }, emission: Rgb::ZERO }
+    }
+}
+
+/// Scales `kd` and `ks` so that `kd + ks` ≤ 1 in every channel; returns whether it had to.
+pub fn conserve_energy(kd: &mut Rgb, ks: &mut Rgb) -> bool {
+    let m = (*kd + *ks).max_element();
+    if m > 1.0 {
+        *kd /= m;
+        *ks /= m;
+        true
+    } else {
+        false
+    }
+}

@@ -1,0 +1,247 @@
+//! The scene: triangles (f32, as Embree sees them), per-triangle geometric normals and materials,
+//! optional per-vertex shading normals, lights, bounds and the feature set. Built by a loader
+//! ([`obj`]), then immutable.
+
+pub mod features;
+pub mod light;
+pub mod material;
+pub mod obj;
+
+use crate::accel::{Accel, RawHit};
+use crate::math::Rgb;
+use glam::{DVec3, Vec3};
+use std::path::{Path, PathBuf};
+
+pub use features::Features;
+pub use light::{Light, LightSet};
+pub use material::Material;
+
+/// Axis-aligned bounding box in scene units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: DVec3,
+    pub max: DVec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb { min: DVec3::splat(f64::INFINITY), max: DVec3::splat(f64::NEG_INFINITY) };
+
+    pub fn grow(&mut self, p: DVec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+    pub fn is_empty(&self) -> bool {
+        !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
+    }
+    pub fn diagonal(&self) -> f64 {
+        if self.is_empty() { 0.0 } else { (self.max - self.min).length() }
+    }
+    pub fn center(&self) -> DVec3 {
+        0.5 * (self.min + self.max)
+    }
+}
+
+/// What the loader had to drop or repair, reported once per run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadReport {
+    pub triangles_read: usize,
+    pub degenerate_dropped: usize,
+    pub warnings: Vec<String>,
+}
+
+/// A loaded scene.
+pub struct Scene {
+    pub source: PathBuf,
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals, same indexing as `positions`; empty when the file had none.
+    pub normals: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Unit geometric normal of each triangle, (v1 - v0) × (v2 - v0) normalised (front side).
+    pub tri_normals: Vec<DVec3>,
+    pub tri_material: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub lights: LightSet,
+    pub bounds: Aabb,
+    pub features: Features,
+    pub report: LoadReport,
+    accel: Accel,
+}
+
+/// Everything the transport code needs about a ray-surface hit, in f64.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f64,
+    pub p: DVec3,
+    pub prim: u32,
+    /// Unit geometric normal (front side from the winding).
+    pub ng: DVec3,
+    /// Unit shading normal on the same side as `ng`.
+    pub ns: DVec3,
+    pub material: u32,
+    /// Half-width of the region around `p` that may hold the true surface (float error bound).
+    pub eps: f64,
+}
+
+impl Hit {
+    /// Origin for a new ray leaving the surface in direction `dir`: `p` pushed off the surface along
+    /// the geometric normal, to the side `dir` goes, by the hit's error bound (pbrt's approach, with a
+    /// bound that scales with the coordinates' magnitude instead of a fixed epsilon).
+    #[inline]
+    pub fn spawn_origin(&self, dir: DVec3) -> DVec3 {
+        let side = if dir.dot(self.ng) >= 0.0 { 1.0 } else { -1.0 };
+        self.p + self.ng * (side * self.eps)
+    }
+}
+
+/// Relative error bound of f32 geometry: a few ulps of the largest coordinate, covering Embree's
+/// intersection error and our barycentric reconstruction.
+const F32_ERROR_ULPS: f64 = 64.0 * f32::EPSILON as f64;
+
+impl Scene {
+    /// Assembles a scene and builds its Embree acceleration structure. Degenerate triangles (zero
+    /// area, non-finite coordinates, out-of-range indices) are dropped and counted in the report.
+    pub fn build(
+        source: &Path,
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        tri_material: Vec<u32>,
+        materials: Vec<Material>,
+        mut report: LoadReport,
+    ) -> anyhow::Result<Scene> {
+        assert_eq!(triangles.len(), tri_material.len());
+        report.triangles_read += triangles.len();
+        let mut kept = Vec::with_capacity(triangles.len());
+        let mut kept_mat = Vec::with_capacity(triangles.len());
+        let mut tri_normals = Vec::with_capacity(triangles.len());
+        let mut bounds = Aabb::EMPTY;
+        let normals = if normals.len() == positions.len() { normals } else { Vec::new() };
+        for (tri, &m) in triangles.iter().zip(&tri_material) {
+            let Some(ng) = triangle_normal(&positions, tri) else {
+                report.degenerate_dropped += 1;
+                continue;
+            };
+            for &i in tri {
+                bounds.grow(positions[i as usize].as_dvec3());
+            }
+            kept.push(*tri);
+            kept_mat.push(m.min(materials.len().saturating_sub(1) as u32));
+            tri_normals.push(ng);
+        }
+        let accel = Accel::new(&positions, &kept)?;
+        let lights = LightSet::from_emitters(&positions, &kept, &tri_normals, &kept_mat, &materials);
+        let features = Features::of(&materials, &kept_mat, &lights);
+        Ok(Scene {
+            source: source.to_path_buf(),
+            positions,
+            normals,
+            triangles: kept,
+            tri_normals,
+            tri_material: kept_mat,
+            materials,
+            lights,
+            bounds,
+            features,
+            report,
+            accel,
+        })
+    }
+
+    /// Diagonal of the bounds (1 for an empty scene, so that defaults stay meaningful).
+    pub fn extent(&self) -> f64 {
+        let d = self.bounds.diagonal();
+        if d > 0.0 && d.is_finite() { d } else { 1.0 }
+    }
+
+    /// Closest hit along the ray `o + t d` (d unit) for t in (0, tmax).
+    #[inline]
+    pub fn intersect(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
+        let raw = self.accel.intersect(o.as_vec3(), d.as_vec3(), 0.0, tmax.min(f32::MAX as f64) as f32)?;
+        Some(self.hit_from_raw(o, d, raw))
+    }
+
+    /// True when something blocks the segment from `o` along unit `d` before `tmax`.
+    #[inline]
+    pub fn occluded(&self, o: DVec3, d: DVec3, tmax: f64) -> bool {
+        tmax > 0.0 && self.accel.occluded(o.as_vec3(), d.as_vec3(), 0.0, tmax.min(f32::MAX as f64) as f32)
+    }
+
+    fn hit_from_raw(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
+        let i = raw.prim as usize;
+        let [a, b, c] = self.triangles[i];
+        let (pa, pb, pc) = (
+            self.positions[a as usize].as_dvec3(),
+            self.positions[b as usize].as_dvec3(),
+            self.positions[c as usize].as_dvec3(),
+        );
+        let (u, v) = (raw.u as f64, raw.v as f64);
+        // The barycentric point lies on the triangle's plane (no error along the normal from t).
+        let p = (1.0 - u - v) * pa + u * pb + v * pc;
+        let ng = self.tri_normals[i];
+        let ns = if self.normals.is_empty() {
+            ng
+        } else {
+            let n = (1.0 - u - v) * self.normals[a as usize].as_dvec3()
+                + u * self.normals[b as usize].as_dvec3()
+                + v * self.normals[c as usize].as_dvec3();
+            let len = n.length();
+            if len > 1e-12 && len.is_finite() {
+                let n = n / len;
+                if n.dot(ng) < 0.0 { -n } else { n }
+            } else {
+                ng
+            }
+        };
+        let mag = pa.abs().max(pb.abs()).max(pc.abs()).max_element().max(o.abs().max_element());
+        let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
+        Hit { t: raw.t as f64, p, prim: raw.prim, ng, ns, material: self.tri_material[i], eps: eps.max(1e-12) }
+        .with_t_from(o, d)
+    }
+
+    pub fn material(&self, hit: &Hit) -> &Material {
+        &self.materials[hit.material as usize]
+    }
+
+    /// Emitted radiance leaving a hit towards `wo` (front side only).
+    #[inline]
+    pub fn emitted(&self, hit: &Hit, wo: DVec3) -> Rgb {
+        let m = self.material(hit);
+        if m.emission != Rgb::ZERO && wo.dot(hit.ng) > 0.0 { m.emission } else { Rgb::ZERO }
+    }
+}
+
+impl Hit {
+    /// Keeps `t` consistent with the reconstructed point (f64 distance from the origin).
+    fn with_t_from(mut self, o: DVec3, d: DVec3) -> Hit {
+        let t = (self.p - o).dot(d);
+        if t.is_finite() && t > 0.0 {
+            self.t = t;
+        }
+        self
+    }
+}
+
+/// Unit normal of a triangle, or `None` when it is degenerate or has non-finite coordinates.
+pub fn triangle_normal(positions: &[Vec3], tri: &[u32; 3]) -> Option<DVec3> {
+    let get = |i: u32| positions.get(i as usize).map(|p| p.as_dvec3());
+    let (a, b, c) = (get(tri[0])?, get(tri[1])?, get(tri[2])?);
+    if !(crate::math::is_finite3(a) && crate::math::is_finite3(b) && crate::math::is_finite3(c)) {
+        return None;
+    }
+    let n = (b - a).cross(c - a);
+    let len = n.length();
+    // Relative test: area negligible against the edge lengths (slivers Embree cannot hit reliably).
+    let scale = (b - a).length_squared().max((c - a).length_squared());
+    if !(len > 1e-14 * scale) || !len.is_finite() {
+        return None;
+    }
+    Some(n / len)
+}
+
+impl Scene {
+    /// Float error bound of a point on the scene's f32 geometry (see [`Hit::eps`]).
+    #[inline]
+    pub fn eps_at(&self, p: DVec3) -> f64 {
+        F32_ERROR_ULPS * p.abs().max_element() + 1e-9 * self.extent()
+    }
+}

@@ -1,0 +1,145 @@
+//! The two kinds of paths an FTPD sample traces:
+//! - [`walk`]: a fixed-run-length random walk (paper section 5.1): from a start point along a
+//!   direction for a Euclidean length T, scattering at every hit; a walk that leaves the scene goes on
+//!   straight, and its end point lies on the last segment at the remaining distance.
+//! - [`radiance`]: a path tracer with next-event estimation and multiple importance sampling (power
+//!   heuristic) that estimates the radiance arriving at a point from a direction, used as the
+//!   radiance weight.
+
+use crate::math::{Rgb, luminance};
+use crate::rng::Sampler;
+use crate::scene::Scene;
+use crate::transport::bsdf::Mode;
+use glam::DVec3;
+
+/// Where a walk ended and what it carried.
+#[derive(Clone, Copy, Debug)]
+pub struct WalkEnd {
+    pub end: DVec3,
+    /// Product of `f |cos| / pdf` over the scattering events.
+    pub beta: Rgb,
+    pub bounces: u32,
+    /// The walk reached the bounce cap before using up its length; it ends at the last hit.
+    pub capped: bool,
+    /// Rays traced.
+    pub rays: u32,
+}
+
+/// A walk of Euclidean length `t` from `x` along unit `dir`. `None` when the walk is absorbed
+/// (zero throughput: it carries no weight).
+pub fn walk(scene: &Scene, x: DVec3, dir: DVec3, t: f64, max_bounces: u32, s: &mut Sampler) -> Option<WalkEnd> {
+    let mut origin = x;
+    let mut d = dir;
+    let mut remaining = t;
+    let mut beta = Rgb::ONE;
+    let mut rays = 0;
+    let mut bounces = 0;
+    loop {
+        rays += 1;
+        let Some(hit) = scene.intersect(origin, d, remaining) else {
+            return Some(WalkEnd { end: origin + d * remaining, beta, bounces, capped: false, rays });
+        };
+        remaining -= hit.t;
+        if remaining <= 0.0 {
+            return Some(WalkEnd { end: hit.p, beta, bounces, capped: false, rays });
+        }
+        if bounces >= max_bounces {
+            return Some(WalkEnd { end: hit.p, beta, bounces, capped: true, rays });
+        }
+        let m = scene.material(&hit);
+        let u_lobe = s.next_f64();
+        let u = s.next_2d();
+        let bs = m.bsdf.sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)?;
+        beta *= bs.weight;
+        if beta == Rgb::ZERO {
+            return None;
+        }
+        bounces += 1;
+        d = bs.wi;
+        origin = hit.spawn_origin(d);
+    }
+}
+
+/// Statistics of a radiance estimate.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RadianceStats {
+    pub rays: u32,
+}
+
+/// Power heuristic (β = 2) for two strategies with densities `a` (the one used) and `b`.
+#[inline]
+fn power_heuristic(a: f64, b: f64) -> f64 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else { 1.0 }
+}
+
+/// Estimates the radiance arriving at `x` from the direction `look` (unit), i.e. the radiance of the
+/// light that passes `x` travelling along `-look`.
+/// Paths have at most `max_bounces` scattering events; Russian roulette after three.
+pub fn radiance(scene: &Scene, x: DVec3, look: DVec3, max_bounces: u32, s: &mut Sampler, st: &mut RadianceStats) -> Rgb {
+    let lights = &scene.lights;
+    let mut l = Rgb::ZERO;
+    let mut beta = Rgb::ONE;
+    let mut origin = x;
+    let mut d = look;
+    let mut prev_p = x;
+    let mut prev_pdf = 0.0;
+    let mut prev_delta = true; // the start direction is given, like a camera ray
+    let mut depth = 0;
+    loop {
+        st.rays += 1;
+        let Some(hit) = scene.intersect(origin, d, f64::INFINITY) else { break };
+        let le = scene.emitted(&hit, -d);
+        if le != Rgb::ZERO {
+            let w = if prev_delta {
+                1.0
+            } else {
+                power_heuristic(prev_pdf, lights.pdf_hit(prev_p, hit.prim, hit.p, hit.ng))
+            };
+            l += beta * le * w;
+        }
+        if depth >= max_bounces {
+            break;
+        }
+        let bsdf = &scene.material(&hit).bsdf;
+        let wo = -d;
+        // Next-event estimation on surfaces with a non-delta lobe.
+        if !bsdf.is_delta() && !lights.is_empty() {
+            let u_l = s.next_f64();
+            let u = s.next_2d();
+            if let Some(ls) = lights.sample(hit.p, u_l, u) {
+                let f = bsdf.eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
+                if f != Rgb::ZERO {
+                    let o = hit.spawn_origin(ls.wi);
+                    let tmax = ls.dist - hit.eps - scene.eps_at(hit.p + ls.wi * ls.dist);
+                    st.rays += 1;
+                    if !scene.occluded(o, ls.wi, tmax) {
+                        let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, hit.ng, hit.ns)) };
+                        l += beta * f * ls.li * (w / ls.pdf);
+                    }
+                }
+            }
+        }
+        let u_lobe = s.next_f64();
+        let u = s.next_2d();
+        let Some(bs) = bsdf.sample(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance) else { break };
+        beta *= bs.weight;
+        depth += 1;
+        if depth > 3 {
+            let q = beta.max_element().min(0.95);
+            if q <= 0.0 || s.next_f64() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        if luminance(beta) <= 0.0 {
+            break;
+        }
+        prev_p = hit.p;
+        prev_pdf = bs.pdf;
+        prev_delta = bs.delta;
+        d = bs.wi;
+        origin = hit.spawn_origin(d);
+    }
+    l
+}
