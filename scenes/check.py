@@ -1,0 +1,437 @@
+#!/usr/bin/env python3
+"""Sanity checks for the OBJ+MTL scenes in this directory (standard library only).
+
+    python3 scenes/check.py            # checks every scene listed in EXPECT
+    python3 scenes/check.py a.obj ...  # checks the given files (generic checks only)
+
+For every OBJ it verifies
+  * every face has >= 3 vertices and valid (1-based or negative) indices,
+    polygons with more than 3 vertices are planar, and every `usemtl` names
+    a material of the `mtllib`;
+  * no triangle (after fan triangulation, as the loader does) has zero area;
+  * closed solids are watertight and consistently wound: every edge is shared
+    by exactly two triangles that traverse it in opposite directions, no two
+    vertices of an object coincide, and the signed volume has the expected
+    sign (> 0 for outward-facing solids, < 0 for the inward-facing room);
+  * objects do not intersect each other: no edge of one object crosses a
+    triangle of another, and no two triangles of different objects are
+    coplanar and overlap;
+  * every light (material with non-zero Ke) is flat, the centre of the
+    scene's non-emissive geometry lies on its front side, and a ray from its
+    centre along its front normal hits non-emissive geometry (it shines into
+    the scene); in a room every object lies strictly inside the room;
+  * stair wall only: the centre of every tread sees the light's centre and
+    corners;
+and prints bounds per scene and object. Exits non-zero on any failure.
+"""
+
+import math
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+# Expected kind of each object: 'solid' (closed, outward), 'room' (closed,
+# inward) or 'open' (an open surface: panels, planes, lights). Objects of a
+# scene not listed here are an error, so new objects must be declared.
+EXPECT = {
+    'cornell_mirror.obj': {'room': 'room', 'light': 'open',
+                           'tall_box': 'solid', 'mirror_panel': 'solid'},
+    'stair_wall.obj': {'stairs': 'solid', 'light': 'open'},
+    'mirror_plane.obj': {'plane': 'open'},
+    'diffuse_plane.obj': {'plane': 'open'},
+    'glossy_panels.obj': {'panel_0_phong37': 'open', 'strip_0': 'open',
+                          'panel_1_phong112': 'open', 'strip_1': 'open',
+                          'panel_2_phong1029': 'open', 'strip_2': 'open',
+                          'panel_3_mirror': 'open', 'light': 'open'},
+    'glass_sphere.obj': {'sphere': 'solid', 'floor': 'open', 'light': 'open'},
+}
+
+EPS = 1e-9
+
+
+# ----------------------------------------------------------------------------
+# Vector helpers
+# ----------------------------------------------------------------------------
+
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def mul(a, s):
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def norm(a):
+    return math.sqrt(dot(a, a))
+
+
+def unit(a):
+    n = norm(a)
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def fmtv(v):
+    return '(%s)' % ', '.join('%.4g' % (c + 0.0) for c in v)
+
+
+# ----------------------------------------------------------------------------
+# Parsing
+# ----------------------------------------------------------------------------
+
+class Obj:
+    def __init__(self, name):
+        self.name = name
+        self.tris = []            # (i0, i1, i2) global 0-based vertex indices
+        self.tri_mats = []        # material of each triangle
+
+
+def parse_mtl(path):
+    mats, cur = {}, None
+    with open(path) as f:
+        for line in f:
+            tok = line.split()
+            if not tok or tok[0].startswith('#'):
+                continue
+            if tok[0] == 'newmtl':
+                cur = tok[1]
+                mats[cur] = {}
+            elif cur is not None:
+                mats[cur][tok[0]] = [float(t) for t in tok[1:]]
+    return mats
+
+
+def parse_obj(path, errors):
+    verts, objects, mats = [], [], {}
+    obj, mat = None, None
+    with open(path) as f:
+        for lineno, line in enumerate(f, 1):
+            tok = line.split()
+            if not tok or tok[0].startswith('#'):
+                continue
+            kind = tok[0]
+            if kind == 'v':
+                verts.append(tuple(float(t) for t in tok[1:4]))
+            elif kind == 'mtllib':
+                mats.update(parse_mtl(os.path.join(os.path.dirname(path), tok[1])))
+            elif kind in ('o', 'g'):
+                obj = Obj(tok[1])
+                objects.append(obj)
+            elif kind == 'usemtl':
+                mat = tok[1]
+                if mat not in mats:
+                    errors.append('line %d: usemtl %s not in the mtllib' % (lineno, mat))
+            elif kind == 'f':
+                if obj is None:
+                    obj = Obj('(default)')
+                    objects.append(obj)
+                idx = []
+                for t in tok[1:]:
+                    i = int(t.split('/')[0])
+                    i = i - 1 if i > 0 else len(verts) + i
+                    if not 0 <= i < len(verts):
+                        errors.append('line %d: vertex index %s out of range' % (lineno, t))
+                        i = None
+                    idx.append(i)
+                if len(idx) < 3:
+                    errors.append('line %d: face with %d vertices' % (lineno, len(idx)))
+                    continue
+                if None in idx:
+                    continue
+                if len(idx) > 3 and not planar([verts[i] for i in idx]):
+                    errors.append('line %d: non-planar polygon' % lineno)
+                for k in range(1, len(idx) - 1):      # fan, as the loader does
+                    obj.tris.append((idx[0], idx[k], idx[k + 1]))
+                    obj.tri_mats.append(mat)
+            elif kind == 'vn':
+                errors.append('line %d: unexpected vertex normal (flat geometry only)' % lineno)
+    return verts, objects, mats
+
+
+# ----------------------------------------------------------------------------
+# Geometry tests
+# ----------------------------------------------------------------------------
+
+def planar(pts, tol=1e-5):
+    n = unit(cross(sub(pts[1], pts[0]), sub(pts[2], pts[0])))
+    return all(abs(dot(n, sub(p, pts[0]))) < tol for p in pts[3:])
+
+
+def tri_pts(verts, t):
+    return verts[t[0]], verts[t[1]], verts[t[2]]
+
+
+def tri_normal(verts, t):
+    a, b, c = tri_pts(verts, t)
+    return cross(sub(b, a), sub(c, a))      # length = 2 * area
+
+
+def ray_tri(orig, d, a, b, c, eps=1e-9):
+    """Moller-Trumbore. Returns (t, u, v) or None. eps > 0 accepts interior
+    hits only; eps < 0 also accepts hits on the edges."""
+    e1, e2 = sub(b, a), sub(c, a)
+    p = cross(d, e2)
+    det = dot(e1, p)
+    if abs(det) < 1e-12:
+        return None                      # parallel (or coplanar)
+    inv = 1.0 / det
+    s = sub(orig, a)
+    u = dot(s, p) * inv
+    if u < eps or u > 1 - eps:
+        return None
+    q = cross(s, e1)
+    v = dot(d, q) * inv
+    if v < eps or u + v > 1 - eps:
+        return None
+    return dot(e2, q) * inv, u, v
+
+
+def edge_crosses_tri(p, q, tri, eps=1e-7):
+    hit = ray_tri(p, sub(q, p), *tri, eps=eps)
+    return hit is not None and eps < hit[0] < 1 - eps
+
+
+def coplanar_overlap(t1, t2, eps=1e-7):
+    """True if triangles t1, t2 (point triples) lie in one plane and their
+    interiors overlap with positive area (sharing an edge is fine)."""
+    n = cross(sub(t1[1], t1[0]), sub(t1[2], t1[0]))
+    nn = norm(n)
+    n = mul(n, 1.0 / nn)
+    if any(abs(dot(n, sub(p, t1[0]))) > eps for p in t2):
+        return False
+    drop = max(range(3), key=lambda i: abs(n[i]))       # project to 2D
+    keep = [i for i in range(3) if i != drop]
+    a = [(p[keep[0]], p[keep[1]]) for p in t1]
+    b = [(p[keep[0]], p[keep[1]]) for p in t2]
+    for poly in (a, b):
+        for k in range(3):
+            e = (poly[(k + 1) % 3][0] - poly[k][0], poly[(k + 1) % 3][1] - poly[k][1])
+            ax = (-e[1], e[0])
+            pa = [ax[0] * x + ax[1] * y for x, y in a]
+            pb = [ax[0] * x + ax[1] * y for x, y in b]
+            tol = eps * math.hypot(*ax)
+            if max(pa) <= min(pb) + tol or max(pb) <= min(pa) + tol:
+                return False                           # separating axis
+    return True
+
+
+def bounds(points):
+    lo = tuple(min(p[i] for p in points) for i in range(3))
+    hi = tuple(max(p[i] for p in points) for i in range(3))
+    return lo, hi
+
+
+def first_hit(verts, objects, orig, d, skip=None):
+    """Nearest proper hit (t, object, material) along orig + t d, t > 1e-6."""
+    best = None
+    for o in objects:
+        if o is skip:
+            continue
+        for t, m in zip(o.tris, o.tri_mats):
+            h = ray_tri(orig, d, *tri_pts(verts, t), eps=-1e-9)   # edges count
+            if h and h[0] > 1e-6 and (best is None or h[0] < best[0]):
+                best = (h[0], o, m)
+    return best
+
+
+def is_emissive(mats, m):
+    return any(c > 0 for c in mats.get(m, {}).get('Ke', [0.0]))
+
+
+# ----------------------------------------------------------------------------
+# The check
+# ----------------------------------------------------------------------------
+
+def check_file(path):
+    name = os.path.basename(path)
+    errors = []
+    verts, objects, mats = parse_obj(path, errors)
+    expect = EXPECT.get(name)
+    print('== %s: %d vertices, %d objects, %d triangles'
+          % (name, len(verts), len(objects), sum(len(o.tris) for o in objects)))
+
+    lo, hi = bounds(verts)
+    print('   bounds   min %s  max %s  size %s' % (fmtv(lo), fmtv(hi), fmtv(sub(hi, lo))))
+
+    for o in objects:
+        used = sorted({v for t in o.tris for v in t})
+        olo, ohi = bounds([verts[v] for v in used])
+        kind = expect.get(o.name, '?') if expect else 'auto'
+        desc = '   %-18s %-5s %4d tris  min %s max %s' % (o.name, kind, len(o.tris), fmtv(olo), fmtv(ohi))
+
+        # zero-area triangles
+        for t in o.tris:
+            if norm(tri_normal(verts, t)) < 1e-10:
+                errors.append('%s: zero-area triangle %s' % (o.name, t))
+
+        # closedness / orientation: count directed edges
+        directed = {}
+        for t in o.tris:
+            for k in range(3):
+                e = (t[k], t[(k + 1) % 3])
+                directed[e] = directed.get(e, 0) + 1
+        undirected = {}
+        for (a, b), c in directed.items():
+            key = (min(a, b), max(a, b))
+            undirected[key] = undirected.get(key, 0) + c
+        closed = all(c == 2 for c in undirected.values())
+        consistent = all(c == 1 and directed.get((b, a)) == 1 for (a, b), c in directed.items())
+        # signed volume (divergence theorem), > 0 when normals face outward
+        vol = sum(dot(verts[t[0]], cross(verts[t[1]], verts[t[2]])) for t in o.tris) / 6.0
+
+        if expect is not None and o.name not in expect:
+            errors.append('%s: object not declared in EXPECT' % o.name)
+        if kind in ('solid', 'room'):
+            if not closed:
+                bad = [e for e, c in undirected.items() if c != 2][:3]
+                errors.append('%s: not closed, e.g. edges %s' % (o.name, bad))
+            elif not consistent:
+                errors.append('%s: inconsistent winding' % o.name)
+            if kind == 'solid' and not vol > 0:
+                errors.append('%s: solid faces inward (volume %g)' % (o.name, vol))
+            if kind == 'room' and not vol < 0:
+                errors.append('%s: room faces outward (volume %g)' % (o.name, vol))
+            seen = {}
+            for v in used:
+                key = tuple(round(c, 6) for c in verts[v])
+                if key in seen:
+                    errors.append('%s: duplicate vertex at %s' % (o.name, fmtv(verts[v])))
+                seen[key] = v
+            desc += '  closed, volume %.4g m^3' % vol
+        elif kind == 'open':
+            if closed:
+                errors.append('%s: declared open but is closed' % o.name)
+            desc += '  open, area %.4g m^2' % (sum(norm(tri_normal(verts, t)) for t in o.tris) / 2)
+        print(desc)
+    if expect is not None:
+        for missing in set(expect) - {o.name for o in objects}:
+            errors.append('%s: expected object missing' % missing)
+
+    # no object intersects another (edges crossing triangles, coplanar overlap)
+    for i, a in enumerate(objects):
+        a_edges = {(min(t[k], t[(k + 1) % 3]), max(t[k], t[(k + 1) % 3]))
+                   for t in a.tris for k in range(3)}
+        for j, b in enumerate(objects):
+            if i == j:
+                continue
+            b_tris = [tri_pts(verts, t) for t in b.tris]
+            crossing = next(((e, tb) for e in a_edges for tb in b_tris
+                             if edge_crosses_tri(verts[e[0]], verts[e[1]], tb)), None)
+            if crossing:
+                errors.append('edge of %s crosses a triangle of %s' % (a.name, b.name))
+            if i < j:
+                overlap = any(coplanar_overlap(tri_pts(verts, ta), tb)
+                              for ta in a.tris for tb in b_tris)
+                if overlap:
+                    errors.append('%s and %s have overlapping coplanar faces' % (a.name, b.name))
+
+    # everything strictly inside the room, if there is one
+    rooms = [o for o in objects if expect and expect.get(o.name) == 'room']
+    for room in rooms:
+        rlo, rhi = bounds([verts[v] for t in room.tris for v in t])
+        for o in objects:
+            if o is room:
+                continue
+            for v in {v for t in o.tris for v in t}:
+                p = verts[v]
+                if not all(rlo[k] < p[k] < rhi[k] for k in range(3)):
+                    errors.append('%s: vertex %s not inside %s' % (o.name, fmtv(p), room.name))
+                    break
+
+    # lights
+    lights = [o for o in objects if any(is_emissive(mats, m) for m in o.tri_mats)]
+    for o in lights:
+        if not all(is_emissive(mats, m) for m in o.tri_mats):
+            errors.append('%s: mixes emissive and non-emissive faces' % o.name)
+        normals = [tri_normal(verts, t) for t in o.tris]
+        area = sum(norm(n) for n in normals) / 2
+        n = unit(normals[0])
+        if any(dot(unit(m), n) < 1 - 1e-9 for m in normals):
+            errors.append('%s: light is not flat' % o.name)
+        centre = (0.0, 0.0, 0.0)
+        for t, nt in zip(o.tris, normals):
+            c = mul(add(add(verts[t[0]], verts[t[1]]), verts[t[2]]), 1 / 3)
+            centre = add(centre, mul(c, norm(nt) / 2 / area))
+        # The scene (bounding-box centre of all non-emissive geometry) must
+        # lie in front of the light, and the front ray must hit something.
+        others = [verts[v] for x in objects if x not in lights for t in x.tris for v in t]
+        slo, shi = bounds(others)
+        towards = sub(mul(add(slo, shi), 0.5), centre)
+        if not dot(n, towards) > 0:
+            errors.append('%s: faces away from the scene centre %s'
+                          % (o.name, fmtv(mul(add(slo, shi), 0.5))))
+        hit = first_hit(verts, objects, centre, n, skip=o)
+        ke = mats[o.tri_mats[0]]['Ke']
+        msg = '   light %-10s Ke %s  area %.4g m^2  centre %s  front normal %s' % (
+            o.name, ke, area, fmtv(centre), fmtv(n))
+        if hit is None:
+            errors.append('%s: front side faces empty space' % o.name)
+            msg += '  -> hits nothing'
+        else:
+            t, ho, hm = hit
+            msg += '  -> hits %s (%s) after %.3g m' % (ho.name, hm, t)
+            if is_emissive(mats, hm):
+                errors.append('%s: front side faces another light' % o.name)
+        print(msg)
+        if name == 'stair_wall.obj':
+            check_treads_lit(verts, objects, o, errors)
+
+    for e in errors:
+        print('   ERROR: ' + e)
+    print('   %s' % ('OK' if not errors else '%d error(s)' % len(errors)))
+    return not errors
+
+
+def check_treads_lit(verts, objects, lamp, errors):
+    """Stair wall: the centre (at z = 0) of every upward-facing tread must see
+    the light's centre and all of its corners unoccluded and from the front."""
+    stairs = next(o for o in objects if o.name == 'stairs')
+    treads = {}
+    for t in stairs.tris:
+        n = unit(tri_normal(verts, t))
+        if n[1] > 1 - 1e-9:
+            y = verts[t[0]][1]
+            xs = [verts[v][0] for v in t]
+            lo, hi = treads.get(y, (math.inf, -math.inf))
+            treads[y] = (min(lo, *xs), max(hi, *xs))
+    lamp_pts = [verts[v] for v in {v for t in lamp.tris for v in t}]
+    n_lamp = unit(tri_normal(verts, lamp.tris[0]))
+    centre = tuple(sum(p[k] for p in lamp_pts) / len(lamp_pts) for k in range(3))
+    lamp_pts.append(centre)
+    for y, (x0, x1) in sorted(treads.items()):
+        p = ((x0 + x1) / 2, y, 0.0)
+        visible = 0
+        for q in lamp_pts:
+            d = sub(q, p)
+            if dot(n_lamp, d) >= 0:            # q must see p from its front side
+                continue
+            hit = first_hit(verts, objects, p, d, skip=lamp)
+            if hit is None or hit[0] >= 1 - 1e-9:
+                visible += 1
+        print('   tread y=%.2f x=[%.2f, %.2f]: centre sees %d/%d light sample points'
+              % (y, x0, x1, visible, len(lamp_pts)))
+        if visible != len(lamp_pts):
+            errors.append('tread at y=%g is (partly) shadowed at its centre' % y)
+
+
+def main(argv):
+    paths = argv[1:] or [os.path.join(HERE, n) for n in EXPECT]
+    ok = all([check_file(p) for p in paths])
+    print('ALL OK' if ok else 'FAILED')
+    return 0 if ok else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv))
