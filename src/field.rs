@@ -19,7 +19,13 @@ pub struct Field {
 
 impl Field {
     pub fn new(width: usize, height: usize, depth: usize) -> Field {
-        Field { width, height, depth, cells: vec![Moments::default(); width * height * depth], meta: BTreeMap::new() }
+        Field {
+            width,
+            height,
+            depth,
+            cells: vec![Moments::default(); width * height * depth],
+            meta: BTreeMap::new(),
+        }
     }
 
     pub fn values(&self) -> Vec<CellValue> {

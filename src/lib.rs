@@ -19,7 +19,11 @@ pub mod transport;
 
 /// Tool version and the Embree version it was built against, e.g. `0.1.0 (Embree 3.13.5)`.
 pub fn version_string() -> String {
-    format!("{} (Embree {})", env!("CARGO_PKG_VERSION"), embree_version())
+    format!(
+        "{} (Embree {})",
+        env!("CARGO_PKG_VERSION"),
+        embree_version()
+    )
 }
 
 /// The Embree version found at build time.

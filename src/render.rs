@@ -28,7 +28,13 @@ pub struct RenderOptions {
 
 impl Default for RenderOptions {
     fn default() -> Self {
-        RenderOptions { spp: 64, batches: 8, seed: 1, threads: 0, progress: false }
+        RenderOptions {
+            spp: 64,
+            batches: 8,
+            seed: 1,
+            threads: 0,
+            progress: false,
+        }
     }
 }
 
@@ -46,10 +52,18 @@ pub struct RunStats {
 
 impl RunStats {
     pub fn rays_per_second(&self) -> f64 {
-        if self.seconds > 0.0 { self.rays as f64 / self.seconds } else { 0.0 }
+        if self.seconds > 0.0 {
+            self.rays as f64 / self.seconds
+        } else {
+            0.0
+        }
     }
     pub fn samples_per_second(&self) -> f64 {
-        if self.seconds > 0.0 { self.samples as f64 / self.seconds } else { 0.0 }
+        if self.seconds > 0.0 {
+            self.samples as f64 / self.seconds
+        } else {
+            0.0
+        }
     }
 }
 
@@ -67,46 +81,59 @@ where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
     let batches = opts.batches.clamp(1, opts.spp.max(1));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(opts.threads).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()?;
     let total = field.cells.len() as u64 * opts.spp as u64;
     let bar = if opts.progress && std::io::stderr().is_terminal() {
         let b = ProgressBar::new(total);
         b.set_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent:>3}% {per_sec} samples, ETA {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar())
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {percent:>3}% {per_sec} samples, ETA {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
         );
         b
     } else {
         ProgressBar::hidden()
     };
-    let (rays, capped, clamped, samples) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
+    let (rays, capped, clamped, samples) = (
+        AtomicU64::new(0),
+        AtomicU64::new(0),
+        AtomicU64::new(0),
+        AtomicU64::new(0),
+    );
     let start = Instant::now();
     for pass in 0..batches {
         let spp = samples_in_pass(opts.spp, batches, pass);
         pool.install(|| {
-            field.cells.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, chunk)| {
-                let (mut r, mut cap, mut cl) = (0u64, 0u64, 0u64);
-                for (k, cell) in chunk.iter_mut().enumerate() {
-                    let idx = ci * CHUNK + k;
-                    let mut s = Sampler::new(opts.seed, pass as u64, idx as u64);
-                    let mut b = Moments::default();
-                    for _ in 0..spp {
-                        let smp = kernel(idx, &mut s);
-                        r += smp.rays as u64;
-                        cap += smp.capped as u64;
-                        cl += smp.clamped as u64;
-                        b.add_sample(smp.c, smp.delta, smp.weight);
+            field
+                .cells
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .for_each(|(ci, chunk)| {
+                    let (mut r, mut cap, mut cl) = (0u64, 0u64, 0u64);
+                    for (k, cell) in chunk.iter_mut().enumerate() {
+                        let idx = ci * CHUNK + k;
+                        let mut s = Sampler::new(opts.seed, pass as u64, idx as u64);
+                        let mut b = Moments::default();
+                        for _ in 0..spp {
+                            let smp = kernel(idx, &mut s);
+                            r += smp.rays as u64;
+                            cap += smp.capped as u64;
+                            cl += smp.clamped as u64;
+                            b.add_sample(smp.c, smp.delta, smp.weight);
+                        }
+                        cell.add_batch(&b);
                     }
-                    cell.add_batch(&b);
-                }
-                rays.fetch_add(r, Relaxed);
-                capped.fetch_add(cap, Relaxed);
-                clamped.fetch_add(cl, Relaxed);
-                let n = chunk.len() as u64 * spp as u64;
-                samples.fetch_add(n, Relaxed);
-                bar.inc(n);
-            });
+                    rays.fetch_add(r, Relaxed);
+                    capped.fetch_add(cap, Relaxed);
+                    clamped.fetch_add(cl, Relaxed);
+                    let n = chunk.len() as u64 * spp as u64;
+                    samples.fetch_add(n, Relaxed);
+                    bar.inc(n);
+                });
         });
     }
     bar.finish_and_clear();

@@ -1,2 +1,5 @@
 //! One integration-test binary (as ripgrep does): each capability is a module.
 mod bsdf;
+mod cli;
+mod ftpd;
+mod geometry;

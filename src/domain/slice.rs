@@ -46,14 +46,19 @@ pub struct SliceSpec {
 impl FromStr for SliceSpec {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        let (a, v) = s.split_once('=').ok_or_else(|| format!("'{s}': expected AXIS=VALUE such as z=1.2"))?;
+        let (a, v) = s
+            .split_once('=')
+            .ok_or_else(|| format!("'{s}': expected AXIS=VALUE such as z=1.2"))?;
         let axis = match a.trim() {
             "x" | "X" => Axis::X,
             "y" | "Y" => Axis::Y,
             "z" | "Z" => Axis::Z,
             other => return Err(format!("'{s}': unknown axis '{other}' (use x, y or z)")),
         };
-        let value: f64 = v.trim().parse().map_err(|_| format!("'{s}': '{v}' is not a number"))?;
+        let value: f64 = v
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}': '{v}' is not a number"))?;
         if !value.is_finite() {
             return Err(format!("'{s}': the value must be finite"));
         }
@@ -83,19 +88,31 @@ pub struct Plane {
 impl Plane {
     /// An axis slice over the scene bounds (or `window` = (u0, v0, u1, v1) in plane coordinates),
     /// with `res` cells along the longer side.
-    pub fn axis_slice(bounds: &Aabb, spec: SliceSpec, window: Option<[f64; 4]>, res: usize) -> anyhow::Result<Plane> {
+    pub fn axis_slice(
+        bounds: &Aabb,
+        spec: SliceSpec,
+        window: Option<[f64; 4]>,
+        res: usize,
+    ) -> anyhow::Result<Plane> {
         if bounds.is_empty() {
             bail!("--slice {spec}: the scene has no geometry to take bounds from; give --window");
         }
         let k = spec.axis.index();
         let (lo, hi) = (bounds.min[k], bounds.max[k]);
         if spec.value < lo || spec.value > hi {
-            bail!("--slice {spec}: outside the scene bounds, which span {lo} to {hi} along that axis");
+            bail!(
+                "--slice {spec}: outside the scene bounds, which span {lo} to {hi} along that axis"
+            );
         }
         let (u, v) = spec.axis.plane_axes();
         let (u0, v0, u1, v1) = match window {
             Some([a, b, c, d]) => (a, b, c, d),
-            None => (bounds.min.dot(u), bounds.min.dot(v), bounds.max.dot(u), bounds.max.dot(v)),
+            None => (
+                bounds.min.dot(u),
+                bounds.min.dot(v),
+                bounds.max.dot(u),
+                bounds.max.dot(v),
+            ),
         };
         if !(u1 > u0 && v1 > v0) {
             bail!("--window {u0},{v0},{u1},{v1}: needs u0 < u1 and v0 < v1 (an empty rectangle)");
@@ -107,7 +124,14 @@ impl Plane {
     }
 
     /// A plane with `res` cells on its longer side and square-ish cells.
-    pub fn new(origin: DVec3, u_axis: DVec3, v_axis: DVec3, size: (f64, f64), res: usize, label: String) -> anyhow::Result<Plane> {
+    pub fn new(
+        origin: DVec3,
+        u_axis: DVec3,
+        v_axis: DVec3,
+        size: (f64, f64),
+        res: usize,
+        label: String,
+    ) -> anyhow::Result<Plane> {
         if res == 0 {
             bail!("--res must be at least 1");
         }
@@ -115,11 +139,25 @@ impl Plane {
             bail!("plane {label}: size {} x {} is empty", size.0, size.1);
         }
         let (width, height) = if size.0 >= size.1 {
-            (res, ((res as f64 * size.1 / size.0).round() as usize).max(1))
+            (
+                res,
+                ((res as f64 * size.1 / size.0).round() as usize).max(1),
+            )
         } else {
-            (((res as f64 * size.0 / size.1).round() as usize).max(1), res)
+            (
+                ((res as f64 * size.0 / size.1).round() as usize).max(1),
+                res,
+            )
         };
-        Ok(Plane { origin, u_axis, v_axis, size, width, height, label })
+        Ok(Plane {
+            origin,
+            u_axis,
+            v_axis,
+            size,
+            width,
+            height,
+            label,
+        })
     }
 
     pub fn cells(&self) -> usize {
@@ -146,20 +184,39 @@ mod tests {
 
     #[test]
     fn parse_slices() {
-        assert_eq!("z=1.2".parse::<SliceSpec>().unwrap(), SliceSpec { axis: Axis::Z, value: 1.2 });
-        assert!("w=1".parse::<SliceSpec>().unwrap_err().contains("unknown axis"));
+        assert_eq!(
+            "z=1.2".parse::<SliceSpec>().unwrap(),
+            SliceSpec {
+                axis: Axis::Z,
+                value: 1.2
+            }
+        );
+        assert!(
+            "w=1"
+                .parse::<SliceSpec>()
+                .unwrap_err()
+                .contains("unknown axis")
+        );
         assert!("z".parse::<SliceSpec>().is_err());
         assert!("z=abc".parse::<SliceSpec>().is_err());
     }
 
     #[test]
     fn slice_covers_bounds_with_aspect() {
-        let b = Aabb { min: DVec3::new(-1.0, 0.0, -2.0), max: DVec3::new(1.0, 2.0, 2.0) };
+        let b = Aabb {
+            min: DVec3::new(-1.0, 0.0, -2.0),
+            max: DVec3::new(1.0, 2.0, 2.0),
+        };
         let p = Plane::axis_slice(&b, "x=0".parse().unwrap(), None, 100).unwrap();
         assert_eq!((p.width, p.height), (100, 50)); // u = z spans 4, v = y spans 2
         assert_eq!(p.point(0, (0.0, 0.0)), DVec3::new(0.0, 0.0, -2.0));
         let last = p.point(p.cells() - 1, (1.0, 1.0));
         assert!((last - DVec3::new(0.0, 2.0, 2.0)).length() < 1e-12);
-        assert!(Plane::axis_slice(&b, "y=3".parse().unwrap(), None, 10).unwrap_err().to_string().contains("outside"));
+        assert!(
+            Plane::axis_slice(&b, "y=3".parse().unwrap(), None, 10)
+                .unwrap_err()
+                .to_string()
+                .contains("outside")
+        );
     }
 }

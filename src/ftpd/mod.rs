@@ -98,7 +98,12 @@ pub struct Sample {
 
 /// Draws the second direction ω' in the cone around ω; returns ω', ‖ω − ω'‖ and r.
 #[inline]
-pub fn perturb(omega: DVec3, one_minus_cos_max: f64, tan_half_max: f64, u: (f64, f64)) -> (DVec3, f64, f64) {
+pub fn perturb(
+    omega: DVec3,
+    one_minus_cos_max: f64,
+    tan_half_max: f64,
+    u: (f64, f64),
+) -> (DVec3, f64, f64) {
     let local = sample_uniform_cone_1mc(u, one_minus_cos_max);
     let omega2 = Frame::from_z(omega).to_world(local);
     // θ from the local coordinates: exact for tiny angles.
@@ -130,8 +135,19 @@ pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample
 }
 
 /// The deflection pair for a given start point, direction ω, run length and weight.
-pub fn pair_from(scene: &Scene, x: DVec3, omega: DVec3, t: f64, weight: Rgb, p: &Params, s: &mut Sampler) -> Sample {
-    let mut out = Sample { weight, ..Default::default() };
+pub fn pair_from(
+    scene: &Scene,
+    x: DVec3,
+    omega: DVec3,
+    t: f64,
+    weight: Rgb,
+    p: &Params,
+    s: &mut Sampler,
+) -> Sample {
+    let mut out = Sample {
+        weight,
+        ..Default::default()
+    };
     let tan_half_max = (0.5 * p.theta_max).tan();
     let (omega2, chord, r) = perturb(omega, p.one_minus_cos_max(), tan_half_max, s.next_2d());
     if luminance(weight) <= 0.0 {
@@ -141,7 +157,9 @@ pub fn pair_from(scene: &Scene, x: DVec3, omega: DVec3, t: f64, weight: Rgb, p: 
     let a = walk(scene, x, omega, t, p.max_bounces, s);
     let b = walk(scene, x, omega2, t, p.max_bounces, s);
     out.rays += a.map_or(1, |w| w.rays) + b.map_or(1, |w| w.rays);
-    let (Some(a), Some(b)) = (a, b) else { return out };
+    let (Some(a), Some(b)) = (a, b) else {
+        return out;
+    };
     out.bounces = (a.bounces, b.bounces);
     out.capped = a.capped || b.capped;
     let c = luminance(weight * a.beta * b.beta);

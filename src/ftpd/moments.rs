@@ -109,14 +109,22 @@ impl Moments {
             mean,
             m2,
             stderr: if stderr.is_finite() { stderr } else { 0.0 },
-            weight: if self.n > 0 { self.s0 / self.n as f64 } else { 0.0 },
+            weight: if self.n > 0 {
+                self.s0 / self.n as f64
+            } else {
+                0.0
+            },
             valid: true,
         }
     }
 
     /// Mean incident radiance integrated over the sphere (scalar irradiance).
     pub fn fluence(&self) -> Rgb {
-        if self.n > 0 { self.fluence / self.n as f64 } else { Rgb::ZERO }
+        if self.n > 0 {
+            self.fluence / self.n as f64
+        } else {
+            Rgb::ZERO
+        }
     }
 }
 

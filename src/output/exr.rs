@@ -35,13 +35,25 @@ const EXACT: &[(&str, Getter, Setter)] = &[
     ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
     ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
     ("batch.sigma", |m| m.batch_sigma, |m, v| m.batch_sigma = v),
-    ("batch.sigma2", |m| m.batch_sigma2, |m, v| m.batch_sigma2 = v),
+    (
+        "batch.sigma2",
+        |m| m.batch_sigma2,
+        |m, v| m.batch_sigma2 = v,
+    ),
 ];
 
 /// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).
 fn f32_of(x: f64) -> f32 {
     let y = x as f32;
-    if y.is_finite() { y } else if x > 0.0 { f32::MAX } else if x < 0.0 { f32::MIN } else { 0.0 }
+    if y.is_finite() {
+        y
+    } else if x > 0.0 {
+        f32::MAX
+    } else if x < 0.0 {
+        f32::MIN
+    } else {
+        0.0
+    }
 }
 
 /// Writes a 2D field (depth 1) with optional extra f32 channels (e.g. `grad.x`), each one value per
@@ -49,21 +61,38 @@ fn f32_of(x: f64) -> f32 {
 pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyhow::Result<()> {
     let (w, h) = (field.width, field.height);
     if field.depth != 1 || w == 0 || h == 0 {
-        bail!("{}: an EXR holds one 2D slice (got {}x{}x{})", path.display(), w, h, field.depth);
+        bail!(
+            "{}: an EXR holds one 2D slice (got {}x{}x{})",
+            path.display(),
+            w,
+            h,
+            field.depth
+        );
     }
     // Field row 0 is the bottom (v minimal); EXR row 0 is the top.
-    let order: Vec<usize> = (0..h).rev().flat_map(|j| (0..w).map(move |i| j * w + i)).collect();
+    let order: Vec<usize> = (0..h)
+        .rev()
+        .flat_map(|j| (0..w).map(move |i| j * w + i))
+        .collect();
     let vals = field.values();
-    let per = |f: &dyn Fn(usize) -> f64| -> Vec<f32> { order.iter().map(|&k| f32_of(f(k))).collect() };
+    let per =
+        |f: &dyn Fn(usize) -> f64| -> Vec<f32> { order.iter().map(|&k| f32_of(f(k))).collect() };
     let mut chans: Vec<AnyChannel<FlatSamples>> = Vec::new();
-    let mut f32ch = |name: &str, data: Vec<f32>| chans.push(AnyChannel::new(name, FlatSamples::F32(data)));
+    let mut f32ch =
+        |name: &str, data: Vec<f32>| chans.push(AnyChannel::new(name, FlatSamples::F32(data)));
     f32ch("ftpd", per(&|k| vals[k].sigma));
     f32ch("ftpd.mean", per(&|k| vals[k].mean));
     f32ch("ftpd.m2", per(&|k| vals[k].m2));
     f32ch("ftpd.stderr", per(&|k| vals[k].stderr));
     f32ch(
         "ftpd.relerr",
-        per(&|k| if vals[k].valid && vals[k].sigma > 0.0 { vals[k].stderr / vals[k].sigma } else { 0.0 }),
+        per(&|k| {
+            if vals[k].valid && vals[k].sigma > 0.0 {
+                vals[k].stderr / vals[k].sigma
+            } else {
+                0.0
+            }
+        }),
     );
     f32ch("weight", per(&|k| vals[k].weight));
     f32ch("valid", per(&|k| if vals[k].valid { 1.0 } else { 0.0 }));
@@ -82,26 +111,61 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
         }
         f32ch(name, per(&|k| data[k]));
     }
-    let mut u32ch = |name: String, data: Vec<u32>| chans.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)));
+    let mut u32ch = |name: String, data: Vec<u32>| {
+        chans.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)))
+    };
     if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
-        bail!("{}: a cell holds {} samples, more than an EXR u32 channel can count", path.display(), c.n);
+        bail!(
+            "{}: a cell holds {} samples, more than an EXR u32 channel can count",
+            path.display(),
+            c.n
+        );
     }
-    u32ch("samples".into(), order.iter().map(|&k| field.cells[k].n as u32).collect());
-    u32ch("batches".into(), order.iter().map(|&k| field.cells[k].batches.min(u32::MAX as u64) as u32).collect());
+    u32ch(
+        "samples".into(),
+        order.iter().map(|&k| field.cells[k].n as u32).collect(),
+    );
+    u32ch(
+        "batches".into(),
+        order
+            .iter()
+            .map(|&k| field.cells[k].batches.min(u32::MAX as u64) as u32)
+            .collect(),
+    );
     for (name, get, _) in EXACT {
-        let bits: Vec<u64> = order.iter().map(|&k| get(&field.cells[k]).to_bits()).collect();
-        u32ch(format!("exact.{name}.hi"), bits.iter().map(|b| (b >> 32) as u32).collect());
-        u32ch(format!("exact.{name}.lo"), bits.iter().map(|b| *b as u32).collect());
+        let bits: Vec<u64> = order
+            .iter()
+            .map(|&k| get(&field.cells[k]).to_bits())
+            .collect();
+        u32ch(
+            format!("exact.{name}.hi"),
+            bits.iter().map(|b| (b >> 32) as u32).collect(),
+        );
+        u32ch(
+            format!("exact.{name}.lo"),
+            bits.iter().map(|b| *b as u32).collect(),
+        );
     }
 
     let mut attrs = LayerAttributes::default();
     for (k, v) in &field.meta {
-        attrs.other.insert(Text::from(format!("ftpd3d.{k}").as_str()), AttributeValue::Text(Text::from(v.as_str())));
+        attrs.other.insert(
+            Text::from(format!("ftpd3d.{k}").as_str()),
+            AttributeValue::Text(Text::from(v.as_str())),
+        );
     }
-    let layer = Layer::new((w, h), attrs, Encoding::SMALL_LOSSLESS, AnyChannels::sort(chans.into()));
+    let layer = Layer::new(
+        (w, h),
+        attrs,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(chans.into()),
+    );
     let image = Image::from_layer(layer);
     crate::output::write_atomically(path, |tmp| {
-        image.write().to_file(tmp).map_err(|e| anyhow::anyhow!("{e}"))
+        image
+            .write()
+            .to_file(tmp)
+            .map_err(|e| anyhow::anyhow!("{e}"))
     })
 }
 
@@ -124,7 +188,12 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
             .iter()
             .find(|c| c.name.eq(name))
             .map(|c| &c.sample_data)
-            .with_context(|| format!("{}: channel '{name}' missing (not an ftpd3d field?)", path.display()))
+            .with_context(|| {
+                format!(
+                    "{}: channel '{name}' missing (not an ftpd3d field?)",
+                    path.display()
+                )
+            })
     };
     let u32s = |name: &str| -> anyhow::Result<Vec<u32>> {
         match chan(name)? {
@@ -145,7 +214,10 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
         let hi = u32s(&format!("exact.{name}.hi"))?;
         let lo = u32s(&format!("exact.{name}.lo"))?;
         for e in 0..w * h {
-            set(&mut field.cells[idx(e)], f64::from_bits(((hi[e] as u64) << 32) | lo[e] as u64));
+            set(
+                &mut field.cells[idx(e)],
+                f64::from_bits(((hi[e] as u64) << 32) | lo[e] as u64),
+            );
         }
     }
     let mut meta = BTreeMap::new();

@@ -8,17 +8,27 @@ use std::path::{Path, PathBuf};
 
 /// Temporary sibling name of `path` (same directory, so the rename is atomic).
 pub fn temp_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Runs `write` on a temporary path and renames the result to `path`; removes the temporary file
 /// when writing fails.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> anyhow::Result<()>) -> anyhow::Result<()> {
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let tmp = temp_path(path);
     match write(&tmp) {
-        Ok(()) => std::fs::rename(&tmp, path)
-            .with_context(|| format!("{}: cannot move the finished file into place", path.display())),
+        Ok(()) => std::fs::rename(&tmp, path).with_context(|| {
+            format!(
+                "{}: cannot move the finished file into place",
+                path.display()
+            )
+        }),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
             Err(e.context(format!("{}: writing failed", path.display())))

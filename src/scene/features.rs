@@ -63,6 +63,10 @@ impl fmt::Display for Features {
         .filter(|(on, _)| *on)
         .map(|(_, n)| *n)
         .collect();
-        if names.is_empty() { write!(f, "(nothing)") } else { write!(f, "{}", names.join(" ")) }
+        if names.is_empty() {
+            write!(f, "(nothing)")
+        } else {
+            write!(f, "{}", names.join(" "))
+        }
     }
 }

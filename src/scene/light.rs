@@ -11,7 +11,13 @@ use std::f64::consts::PI;
 #[derive(Clone, Debug)]
 pub enum Light {
     /// Triangle `prim` of the scene with radiance `emission` leaving its front side.
-    Triangle { prim: u32, v: [DVec3; 3], normal: DVec3, area: f64, emission: Rgb },
+    Triangle {
+        prim: u32,
+        v: [DVec3; 3],
+        normal: DVec3,
+        area: f64,
+        emission: Rgb,
+    },
     /// Isotropic point light of radiant intensity `intensity` (per steradian).
     Point { position: DVec3, intensity: Rgb },
 }
@@ -72,15 +78,28 @@ impl LightSet {
                 continue;
             }
             light_of_prim[i] = lights.len() as u32;
-            lights.push(Light::Triangle { prim: i as u32, v, normal: normals[i], area, emission: m.emission });
+            lights.push(Light::Triangle {
+                prim: i as u32,
+                v,
+                normal: normals[i],
+                area,
+                emission: m.emission,
+            });
         }
-        let mut set = LightSet { lights, cdf: Vec::new(), light_of_prim };
+        let mut set = LightSet {
+            lights,
+            cdf: Vec::new(),
+            light_of_prim,
+        };
         set.rebuild_cdf();
         set
     }
 
     pub fn add_point(&mut self, position: DVec3, intensity: Rgb) {
-        self.lights.push(Light::Point { position, intensity });
+        self.lights.push(Light::Point {
+            position,
+            intensity,
+        });
         self.rebuild_cdf();
     }
 
@@ -121,13 +140,22 @@ impl LightSet {
         if self.is_empty() {
             return None;
         }
-        let i = self.cdf.partition_point(|&c| c <= u_light).min(self.lights.len() - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u_light)
+            .min(self.lights.len() - 1);
         let p_choice = self.choice_pdf(i);
         if p_choice <= 0.0 {
             return None;
         }
         match &self.lights[i] {
-            Light::Triangle { v, normal, area, emission, .. } => {
+            Light::Triangle {
+                v,
+                normal,
+                area,
+                emission,
+                ..
+            } => {
                 let (b0, b1, b2) = sample_uniform_triangle(u);
                 let y = b0 * v[0] + b1 * v[1] + b2 * v[2];
                 let to = y - x;
@@ -142,16 +170,31 @@ impl LightSet {
                     return None;
                 }
                 let pdf = p_choice * d2 / (area * cos_l);
-                pdf.is_finite().then_some(LightSample { wi, dist, li: *emission, pdf, delta: false })
+                pdf.is_finite().then_some(LightSample {
+                    wi,
+                    dist,
+                    li: *emission,
+                    pdf,
+                    delta: false,
+                })
             }
-            Light::Point { position, intensity } => {
+            Light::Point {
+                position,
+                intensity,
+            } => {
                 let to = *position - x;
                 let d2 = to.length_squared();
                 let dist = d2.sqrt();
                 if !(dist > 0.0) {
                     return None;
                 }
-                Some(LightSample { wi: to / dist, dist, li: *intensity / d2, pdf: p_choice, delta: true })
+                Some(LightSample {
+                    wi: to / dist,
+                    dist,
+                    li: *intensity / d2,
+                    pdf: p_choice,
+                    delta: true,
+                })
             }
         }
     }
@@ -159,11 +202,15 @@ impl LightSet {
     /// Solid-angle density with which [`sample`](Self::sample) would pick the point `y` on triangle
     /// `prim` (normal `ng`) as seen from `x`; 0 when `prim` is not an emitter.
     pub fn pdf_hit(&self, x: DVec3, prim: u32, y: DVec3, ng: DVec3) -> f64 {
-        let Some(&li) = self.light_of_prim.get(prim as usize) else { return 0.0 };
+        let Some(&li) = self.light_of_prim.get(prim as usize) else {
+            return 0.0;
+        };
         if li == u32::MAX {
             return 0.0;
         }
-        let Light::Triangle { area, .. } = &self.lights[li as usize] else { return 0.0 };
+        let Light::Triangle { area, .. } = &self.lights[li as usize] else {
+            return 0.0;
+        };
         let to = y - x;
         let d2 = to.length_squared();
         let cos_l = (-to.dot(ng) / d2.sqrt()).max(0.0);

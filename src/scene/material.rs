@@ -28,11 +28,21 @@ pub struct Material {
 
 impl Material {
     pub fn default_grey() -> Material {
-        Material { name: "default".into(), bsdf: Bsdf::Diffuse { kd: Rgb::splat(0.5) }, emission: Rgb::ZERO }
+        Material {
+            name: "default".into(),
+            bsdf: Bsdf::Diffuse {
+                kd: Rgb::splat(0.5),
+            },
+            emission: Rgb::ZERO,
+        }
     }
 
     pub fn diffuse(name: &str, kd: Rgb) -> Material {
-        Material { name: name.into(), bsdf: Bsdf::Diffuse { kd }, emission: Rgb::ZERO }
+        Material {
+            name: name.into(),
+            bsdf: Bsdf::Diffuse { kd },
+            emission: Rgb::ZERO,
+        }
     }
 }
 

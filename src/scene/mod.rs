@@ -24,7 +24,10 @@ pub struct Aabb {
 }
 
 impl Aabb {
-    pub const EMPTY: Aabb = Aabb { min: DVec3::splat(f64::INFINITY), max: DVec3::splat(f64::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: DVec3::splat(f64::INFINITY),
+        max: DVec3::splat(f64::NEG_INFINITY),
+    };
 
     pub fn grow(&mut self, p: DVec3) {
         self.min = self.min.min(p);
@@ -34,7 +37,11 @@ impl Aabb {
         !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
     }
     pub fn diagonal(&self) -> f64 {
-        if self.is_empty() { 0.0 } else { (self.max - self.min).length() }
+        if self.is_empty() {
+            0.0
+        } else {
+            (self.max - self.min).length()
+        }
     }
     pub fn center(&self) -> DVec3 {
         0.5 * (self.min + self.max)
@@ -115,7 +122,11 @@ impl Scene {
         let mut kept_mat = Vec::with_capacity(triangles.len());
         let mut tri_normals = Vec::with_capacity(triangles.len());
         let mut bounds = Aabb::EMPTY;
-        let normals = if normals.len() == positions.len() { normals } else { Vec::new() };
+        let normals = if normals.len() == positions.len() {
+            normals
+        } else {
+            Vec::new()
+        };
         for (tri, &m) in triangles.iter().zip(&tri_material) {
             let Some(ng) = triangle_normal(&positions, tri) else {
                 report.degenerate_dropped += 1;
@@ -129,7 +140,8 @@ impl Scene {
             tri_normals.push(ng);
         }
         let accel = Accel::new(&positions, &kept)?;
-        let lights = LightSet::from_emitters(&positions, &kept, &tri_normals, &kept_mat, &materials);
+        let lights =
+            LightSet::from_emitters(&positions, &kept, &tri_normals, &kept_mat, &materials);
         let features = Features::of(&materials, &kept_mat, &lights);
         Ok(Scene {
             source: source.to_path_buf(),
@@ -156,14 +168,25 @@ impl Scene {
     /// Closest hit along the ray `o + t d` (d unit) for t in (0, tmax).
     #[inline]
     pub fn intersect(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
-        let raw = self.accel.intersect(o.as_vec3(), d.as_vec3(), 0.0, tmax.min(f32::MAX as f64) as f32)?;
+        let raw = self.accel.intersect(
+            o.as_vec3(),
+            d.as_vec3(),
+            0.0,
+            tmax.min(f32::MAX as f64) as f32,
+        )?;
         Some(self.hit_from_raw(o, d, raw))
     }
 
     /// True when something blocks the segment from `o` along unit `d` before `tmax`.
     #[inline]
     pub fn occluded(&self, o: DVec3, d: DVec3, tmax: f64) -> bool {
-        tmax > 0.0 && self.accel.occluded(o.as_vec3(), d.as_vec3(), 0.0, tmax.min(f32::MAX as f64) as f32)
+        tmax > 0.0
+            && self.accel.occluded(
+                o.as_vec3(),
+                d.as_vec3(),
+                0.0,
+                tmax.min(f32::MAX as f64) as f32,
+            )
     }
 
     fn hit_from_raw(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
@@ -175,9 +198,22 @@ impl Scene {
             self.positions[c as usize].as_dvec3(),
         );
         let (u, v) = (raw.u as f64, raw.v as f64);
-        // The barycentric point lies on the triangle's plane (no error along the normal from t).
-        let p = (1.0 - u - v) * pa + u * pb + v * pc;
         let ng = self.tri_normals[i];
+        // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
+        // f64 rounding, where that is well conditioned; Embree's f32 barycentrics otherwise (grazing
+        // rays), which keep the point on the triangle.
+        let bary = (1.0 - u - v) * pa + u * pb + v * pc;
+        let dn = d.dot(ng);
+        let t_plane = (pa - o).dot(ng) / dn;
+        let t_raw = raw.t as f64;
+        let p = if dn.abs() > 1e-4
+            && t_plane.is_finite()
+            && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent())
+        {
+            o + d * t_plane
+        } else {
+            bary
+        };
         let ns = if self.normals.is_empty() {
             ng
         } else {
@@ -192,9 +228,22 @@ impl Scene {
                 ng
             }
         };
-        let mag = pa.abs().max(pb.abs()).max(pc.abs()).max_element().max(o.abs().max_element());
+        let mag = pa
+            .abs()
+            .max(pb.abs())
+            .max(pc.abs())
+            .max_element()
+            .max(o.abs().max_element());
         let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
-        Hit { t: raw.t as f64, p, prim: raw.prim, ng, ns, material: self.tri_material[i], eps: eps.max(1e-12) }
+        Hit {
+            t: raw.t as f64,
+            p,
+            prim: raw.prim,
+            ng,
+            ns,
+            material: self.tri_material[i],
+            eps: eps.max(1e-12),
+        }
         .with_t_from(o, d)
     }
 
@@ -206,7 +255,11 @@ impl Scene {
     #[inline]
     pub fn emitted(&self, hit: &Hit, wo: DVec3) -> Rgb {
         let m = self.material(hit);
-        if m.emission != Rgb::ZERO && wo.dot(hit.ng) > 0.0 { m.emission } else { Rgb::ZERO }
+        if m.emission != Rgb::ZERO && wo.dot(hit.ng) > 0.0 {
+            m.emission
+        } else {
+            Rgb::ZERO
+        }
     }
 }
 
@@ -243,5 +296,12 @@ impl Scene {
     #[inline]
     pub fn eps_at(&self, p: DVec3) -> f64 {
         F32_ERROR_ULPS * p.abs().max_element() + 1e-9 * self.extent()
+    }
+}
+
+impl Scene {
+    /// The Embree scene, for benchmarks that trace raw rays.
+    pub fn accel(&self) -> &Accel {
+        &self.accel
     }
 }

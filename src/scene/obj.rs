@@ -14,8 +14,14 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     if !path.is_file() {
         bail!("{}: no such scene file", path.display());
     }
-    let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
-    let (models, mtl) = tobj::load_obj(path, &opts).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), describe(&e)))?;
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, mtl) = tobj::load_obj(path, &opts)
+        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), describe(&e)))?;
     let mut report = LoadReport::default();
     let mut materials: Vec<Material> = match mtl {
         Ok(list) => list
@@ -23,15 +29,19 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
             .map(|m| {
                 let (mat, warn) = convert_material(m);
                 if let Some(w) = warn {
-                    report.warnings.push(format!("{}: material '{}': {w}", path.display(), m.name));
+                    report
+                        .warnings
+                        .push(format!("{}: material '{}': {w}", path.display(), m.name));
                 }
                 mat
             })
             .collect(),
         Err(e) => {
-            report
-                .warnings
-                .push(format!("{}: material library not loaded ({}); using grey diffuse", path.display(), describe(&e)));
+            report.warnings.push(format!(
+                "{}: material library not loaded ({}); using grey diffuse",
+                path.display(),
+                describe(&e)
+            ));
             Vec::new()
         }
     };
@@ -51,9 +61,17 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         if base + nverts as u64 >= u32::MAX as u64 {
             bail!("{}: more than 2^32 vertices", path.display());
         }
-        positions.extend(mesh.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        positions.extend(
+            mesh.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
         if mesh.normals.len() == mesh.positions.len() {
-            normals.extend(mesh.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
+            normals.extend(
+                mesh.normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3::new(n[0], n[1], n[2])),
+            );
         } else {
             all_have_normals = false;
             normals.extend(std::iter::repeat_n(Vec3::ZERO, nverts));
@@ -61,7 +79,11 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         let mat = match mesh.material_id {
             Some(id) if id < default_id as usize => id as u32,
             Some(id) => {
-                report.warnings.push(format!("{}: object '{}' names material #{id}, which is not defined", path.display(), model.name));
+                report.warnings.push(format!(
+                    "{}: object '{}' names material #{id}, which is not defined",
+                    path.display(),
+                    model.name
+                ));
                 default_id
             }
             None => default_id,
@@ -69,7 +91,12 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         for f in mesh.indices.chunks_exact(3) {
             let tri = [f[0], f[1], f[2]];
             if tri.iter().any(|&i| i as usize >= nverts) {
-                bail!("{}: object '{}' has a face index outside its {} vertices", path.display(), model.name, nverts);
+                bail!(
+                    "{}: object '{}' has a face index outside its {} vertices",
+                    path.display(),
+                    model.name,
+                    nverts
+                );
             }
             triangles.push(tri.map(|i| i + base as u32));
             tri_material.push(mat);
@@ -81,8 +108,16 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
             normals.clear();
         }
     }
-    Scene::build(path, positions, normals, triangles, tri_material, materials, report)
-        .with_context(|| format!("{}: building the scene", path.display()))
+    Scene::build(
+        path,
+        positions,
+        normals,
+        triangles,
+        tri_material,
+        materials,
+        report,
+    )
+    .with_context(|| format!("{}: building the scene", path.display()))
 }
 
 fn describe(e: &tobj::LoadError) -> String {
@@ -114,7 +149,10 @@ fn rgb(v: Option<[f32; 3]>) -> Option<Rgb> {
 }
 
 fn parse_rgb(s: &str) -> Option<Rgb> {
-    let v: Vec<f64> = s.split_whitespace().filter_map(|t| t.parse().ok()).collect();
+    let v: Vec<f64> = s
+        .split_whitespace()
+        .filter_map(|t| t.parse().ok())
+        .collect();
     match v.as_slice() {
         [g] => Some(Rgb::splat(*g)),
         [r, g, b, ..] => Some(Rgb::new(*r, *g, *b)),
@@ -131,7 +169,9 @@ pub fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
     let mut warn = None;
     let illum = m.illumination_model.unwrap_or(2);
     let bsdf = match illum {
-        0 | 1 => Bsdf::Diffuse { kd: kd.min(Rgb::ONE) },
+        0 | 1 => Bsdf::Diffuse {
+            kd: kd.min(Rgb::ONE),
+        },
         3 | 5 | 8 => {
             let mut ks = ks_given.unwrap_or(Rgb::ONE);
             if conserve_energy(&mut kd, &mut ks) {
@@ -140,19 +180,34 @@ pub fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
             Bsdf::Mirror { kd, ks }
         }
         4 | 6 | 7 | 9 => {
-            let ior = m.optical_density.map(|n| n as f64).filter(|n| *n > 0.0 && n.is_finite()).unwrap_or(1.5);
-            let tint = m.unknown_param.get("Tf").and_then(|s| parse_rgb(s)).unwrap_or(Rgb::ONE).clamp(Rgb::ZERO, Rgb::ONE);
+            let ior = m
+                .optical_density
+                .map(|n| n as f64)
+                .filter(|n| *n > 0.0 && n.is_finite())
+                .unwrap_or(1.5);
+            let tint = m
+                .unknown_param
+                .get("Tf")
+                .and_then(|s| parse_rgb(s))
+                .unwrap_or(Rgb::ONE)
+                .clamp(Rgb::ZERO, Rgb::ONE);
             Bsdf::Dielectric { ior, tint }
         }
         _ => {
             let mut ks = ks_given.unwrap_or(Rgb::ZERO);
             if ks == Rgb::ZERO {
-                Bsdf::Diffuse { kd: kd.min(Rgb::ONE) }
+                Bsdf::Diffuse {
+                    kd: kd.min(Rgb::ONE),
+                }
             } else {
                 if conserve_energy(&mut kd, &mut ks) {
                     warn = Some("Kd + Ks exceeds 1; scaled down".to_string());
                 }
-                let exponent = m.shininess.map(|n| n as f64).filter(|n| n.is_finite() && *n >= 0.0).unwrap_or(1.0);
+                let exponent = m
+                    .shininess
+                    .map(|n| n as f64)
+                    .filter(|n| n.is_finite() && *n >= 0.0)
+                    .unwrap_or(1.0);
                 Bsdf::Glossy { kd, ks, exponent }
             }
         }
@@ -161,5 +216,12 @@ pub fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
         Bsdf::Diffuse { kd } if kd == Rgb::ZERO => Bsdf::Black,
         b => b,
     };
-    (Material { name: m.name.clone(), bsdf, emission }, warn)
+    (
+        Material {
+            name: m.name.clone(),
+            bsdf,
+            emission,
+        },
+        warn,
+    )
 }

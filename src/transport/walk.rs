@@ -27,7 +27,18 @@ pub struct WalkEnd {
 
 /// A walk of Euclidean length `t` from `x` along unit `dir`. `None` when the walk is absorbed
 /// (zero throughput: it carries no weight).
-pub fn walk(scene: &Scene, x: DVec3, dir: DVec3, t: f64, max_bounces: u32, s: &mut Sampler) -> Option<WalkEnd> {
+pub fn walk(
+    scene: &Scene,
+    x: DVec3,
+    dir: DVec3,
+    t: f64,
+    max_bounces: u32,
+    s: &mut Sampler,
+) -> Option<WalkEnd> {
+    // `base` is the true start of the current segment (x, then surface points); `origin` the same
+    // point pushed off the surface for the ray query. Lengths are measured from `base`, so the
+    // offsets never change the geometry of the walk.
+    let mut base = x;
     let mut origin = x;
     let mut d = dir;
     let mut remaining = t;
@@ -36,26 +47,47 @@ pub fn walk(scene: &Scene, x: DVec3, dir: DVec3, t: f64, max_bounces: u32, s: &m
     let mut bounces = 0;
     loop {
         rays += 1;
-        let Some(hit) = scene.intersect(origin, d, remaining) else {
-            return Some(WalkEnd { end: origin + d * remaining, beta, bounces, capped: false, rays });
+        let Some(hit) = scene.intersect(origin, d, remaining + (origin - base).length()) else {
+            return Some(WalkEnd {
+                end: base + d * remaining,
+                beta,
+                bounces,
+                capped: false,
+                rays,
+            });
         };
-        remaining -= hit.t;
+        remaining -= (hit.p - base).dot(d);
         if remaining <= 0.0 {
-            return Some(WalkEnd { end: hit.p, beta, bounces, capped: false, rays });
+            return Some(WalkEnd {
+                end: hit.p,
+                beta,
+                bounces,
+                capped: false,
+                rays,
+            });
         }
         if bounces >= max_bounces {
-            return Some(WalkEnd { end: hit.p, beta, bounces, capped: true, rays });
+            return Some(WalkEnd {
+                end: hit.p,
+                beta,
+                bounces,
+                capped: true,
+                rays,
+            });
         }
         let m = scene.material(&hit);
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let bs = m.bsdf.sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)?;
+        let bs = m
+            .bsdf
+            .sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)?;
         beta *= bs.weight;
         if beta == Rgb::ZERO {
             return None;
         }
         bounces += 1;
         d = bs.wi;
+        base = hit.p;
         origin = hit.spawn_origin(d);
     }
 }
@@ -70,13 +102,24 @@ pub struct RadianceStats {
 #[inline]
 fn power_heuristic(a: f64, b: f64) -> f64 {
     let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 && (a2 + b2).is_finite() { a2 / (a2 + b2) } else { 1.0 }
+    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
+        a2 / (a2 + b2)
+    } else {
+        1.0
+    }
 }
 
 /// Estimates the radiance arriving at `x` from the direction `look` (unit), i.e. the radiance of the
 /// light that passes `x` travelling along `-look`.
 /// Paths have at most `max_bounces` scattering events; Russian roulette after three.
-pub fn radiance(scene: &Scene, x: DVec3, look: DVec3, max_bounces: u32, s: &mut Sampler, st: &mut RadianceStats) -> Rgb {
+pub fn radiance(
+    scene: &Scene,
+    x: DVec3,
+    look: DVec3,
+    max_bounces: u32,
+    s: &mut Sampler,
+    st: &mut RadianceStats,
+) -> Rgb {
     let lights = &scene.lights;
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;
@@ -88,7 +131,9 @@ pub fn radiance(scene: &Scene, x: DVec3, look: DVec3, max_bounces: u32, s: &mut 
     let mut depth = 0;
     loop {
         st.rays += 1;
-        let Some(hit) = scene.intersect(origin, d, f64::INFINITY) else { break };
+        let Some(hit) = scene.intersect(origin, d, f64::INFINITY) else {
+            break;
+        };
         let le = scene.emitted(&hit, -d);
         if le != Rgb::ZERO {
             let w = if prev_delta {
@@ -114,7 +159,11 @@ pub fn radiance(scene: &Scene, x: DVec3, look: DVec3, max_bounces: u32, s: &mut 
                     let tmax = ls.dist - hit.eps - scene.eps_at(hit.p + ls.wi * ls.dist);
                     st.rays += 1;
                     if !scene.occluded(o, ls.wi, tmax) {
-                        let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, hit.ng, hit.ns)) };
+                        let w = if ls.delta {
+                            1.0
+                        } else {
+                            power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, hit.ng, hit.ns))
+                        };
                         l += beta * f * ls.li * (w / ls.pdf);
                     }
                 }
@@ -122,7 +171,9 @@ pub fn radiance(scene: &Scene, x: DVec3, look: DVec3, max_bounces: u32, s: &mut 
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let Some(bs) = bsdf.sample(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance) else { break };
+        let Some(bs) = bsdf.sample(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance) else {
+            break;
+        };
         beta *= bs.weight;
         depth += 1;
         if depth > 3 {

@@ -1,0 +1,116 @@
+//! The command line as a new user meets it: version, bad values with messages that name the flag,
+//! and a real run writing its outputs.
+
+use crate::geometry::scene_path;
+use std::process::Command;
+
+fn ftpd3d(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .args(args)
+        .output()
+        .expect("binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn version_names_embree() {
+    let (ok, out, _) = ftpd3d(&["--version"]);
+    assert!(ok);
+    assert_eq!(out.trim(), format!("ftpd3d {}", ftpd3d::version_string()));
+    assert!(
+        out.contains("(Embree 3.") || out.contains("(Embree 4."),
+        "{out}"
+    );
+}
+
+#[test]
+fn bad_values_are_refused_naming_the_flag() {
+    let cornell = scene_path("cornell_mirror.obj");
+    let cornell = cornell.to_str().unwrap();
+    let plane = scene_path("diffuse_plane.obj");
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--slice", "z=0", "--t0", "2", "--t1", "1"],
+            "--t0 2 is larger than --t1 1",
+        ),
+        (&["--slice", "z=0", "--t0", "-1"], "--t0 -1"),
+        (&["--slice", "z=0", "--spp", "0"], "--spp 0"),
+        (&["--slice", "z=0", "--angle", "0"], "--angle 0"),
+        (&["--slice", "z=0", "--angle", "90"], "--angle 90"),
+        (&["--slice", "z=5"], "--slice z=5: outside the scene bounds"),
+        (&["--slice", "w=0"], "unknown axis 'w'"),
+        (&["--slice", "z=0", "--res", "0"], "--res 0"),
+        (&["--slice", "z=0", "--res", "99999999"], "--res 99999999"),
+        (
+            &["--slice", "z=0", "--window", "1,2,3"],
+            "expected 4 comma-separated numbers",
+        ),
+        (
+            &["--slice", "z=0", "-o", "/proc/ftpd3d/x.exr"],
+            "-o /proc/ftpd3d/x.exr",
+        ),
+    ];
+    for (args, msg) in cases {
+        let mut all = vec!["--scene", cornell, "--quiet"];
+        all.extend_from_slice(args);
+        let (ok, _, err) = ftpd3d(&all);
+        assert!(!ok, "{args:?} should fail");
+        assert!(err.contains(msg), "{args:?}: expected '{msg}' in: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let (ok, _, err) = ftpd3d(&[
+        "--scene",
+        plane.to_str().unwrap(),
+        "--slice",
+        "z=0",
+        "--quiet",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("--weight radiance") && err.contains("has no lights"),
+        "{err}"
+    );
+    let (ok, _, err) = ftpd3d(&["--scene", "no/such/scene.obj", "--slice", "z=0"]);
+    assert!(!ok);
+    assert!(
+        err.contains("no/such/scene.obj: no such scene file"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_run_writes_exr_and_png_and_never_leaves_temporaries() {
+    let dir = std::env::temp_dir().join(format!("ftpd3d-cli-{}", std::process::id()));
+    let out = dir.join("c.exr");
+    let cornell = scene_path("cornell_mirror.obj");
+    let (ok, _, err) = ftpd3d(&[
+        "--scene",
+        cornell.to_str().unwrap(),
+        "--slice",
+        "z=0",
+        "--res",
+        "24",
+        "--spp",
+        "8",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("samples/s") && err.contains("rays/s") && err.contains("relative error"),
+        "{err}"
+    );
+    assert!(out.is_file());
+    assert!(dir.join("c.png").is_file(), "PNG preview next to the EXR");
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+}

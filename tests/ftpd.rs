@@ -1,0 +1,243 @@
+//! FTPD estimator against analytic facts: empty space, the planar mirror (an isometry), a diffuse
+//! wall, determinism, and the EXR round trip.
+
+use crate::geometry::scene_path;
+use ftpd3d::app::{load_scene, run_plane};
+use ftpd3d::domain::Plane;
+use ftpd3d::field::Field;
+use ftpd3d::ftpd::moments::Moments;
+use ftpd3d::ftpd::{Params, Weighting, sample_at};
+use ftpd3d::render::RenderOptions;
+use ftpd3d::rng::Sampler;
+use ftpd3d::scene::Scene;
+use glam::DVec3;
+
+fn unweighted(t0: f64, t1: f64, angle_deg: f64) -> Params {
+    Params {
+        t0,
+        t1,
+        theta_max: angle_deg.to_radians(),
+        weighting: Weighting::Unweighted,
+        max_bounces: 32,
+    }
+}
+
+/// A vertical line of cells x = 0, z = 0, heights from `y0` to `y1` above a plane at y = 0.
+fn column(y0: f64, y1: f64, cells: usize) -> Plane {
+    Plane::new(
+        DVec3::new(-0.005, y0, 0.0),
+        DVec3::Y,
+        DVec3::X,
+        (y1 - y0, 0.01),
+        cells,
+        "column".into(),
+    )
+    .unwrap()
+}
+
+fn opts(spp: u32, seed: u64, threads: usize) -> RenderOptions {
+    RenderOptions {
+        spp,
+        batches: 16,
+        seed,
+        threads,
+        progress: false,
+    }
+}
+
+#[test]
+fn empty_space_gives_exactly_zero() {
+    // The only geometry is 10 km away: no walk of length ≤ 2 can reach it.
+    let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    let far = crate::geometry::translated(&scene, glam::Vec3::new(0.0, -1e4, 0.0));
+    let plane = Plane::new(
+        DVec3::new(-1.0, -1.0, 0.0),
+        DVec3::X,
+        DVec3::Y,
+        (2.0, 2.0),
+        16,
+        "empty".into(),
+    )
+    .unwrap();
+    let (field, stats) =
+        run_plane(&far, &plane, &unweighted(0.5, 2.0, 5.0), &opts(64, 3, 0)).unwrap();
+    assert!(stats.rays > 0);
+    for v in field.values() {
+        assert!(v.valid);
+        assert_eq!(v.sigma, 0.0);
+        assert_eq!(v.stderr, 0.0);
+    }
+}
+
+/// Per-sample Δ for pairs at height `h` above `scene`'s plane.
+fn pair_deltas(scene: &Scene, h: f64, p: &Params, n: usize) -> Vec<(f64, (u32, u32))> {
+    let mut s = Sampler::new(11, 0, 0);
+    (0..n)
+        .map(|_| {
+            let smp = sample_at(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
+            (smp.delta, smp.bounces)
+        })
+        .collect()
+}
+
+#[test]
+fn mirror_is_an_isometry_for_pairs_that_both_reflect() {
+    let scene = load_scene(&scene_path("mirror_plane.obj")).unwrap();
+    let p = unweighted(1.0, 1.0, 5.0);
+    let d = pair_deltas(&scene, 0.3, &p, 50_000);
+    let both = d.iter().filter(|(_, b)| *b == (1, 1)).count();
+    assert!(both > 10_000, "enough pairs reflect: {both}");
+    // Rounding only: positions are O(1) in f64.
+    let worst = d
+        .iter()
+        .filter(|(_, b)| b.0 == b.1)
+        .map(|(x, _)| x.abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 1e-9,
+        "largest |Δ| over pairs with equal bounce counts: {worst}"
+    );
+}
+
+/// Moments over the pairs accepted by `keep`, in 16 batches, at a point at height h.
+fn moments_where(
+    scene: &Scene,
+    h: f64,
+    p: &Params,
+    keep: impl Fn((u32, u32)) -> bool,
+) -> ftpd3d::ftpd::moments::CellValue {
+    let mut total = Moments::default();
+    for batch in 0..16 {
+        let mut s = Sampler::new(21, batch, 0);
+        let mut b = Moments::default();
+        for _ in 0..4000 {
+            let smp = sample_at(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
+            if keep(smp.bounces) {
+                b.add_sample(smp.c, smp.delta, smp.weight);
+            }
+        }
+        total.add_batch(&b);
+    }
+    total.finalize()
+}
+
+#[test]
+fn mirror_sigma_is_zero_where_both_walks_reflect_and_far_below_diffuse() {
+    let mirror = load_scene(&scene_path("mirror_plane.obj")).unwrap();
+    let diffuse = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    let p = unweighted(0.5, 1.0, 5.0);
+    for h in [0.1, 0.3] {
+        // Restricted to pairs whose walks both reflect (or both go straight), σ vanishes: within 3
+        // standard errors of 0, plus the f64 rounding floor of the end points.
+        let m = moments_where(&mirror, h, &p, |b| b.0 == b.1);
+        assert!(m.valid);
+        assert!(
+            m.sigma <= 3.0 * m.stderr + 1e-9,
+            "h = {h}: σ = {} ± {}",
+            m.sigma,
+            m.stderr
+        );
+        // All pairs, including those where one walk reflects and the other does not: σ is small but
+        // positive, far below the diffuse plane's.
+        let all_m = moments_where(&mirror, h, &p, |_| true);
+        let all_d = moments_where(&diffuse, h, &p, |_| true);
+        let gap = all_d.sigma - all_m.sigma;
+        assert!(
+            gap > 5.0 * (all_d.stderr.powi(2) + all_m.stderr.powi(2)).sqrt(),
+            "h = {h}: mirror {all_m:?} diffuse {all_d:?}"
+        );
+        assert!(
+            all_m.sigma < 0.2 * all_d.sigma,
+            "h = {h}: mirror σ {} vs diffuse σ {}",
+            all_m.sigma,
+            all_d.sigma
+        );
+    }
+}
+
+#[test]
+fn diffuse_wall_sigma_falls_with_distance() {
+    let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    let p = unweighted(0.5, 1.0, 5.0);
+    let plane = column(0.05, 1.5, 8);
+    let (field, _) = run_plane(&scene, &plane, &p, &opts(4096, 5, 0)).unwrap();
+    let v = field.values();
+    // Cells along u (height): each nearer cell has larger σ than the next farther one, beyond
+    // 3 combined standard errors, until walks no longer reach the wall (h > t1): there σ = 0.
+    for k in 0..plane.width - 1 {
+        let (near, far) = (v[k], v[k + 1]);
+        let h_far = 0.05 + (k as f64 + 1.0) * 1.45 / plane.width as f64;
+        if h_far < 0.9 {
+            let se = (near.stderr.powi(2) + far.stderr.powi(2)).sqrt();
+            assert!(
+                near.sigma - far.sigma > 3.0 * se,
+                "cell {k}: {} ± {} vs {} ± {}",
+                near.sigma,
+                near.stderr,
+                far.sigma,
+                far.stderr
+            );
+        }
+    }
+    assert_eq!(
+        v[plane.width - 1].sigma,
+        0.0,
+        "beyond t1 nothing is reached"
+    );
+}
+
+fn small_run(seed: u64, threads: usize) -> Field {
+    let scene = load_scene(&scene_path("cornell_mirror.obj")).unwrap();
+    let plane = Plane::axis_slice(&scene.bounds, "z=0".parse().unwrap(), None, 24).unwrap();
+    let p = Params {
+        t0: 0.3,
+        t1: 1.5,
+        theta_max: 0.05,
+        weighting: Weighting::Radiance,
+        max_bounces: 16,
+    };
+    run_plane(&scene, &plane, &p, &opts(16, seed, threads))
+        .unwrap()
+        .0
+}
+
+#[test]
+fn same_seed_same_pixels_on_any_thread_count() {
+    let a = small_run(7, 1);
+    let b = small_run(7, 2);
+    assert_eq!(a.cells, b.cells, "bit-identical sums");
+    let c = small_run(8, 2);
+    assert_ne!(a.cells, c.cells);
+    let differing = a.cells.iter().zip(&c.cells).filter(|(x, y)| x != y).count();
+    assert!(
+        differing > a.cells.len() / 2,
+        "different seeds change most cells: {differing}"
+    );
+}
+
+#[test]
+fn exr_round_trip_equals_the_field() {
+    let field = small_run(3, 0);
+    let dir = std::env::temp_dir().join(format!("ftpd3d-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("rt.exr");
+    ftpd3d::output::exr::write_exr(&path, &field, &[]).unwrap();
+    let back = ftpd3d::output::exr::read_exr(&path).unwrap();
+    assert_eq!((back.width, back.height), (field.width, field.height));
+    assert_eq!(
+        back.cells, field.cells,
+        "exact sums, counts and batch statistics"
+    );
+    assert_eq!(back.meta, field.meta);
+    assert_eq!(back.meta["embree"], ftpd3d::embree_version());
+    // The display channel equals the finalised σ rounded to f32, in the same cell order.
+    let (w, h, sigma) = ftpd3d::output::exr::read_channel(&path, "ftpd").unwrap();
+    assert_eq!((w, h), (field.width, field.height));
+    for (s, v) in sigma.iter().zip(field.values()) {
+        assert_eq!(*s, v.sigma as f32);
+    }
+    let (_, _, valid) = ftpd3d::output::exr::read_channel(&path, "valid").unwrap();
+    assert!(valid.iter().all(|v| *v == 0.0 || *v == 1.0));
+    assert!(sigma.iter().all(|s| s.is_finite()));
+    std::fs::remove_dir_all(&dir).ok();
+}

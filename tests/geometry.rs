@@ -1,0 +1,73 @@
+//! Ray-offset robustness: rays leaving random points of random triangles never hit their own
+//! triangle again, also when the scene sits far from the origin.
+
+use ftpd3d::rng::Sampler;
+use ftpd3d::scene::Scene;
+use ftpd3d::transport::sampling::{sample_uniform_sphere, sample_uniform_triangle};
+use glam::{DVec3, Vec3};
+use std::path::Path;
+
+pub fn scene_path(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+/// Rebuilds `scene` translated by `offset`.
+pub fn translated(scene: &Scene, offset: Vec3) -> Scene {
+    Scene::build(
+        &scene.source,
+        scene.positions.iter().map(|p| *p + offset).collect(),
+        scene.normals.clone(),
+        scene.triangles.clone(),
+        scene.tri_material.clone(),
+        scene.materials.clone(),
+        Default::default(),
+    )
+    .unwrap()
+}
+
+fn self_hits(scene: &Scene, rays: usize) -> usize {
+    let mut s = Sampler::new(5, 0, 0);
+    let mut bad = 0;
+    for k in 0..rays {
+        let tri = k % scene.triangles.len();
+        let [a, b, c] = scene.triangles[tri].map(|i| scene.positions[i as usize].as_dvec3());
+        let (b0, b1, b2) = sample_uniform_triangle(s.next_2d());
+        let p = b0 * a + b1 * b + b2 * c;
+        // A direction on a random side, away from the surface.
+        let mut d = sample_uniform_sphere(s.next_2d());
+        let n = scene.tri_normals[tri];
+        if d.dot(n).abs() < 1e-3 {
+            continue;
+        }
+        // Probe the exact hit point from outside to get Embree's own reconstruction.
+        let side = d.dot(n).signum();
+        let probe_o = p + n * side * 0.1 * scene.extent();
+        let Some(h) = scene.intersect(probe_o, (p - probe_o).normalize(), f64::INFINITY) else {
+            continue;
+        };
+        if h.prim as usize != tri {
+            continue;
+        }
+        if d.dot(h.ng) * side < 0.0 {
+            d = -d;
+        }
+        let o = h.spawn_origin(d);
+        if let Some(h2) = scene.intersect(o, d, f64::INFINITY) {
+            if h2.prim as usize == tri {
+                bad += 1;
+            }
+        }
+        let _ = DVec3::ZERO;
+    }
+    bad
+}
+
+#[test]
+fn rays_from_triangles_never_rehit_their_own() {
+    let scene = ftpd3d::app::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
+    assert_eq!(self_hits(&scene, 20_000), 0);
+    let far = translated(&scene, Vec3::splat(1e4));
+    assert_eq!(self_hits(&far, 20_000), 0);
+}
