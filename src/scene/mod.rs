@@ -48,6 +48,21 @@ impl Aabb {
     }
 }
 
+/// A pinhole camera (from a glTF file, a sidecar scene file or the command line).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub name: String,
+    pub eye: DVec3,
+    /// Unit viewing direction.
+    pub forward: DVec3,
+    /// Unit up vector, orthogonal to `forward`.
+    pub up: DVec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f64,
+    /// Width over height, when the file gives one.
+    pub aspect: Option<f64>,
+}
+
 /// What the loader had to drop or repair, reported once per run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LoadReport {
@@ -71,6 +86,8 @@ pub struct Scene {
     pub bounds: Aabb,
     pub features: Features,
     pub report: LoadReport,
+    /// Cameras the scene file defines, in file order.
+    pub cameras: Vec<Camera>,
     accel: Accel,
 }
 
@@ -155,6 +172,7 @@ impl Scene {
             bounds,
             features,
             report,
+            cameras: Vec::new(),
             accel,
         })
     }
