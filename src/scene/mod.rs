@@ -6,6 +6,7 @@ pub mod features;
 pub mod light;
 pub mod material;
 pub mod obj;
+pub mod sidecar;
 
 use crate::accel::{Accel, RawHit};
 use crate::math::Rgb;
@@ -88,6 +89,8 @@ pub struct Scene {
     pub report: LoadReport,
     /// Cameras the scene file defines, in file order.
     pub cameras: Vec<Camera>,
+    /// Named slice planes from a sidecar file: (name, plane such as `z=0`).
+    pub named_slices: Vec<(String, String)>,
     accel: Accel,
 }
 
@@ -173,6 +176,7 @@ impl Scene {
             features,
             report,
             cameras: Vec::new(),
+            named_slices: Vec::new(),
             accel,
         })
     }

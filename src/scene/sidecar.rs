@@ -1,0 +1,108 @@
+//! The sidecar scene file (TOML): what an OBJ cannot say. Unknown keys are errors.
+//!
+//! ```toml
+//! mesh = "cornell_mirror.obj"     # OBJ or glTF, relative to this file (required)
+//!
+//! [[point_light]]                 # isotropic point light
+//! position = [0.0, 1.5, 0.0]
+//! intensity = [5.0, 5.0, 5.0]     # radiant intensity (per steradian), RGB, scene units
+//!
+//! [[camera]]
+//! name = "front"
+//! eye = [0.0, 1.0, 3.5]
+//! target = [0.0, 1.0, 0.0]
+//! up = [0.0, 1.0, 0.0]            # optional, default +y
+//! fov = 40.0                      # vertical field of view, degrees
+//!
+//! [[slice]]
+//! name = "middle"                 # use as --slice middle
+//! plane = "z=0"
+//! ```
+
+use crate::scene::{Camera, Scene};
+use anyhow::{Context, bail};
+use glam::DVec3;
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sidecar {
+    pub mesh: String,
+    #[serde(default)]
+    pub point_light: Vec<PointLightSpec>,
+    #[serde(default)]
+    pub camera: Vec<CameraSpec>,
+    #[serde(default)]
+    pub slice: Vec<SliceSpecEntry>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointLightSpec {
+    pub position: [f64; 3],
+    pub intensity: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    pub name: Option<String>,
+    pub eye: [f64; 3],
+    pub target: [f64; 3],
+    pub up: Option<[f64; 3]>,
+    pub fov: f64,
+}
+
+#[derive(Debug, Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SliceSpecEntry {
+    pub name: String,
+    pub plane: String,
+}
+
+/// Reads and validates a sidecar file.
+pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let sc: Sidecar = toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    for (i, l) in sc.point_light.iter().enumerate() {
+        if !l.position.iter().chain(&l.intensity).all(|v| v.is_finite()) || l.intensity.iter().any(|v| *v < 0.0) {
+            bail!("{}: point_light #{}: position must be finite and intensity finite and ≥ 0", path.display(), i + 1);
+        }
+    }
+    for (i, c) in sc.camera.iter().enumerate() {
+        if !(c.fov > 0.0 && c.fov < 180.0) {
+            bail!("{}: camera #{}: fov {} must lie between 0 and 180 degrees", path.display(), i + 1, c.fov);
+        }
+        camera_of(c).with_context(|| format!("{}: camera #{}", path.display(), i + 1))?;
+    }
+    Ok(sc)
+}
+
+/// A camera from eye/target/up; errors when they do not define a view.
+pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
+    let eye = DVec3::from(c.eye);
+    let forward = (DVec3::from(c.target) - eye).try_normalize().context("target equals eye")?;
+    let up0 = DVec3::from(c.up.unwrap_or([0.0, 1.0, 0.0]));
+    let right = forward.cross(up0).try_normalize().context("up is parallel to the viewing direction")?;
+    Ok(Camera {
+        name: c.name.clone().unwrap_or_else(|| "camera".into()),
+        eye,
+        forward,
+        up: right.cross(forward),
+        fov_y: c.fov.to_radians(),
+        aspect: None,
+    })
+}
+
+/// Applies a sidecar's lights and cameras to a loaded scene.
+pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
+    for l in &sc.point_light {
+        scene.lights.add_point(DVec3::from(l.position), DVec3::from(l.intensity));
+    }
+    for c in &sc.camera {
+        scene.cameras.push(camera_of(c)?);
+    }
+    scene.features = crate::scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    Ok(())
+}
