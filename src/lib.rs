@@ -7,6 +7,7 @@
 
 pub mod accel;
 pub mod math;
+pub mod output;
 pub mod rng;
 pub mod transport;
 
