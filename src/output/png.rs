@@ -17,9 +17,14 @@
 //! Colours outside the sRGB gamut are clipped by lowering chroma at constant L* and hue (bisection),
 //! never by clamping channels, so lightness — the cue that carries order — is exactly preserved.
 
+use anyhow::{Context, bail, ensure};
 use palette::convert::FromColorUnclamped;
 use palette::white_point::D65;
 use palette::{Lab, Srgb};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Colour of invalid cells (outside the domain, or a non-finite value): neutral sRGB grey
 /// (L* ≈ 54). Both colour maps give mid-lightness cells a clearly visible hue, so a grey without
@@ -362,6 +367,108 @@ fn typical_magnitude(mag: &[f64], ok: &[bool]) -> f64 {
     }
 }
 
+/// Distinguishes temporary files of concurrent writes from the same process.
+static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// Writes an 8-bit sRGB PNG of `width * height` pixels given in field order: `rgb[y * width + x]`
+/// with **row 0 the bottom row**, so rows are flipped on output (v axis up in the picture).
+///
+/// The image is written to a hidden temporary file in the destination directory, flushed to disk and
+/// renamed over `path`, so `path` is never seen half-written; on failure the temporary file is
+/// removed. Errors if a dimension is 0 or too large for PNG, or `rgb.len() != width * height`.
+pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[[u8; 3]]) -> anyhow::Result<()> {
+    ensure!(
+        width > 0 && height > 0,
+        "PNG {}: empty image ({width}x{height})",
+        path.display()
+    );
+    const PNG_MAX: usize = (1 << 31) - 1;
+    ensure!(
+        width <= PNG_MAX && height <= PNG_MAX,
+        "PNG {}: {width}x{height} exceeds the PNG size limit",
+        path.display()
+    );
+    let n = width.checked_mul(height);
+    ensure!(
+        n == Some(rgb.len()),
+        "PNG {}: {} pixels given for {width}x{height}",
+        path.display(),
+        rgb.len()
+    );
+    let mut data = Vec::with_capacity(rgb.len() * 3);
+    for row in rgb.chunks_exact(width).rev() {
+        data.extend(row.iter().flatten());
+    }
+
+    let Some(name) = path.file_name() else {
+        bail!("PNG {}: not a file path", path.display());
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let tmp = dir.join(format!(
+        ".{}.{}-{}.tmp",
+        name.to_string_lossy(),
+        std::process::id(),
+        TMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let result = write_png_file(&tmp, width as u32, height as u32, &data)
+        .and_then(|()| std::fs::rename(&tmp, path).context("renaming the temporary file"));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing PNG {}", path.display()))
+}
+
+/// Encodes packed RGB8 rows (top row first) to `path` and syncs the file.
+fn write_png_file(path: &Path, width: u32, height: u32, data: &[u8]) -> anyhow::Result<()> {
+    let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    let mut out = BufWriter::new(file);
+    let mut encoder = png::Encoder::new(&mut out, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(data)?;
+    writer.finish()?;
+    out.flush()?;
+    out.get_ref().sync_all()?;
+    Ok(())
+}
+
+/// Writes the field view ([`field_colors`]) of a field as a PNG (see [`write_png`]).
+pub fn write_field_preview(
+    path: &Path,
+    values: &[f64],
+    valid: &[bool],
+    width: usize,
+    height: usize,
+) -> anyhow::Result<()> {
+    write_png(
+        path,
+        width,
+        height,
+        &field_colors(values, valid, width, height),
+    )
+}
+
+/// Writes the gradient view ([`gradient_colors`]) of a field as a PNG (see [`write_png`]).
+pub fn write_gradient_preview(
+    path: &Path,
+    values: &[f64],
+    valid: &[bool],
+    width: usize,
+    height: usize,
+) -> anyhow::Result<()> {
+    write_png(
+        path,
+        width,
+        height,
+        &gradient_colors(values, valid, width, height),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -383,6 +490,14 @@ mod tests {
 
     fn lab_of_u8(c: [u8; 3]) -> Lab<D65, f64> {
         lab_of(c.map(|x| x as f64 / 255.0))
+    }
+
+    /// A fresh empty directory under the system temp dir.
+    fn test_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("ftpd3d-png-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
     }
 
     #[test]
@@ -609,5 +724,108 @@ mod tests {
                 .iter()
                 .all(|&c| c == INVALID_RGB)
         );
+    }
+
+    #[test]
+    fn png_round_trip_flips_rows() {
+        let dir = test_dir("roundtrip");
+        let path = dir.join("img.png");
+        let (w, h) = (3, 2);
+        // Row 0 (bottom) is red-ish, row 1 (top) blue-ish; every pixel distinct.
+        let rgb: Vec<[u8; 3]> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as u8, (i / w) as u8);
+                [200 - 100 * y, 10 * x, 50 + 100 * y]
+            })
+            .collect();
+        write_png(&path, w, h, &rgb).unwrap();
+        // Overwriting an existing file works too.
+        write_png(&path, w, h, &rgb).unwrap();
+
+        let file = std::io::BufReader::new(File::open(&path).unwrap());
+        let mut reader = png::Decoder::new(file).read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!((info.width, info.height), (w as u32, h as u32));
+        assert_eq!(info.color_type, png::ColorType::Rgb);
+        assert_eq!(info.bit_depth, png::BitDepth::Eight);
+        for img_y in 0..h {
+            for x in 0..w {
+                let o = img_y * info.line_size + 3 * x;
+                let field_y = h - 1 - img_y;
+                assert_eq!(buf[o..o + 3], rgb[field_y * w + x], "pixel ({x}, {img_y})");
+            }
+        }
+        // Only the final file remains: no temporary left behind.
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("img.png")]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn png_errors_are_reported_not_panicked() {
+        let dir = test_dir("errors");
+        let p = dir.join("x.png");
+        assert!(write_png(&p, 0, 3, &[]).is_err());
+        assert!(write_png(&p, 2, 2, &[[0; 3]; 3]).is_err());
+        assert!(write_png(&dir.join("missing/x.png"), 1, 1, &[[0; 3]]).is_err());
+        assert!(write_png(Path::new("/"), 1, 1, &[[0; 3]]).is_err());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Writes example previews to /tmp/ftpd3d-png-preview for a person to look at:
+    /// `cargo test --lib render_example_previews -- --ignored`.
+    #[test]
+    #[ignore = "writes example images to /tmp for visual inspection"]
+    fn render_example_previews() {
+        let dir = Path::new("/tmp/ftpd3d-png-preview");
+        std::fs::create_dir_all(dir).unwrap();
+        let (w, h) = (320, 240);
+        let mut rng = Rng(7);
+        let mut step = Vec::with_capacity(w * h);
+        let mut radial = Vec::with_capacity(w * h);
+        let mut valid = Vec::with_capacity(w * h);
+        for i in 0..w * h {
+            let (x, y) = ((i % w) as f64 / w as f64, (i / w) as f64 / h as f64);
+            // A smooth background with a jump along a slanted line and a kink (first-order
+            // discontinuity) along a vertical one, plus a little noise, FTPD-like in range.
+            let jump = if y > 0.3 + 0.4 * x { 3.0 } else { 0.0 };
+            let kink = 4.0 * (x - 0.7).max(0.0);
+            step.push((1.0 + 2.0 * x + y * y + jump + kink) * 10f64.powf(y) + 0.02 * rng.next());
+            let r =
+                ((x - 0.5).powi(2) + (y - 0.5).powi(2) * (h * h) as f64 / (w * w) as f64).sqrt();
+            radial.push((-12.0 * r * r).exp() + 0.3 * (30.0 * r).cos() * (-4.0 * r).exp());
+            // A hole (e.g. inside an object) and a NaN.
+            valid.push(((x - 0.2).powi(2) + (y - 0.75).powi(2)).sqrt() > 0.08);
+        }
+        step[5] = f64::NAN;
+        write_field_preview(&dir.join("step_field.png"), &step, &valid, w, h).unwrap();
+        write_gradient_preview(&dir.join("step_grad.png"), &step, &valid, w, h).unwrap();
+        write_field_preview(&dir.join("radial_field.png"), &radial, &valid, w, h).unwrap();
+        write_gradient_preview(&dir.join("radial_grad.png"), &radial, &valid, w, h).unwrap();
+        // Colour bar: t along x, bottom half the colour map, top half a direction/magnitude wheel.
+        let (bw, bh) = (256, 64);
+        let bar: Vec<f64> = (0..bw * bh).map(|i| (i % bw) as f64).collect();
+        write_field_preview(
+            &dir.join("colorbar.png"),
+            &bar,
+            &vec![true; bw * bh],
+            bw,
+            bh,
+        )
+        .unwrap();
+        let wheel: Vec<[u8; 3]> = (0..128 * 128)
+            .map(|i| {
+                let (x, y) = ((i % 128) as f64 - 63.5, (i / 128) as f64 - 63.5);
+                let m = (x.hypot(y) / 63.5).min(1.0);
+                let (l, a, b) = gradient_lab(m, y.atan2(x));
+                to_u8(lab_to_srgb_clipped(l, a, b))
+            })
+            .collect();
+        write_png(&dir.join("gradient_wheel.png"), 128, 128, &wheel).unwrap();
     }
 }
