@@ -277,10 +277,19 @@ pub fn run_slice_job(job: &SliceJob) -> anyhow::Result<Field> {
     Ok(field)
 }
 
-/// Writes the EXR and, when asked, a PNG preview next to it.
+/// Writes the EXR (with the Sobel gradient of σ as `grad.x`/`grad.y`, per cell) and, when asked,
+/// PNG previews next to it: `<name>.png` (σ, equalised CIELAB map) and `<name>.grad.png` (gradient
+/// direction as hue, magnitude as lightness).
 pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()> {
-    output::exr::write_exr(path, field, &[])?;
-    let _ = png;
+    let sigma = field.sigma();
+    let valid = field.valid();
+    let (w, h) = (field.width, field.height);
+    let (gx, gy) = output::png::sobel(&sigma, &valid, w, h);
+    output::exr::write_exr(path, field, &[("grad.x", gx), ("grad.y", gy)])?;
+    if png {
+        output::png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
+        output::png::write_gradient_preview(&path.with_extension("grad.png"), &sigma, &valid, w, h)?;
+    }
     Ok(())
 }
 

@@ -2,9 +2,11 @@
 //! destination directory and renamed into place, so a failed run never leaves a truncated output.
 
 pub mod exr;
+pub mod png;
 
 use anyhow::Context;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Temporary sibling name of `path` (same directory, so the rename is atomic).
 pub fn temp_path(path: &Path) -> PathBuf {
