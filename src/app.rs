@@ -288,7 +288,13 @@ pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()
     output::exr::write_exr(path, field, &[("grad.x", gx), ("grad.y", gy)])?;
     if png {
         output::png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
-        output::png::write_gradient_preview(&path.with_extension("grad.png"), &sigma, &valid, w, h)?;
+        output::png::write_gradient_preview(
+            &path.with_extension("grad.png"),
+            &sigma,
+            &valid,
+            w,
+            h,
+        )?;
     }
     Ok(())
 }

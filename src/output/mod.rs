@@ -8,13 +8,16 @@ use anyhow::Context;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Temporary sibling name of `path` (same directory, so the rename is atomic).
+/// Temporary sibling name of `path` (same directory, so the rename is atomic), unique within and
+/// across processes.
 pub fn temp_path(path: &Path) -> PathBuf {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let k = COUNTER.fetch_add(1, Ordering::Relaxed);
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+    path.with_file_name(format!(".{name}.{}-{k}.tmp", std::process::id()))
 }
 
 /// Runs `write` on a temporary path and renames the result to `path`; removes the temporary file

@@ -23,8 +23,7 @@ use palette::white_point::D65;
 use palette::{Lab, Srgb};
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
 /// Colour of invalid cells (outside the domain, or a non-finite value): neutral sRGB grey
 /// (L* ≈ 54). Both colour maps give mid-lightness cells a clearly visible hue, so a grey without
@@ -402,7 +401,9 @@ pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[[u8; 3]]) -> a
     if path.file_name().is_none() {
         bail!("PNG {}: not a file path", path.display());
     }
-    crate::output::write_atomically(path, |tmp| write_png_file(tmp, width as u32, height as u32, &data))
+    crate::output::write_atomically(path, |tmp| {
+        write_png_file(tmp, width as u32, height as u32, &data)
+    })
 }
 
 /// Encodes packed RGB8 rows (top row first) to `path` and syncs the file.

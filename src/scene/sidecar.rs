@@ -63,16 +63,29 @@ pub struct SliceSpecEntry {
 
 /// Reads and validates a sidecar file.
 pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let sc: Sidecar = toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let sc: Sidecar =
+        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     for (i, l) in sc.point_light.iter().enumerate() {
-        if !l.position.iter().chain(&l.intensity).all(|v| v.is_finite()) || l.intensity.iter().any(|v| *v < 0.0) {
-            bail!("{}: point_light #{}: position must be finite and intensity finite and ≥ 0", path.display(), i + 1);
+        if !l.position.iter().chain(&l.intensity).all(|v| v.is_finite())
+            || l.intensity.iter().any(|v| *v < 0.0)
+        {
+            bail!(
+                "{}: point_light #{}: position must be finite and intensity finite and ≥ 0",
+                path.display(),
+                i + 1
+            );
         }
     }
     for (i, c) in sc.camera.iter().enumerate() {
         if !(c.fov > 0.0 && c.fov < 180.0) {
-            bail!("{}: camera #{}: fov {} must lie between 0 and 180 degrees", path.display(), i + 1, c.fov);
+            bail!(
+                "{}: camera #{}: fov {} must lie between 0 and 180 degrees",
+                path.display(),
+                i + 1,
+                c.fov
+            );
         }
         camera_of(c).with_context(|| format!("{}: camera #{}", path.display(), i + 1))?;
     }
@@ -82,9 +95,14 @@ pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
 /// A camera from eye/target/up; errors when they do not define a view.
 pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
     let eye = DVec3::from(c.eye);
-    let forward = (DVec3::from(c.target) - eye).try_normalize().context("target equals eye")?;
+    let forward = (DVec3::from(c.target) - eye)
+        .try_normalize()
+        .context("target equals eye")?;
     let up0 = DVec3::from(c.up.unwrap_or([0.0, 1.0, 0.0]));
-    let right = forward.cross(up0).try_normalize().context("up is parallel to the viewing direction")?;
+    let right = forward
+        .cross(up0)
+        .try_normalize()
+        .context("up is parallel to the viewing direction")?;
     Ok(Camera {
         name: c.name.clone().unwrap_or_else(|| "camera".into()),
         eye,
@@ -98,11 +116,14 @@ pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
 /// Applies a sidecar's lights and cameras to a loaded scene.
 pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
     for l in &sc.point_light {
-        scene.lights.add_point(DVec3::from(l.position), DVec3::from(l.intensity));
+        scene
+            .lights
+            .add_point(DVec3::from(l.position), DVec3::from(l.intensity));
     }
     for c in &sc.camera {
         scene.cameras.push(camera_of(c)?);
     }
-    scene.features = crate::scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    scene.features =
+        crate::scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
     Ok(())
 }
