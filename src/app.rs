@@ -78,7 +78,10 @@ impl EstimatorArgs {
 #[derive(Clone, Debug)]
 pub struct SliceJob {
     pub scene: PathBuf,
-    pub slice: SliceSpec,
+    /// `AXIS=VALUE` or a slice named in the scene file.
+    pub slice: String,
+    /// Extra point lights: position, radiant intensity.
+    pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
     pub window: Option<[f64; 4]>,
     pub res: usize,
     pub estimator: EstimatorArgs,
@@ -91,24 +94,105 @@ pub struct SliceJob {
 /// Largest accepted `--res`.
 pub const MAX_RES: usize = 16384;
 
-/// Loads a scene by its extension.
+/// Loads a scene by its extension: `.obj`, or a sidecar `.toml` naming a mesh plus point lights,
+/// cameras and named slices.
 pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
-    match path
-        .extension()
+    match extension(path).as_deref() {
+        Some("toml") => {
+            let sc = scene::sidecar::read(path)?;
+            let mesh = path.parent().unwrap_or(Path::new(".")).join(&sc.mesh);
+            if extension(&mesh).as_deref() == Some("toml") {
+                bail!(
+                    "{}: mesh = \"{}\" must be a mesh file, not another .toml",
+                    path.display(),
+                    sc.mesh
+                );
+            }
+            let mut scene = load_mesh(&mesh)
+                .with_context(|| format!("{}: loading its mesh", path.display()))?;
+            scene::sidecar::apply(&sc, &mut scene)?;
+            scene.named_slices = sc
+                .slice
+                .iter()
+                .map(|s| (s.name.clone(), s.plane.clone()))
+                .collect();
+            Ok(scene)
+        }
+        _ => load_mesh(path),
+    }
+}
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
-        .as_deref()
-    {
+}
+
+fn load_mesh(path: &Path) -> anyhow::Result<Scene> {
+    match extension(path).as_deref() {
         Some("obj") => scene::obj::load(path),
         Some(other) => bail!(
-            "{}: unsupported scene format '.{other}' (supported: .obj)",
+            "{}: unsupported scene format '.{other}' (supported: .obj, .toml)",
             path.display()
         ),
         None => bail!(
-            "{}: no file extension; expected a .obj scene",
+            "{}: no file extension; expected a .obj or .toml scene",
             path.display()
         ),
     }
+}
+
+/// Resolves `--slice`: `AXIS=VALUE`, or the name of a slice in the sidecar scene file.
+pub fn resolve_slice(arg: &str, scene: &Scene) -> anyhow::Result<SliceSpec> {
+    if arg.contains('=') {
+        return arg
+            .parse::<SliceSpec>()
+            .map_err(|e| anyhow::anyhow!("--slice {e}"));
+    }
+    match scene.named_slices.iter().find(|(n, _)| n == arg) {
+        Some((_, plane)) => plane
+            .parse::<SliceSpec>()
+            .map_err(|e| anyhow::anyhow!("--slice {arg}: the scene file's plane {e}")),
+        None if scene.named_slices.is_empty() => {
+            bail!("--slice {arg}: expected AXIS=VALUE such as z=1.2 (the scene names no slices)")
+        }
+        None => bail!(
+            "--slice {arg}: not AXIS=VALUE and not a slice of the scene file (it names: {})",
+            scene
+                .named_slices
+                .iter()
+                .map(|(n, _)| n.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// Parses `--point-light x,y,z:r,g,b` (position, then radiant intensity per steradian).
+pub fn parse_point_light(s: &str) -> Result<(glam::DVec3, glam::DVec3), String> {
+    let (p, i) = s
+        .split_once(':')
+        .ok_or_else(|| format!("'{s}': expected x,y,z:r,g,b"))?;
+    let three = |t: &str, what: &str| -> Result<glam::DVec3, String> {
+        let v: Vec<f64> = t
+            .split(',')
+            .map(|x| {
+                x.trim()
+                    .parse::<f64>()
+                    .map_err(|_| format!("'{s}': {what} '{x}' is not a number"))
+            })
+            .collect::<Result<_, _>>()?;
+        match v.as_slice() {
+            [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok(glam::DVec3::new(*a, *b, *c)),
+            [_, _, _] => Err(format!("'{s}': {what} must be finite")),
+            _ => Err(format!("'{s}': {what} needs 3 comma-separated numbers")),
+        }
+    };
+    let (pos, int) = (three(p, "position")?, three(i, "intensity")?);
+    if int.min_element() < 0.0 {
+        return Err(format!("'{s}': intensity must be ≥ 0"));
+    }
+    Ok((pos, int))
 }
 
 /// Fails early when `path`'s directory cannot take a new file (before hours of work).
@@ -216,6 +300,16 @@ pub fn relative_error_summary(field: &Field) -> (f64, f64) {
     (mean, p95)
 }
 
+/// Loads the job's scene and adds its command-line point lights.
+pub fn load_job_scene(job: &SliceJob) -> anyhow::Result<Scene> {
+    let mut scene = load_scene(&job.scene)?;
+    for (p, i) in &job.point_lights {
+        scene.lights.add_point(*p, *i);
+    }
+    scene.features = scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    Ok(scene)
+}
+
 /// Runs a slice job end to end: load, estimate, write EXR (and PNG), print a summary on stderr.
 pub fn run_slice_job(job: &SliceJob) -> anyhow::Result<Field> {
     if job.res == 0 || job.res > MAX_RES {
@@ -226,9 +320,10 @@ pub fn run_slice_job(job: &SliceJob) -> anyhow::Result<Field> {
     }
     check_writable(&job.output)?;
     let t_load = Instant::now();
-    let scene = load_scene(&job.scene)?;
+    let scene = load_job_scene(job)?;
     let params = job.estimator.resolve(&scene)?;
-    let plane = Plane::axis_slice(&scene.bounds, job.slice, job.window, job.res)?;
+    let slice = resolve_slice(&job.slice, &scene)?;
+    let plane = Plane::axis_slice(&scene.bounds, slice, job.window, job.res)?;
     let say = |s: String| {
         if !job.quiet {
             eprintln!("{s}");

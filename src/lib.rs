@@ -5,6 +5,9 @@
 //! Data flows one way: [`scene`] (load) → [`accel`] (Embree) → [`domain`] (where samples start) →
 //! [`ftpd`] (one sample, moments) → [`render`] (parallel passes) → [`field`] → [`output`] (EXR, PNG).
 
+// `!(x > 0.0)` is how this crate rejects NaN along with non-positive values; keep that idiom.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod accel;
 pub mod app;
 pub mod domain;

@@ -2,7 +2,6 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use ftpd3d::app::{self, EstimatorArgs, SliceJob};
-use ftpd3d::domain::slice::SliceSpec;
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
 use std::path::PathBuf;
@@ -47,8 +46,11 @@ struct RunArgs {
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
     /// Axis-aligned slice plane, e.g. z=1.2 (x=c spans z,y; y=c spans x,z; z=c spans x,y).
-    #[arg(long, value_name = "AXIS=VALUE")]
-    slice: Option<SliceSpec>,
+    #[arg(long, value_name = "AXIS=VALUE|NAME")]
+    slice: Option<String>,
+    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
+    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = app::parse_point_light)]
+    point_light: Vec<(glam::DVec3, glam::DVec3)>,
     /// Part of the plane to cover, in plane coordinates u0,v0,u1,v1 [default: the scene bounds].
     #[arg(long, value_name = "U0,V0,U1,V1", value_parser = parse_window)]
     window: Option<[f64; 4]>,
@@ -120,17 +122,19 @@ impl RunArgs {
             .ok_or_else(|| anyhow::anyhow!("--scene FILE is required (try --help)"))?;
         let slice = self
             .slice
+            .clone()
             .ok_or_else(|| anyhow::anyhow!("--slice AXIS=VALUE is required, e.g. --slice z=0"))?;
         let output = self.output.clone().unwrap_or_else(|| {
             let stem = scene
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scene".into());
-            PathBuf::from("out").join(format!("{stem}_{}.exr", slice.to_string().replace('=', "")))
+            PathBuf::from("out").join(format!("{stem}_{}.exr", slice.replace(['=', '/', ' '], "")))
         });
         Ok(SliceJob {
             scene,
             slice,
+            point_lights: self.point_light.clone(),
             window: self.window,
             res: self.res,
             estimator: EstimatorArgs {
@@ -159,9 +163,10 @@ impl RunArgs {
 
 fn bench(args: &RunArgs) -> anyhow::Result<()> {
     let job = args.job()?;
-    let scene = app::load_scene(&job.scene)?;
+    let scene = app::load_job_scene(&job)?;
     let params = job.estimator.resolve(&scene)?;
-    let plane = ftpd3d::domain::Plane::axis_slice(&scene.bounds, job.slice, job.window, job.res)?;
+    let slice = app::resolve_slice(&job.slice, &scene)?;
+    let plane = ftpd3d::domain::Plane::axis_slice(&scene.bounds, slice, job.window, job.res)?;
     let mut opts = job.render.clone();
     opts.progress = false;
     let r = app::bench_plane(&scene, &plane, &params, &opts)?;

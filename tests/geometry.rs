@@ -4,7 +4,7 @@
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::Scene;
 use ftpd3d::transport::sampling::{sample_uniform_sphere, sample_uniform_triangle};
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use std::path::Path;
 
 pub fn scene_path(name: &str) -> std::path::PathBuf {
@@ -54,12 +54,12 @@ fn self_hits(scene: &Scene, rays: usize) -> usize {
             d = -d;
         }
         let o = h.spawn_origin(d);
-        if let Some(h2) = scene.intersect(o, d, f64::INFINITY) {
-            if h2.prim as usize == tri {
-                bad += 1;
-            }
+        if scene
+            .intersect(o, d, f64::INFINITY)
+            .is_some_and(|h2| h2.prim as usize == tri)
+        {
+            bad += 1;
         }
-        let _ = DVec3::ZERO;
     }
     bad
 }

@@ -114,20 +114,72 @@ pub fn perturb(
     (omega2, chord, tan_half / tan_half_max)
 }
 
+/// Fraction of radiance-weighted samples whose direction is drawn uniformly; the others are drawn
+/// towards the lights (when the scene has any).
+pub const UNIFORM_FRACTION: f64 = 0.5;
+
+/// A start direction ω with its weight `w(x, ω) / p(ω)` (RGB) for radiance weighting.
+///
+/// The radiance `L(x, ω)` of the light passing `x` along ω is split into three parts, each estimated
+/// by the strategies that can produce it, with the balance heuristic (one-sample MIS):
+/// - directly visible emission of area lights: uniform directions (density α/4π) and light
+///   sampling (density (1−α)·p_light(ω)) both produce it;
+/// - everything else that a path from `x` towards −ω collects (reflected light, including light of
+///   point lights reflected by the first surface): uniform directions only;
+/// - point lights seen directly: Dirac deltas in ω, produced by light sampling only.
+pub fn radiance_direction(
+    scene: &Scene,
+    x: DVec3,
+    max_bounces: u32,
+    s: &mut Sampler,
+    rays: &mut u32,
+) -> (DVec3, Rgb) {
+    use std::f64::consts::PI;
+    let lights = &scene.lights;
+    let alpha = if lights.is_empty() {
+        1.0
+    } else {
+        UNIFORM_FRACTION
+    };
+    let p_uniform = alpha / (4.0 * PI);
+    let mut st = RadianceStats::default();
+    let strategy = s.next_f64();
+    let (u_l, u) = (s.next_f64(), s.next_2d());
+    if strategy < alpha {
+        let omega = sample_uniform_sphere(u);
+        // Light passing x along ω arrives from −ω.
+        let r = radiance(scene, x, -omega, max_bounces, s, &mut st);
+        *rays += st.rays;
+        let direct = r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf);
+        return (omega, direct + r.rest / p_uniform);
+    }
+    let Some(ls) = lights.sample(x, u_l, u) else {
+        // A light that faces away: this strategy contributes nothing here.
+        return (sample_uniform_sphere(s.next_2d()), Rgb::ZERO);
+    };
+    let omega = -ls.wi;
+    *rays += 1;
+    let tmax = ls.dist - scene.eps_at(x) - scene.eps_at(x + ls.wi * ls.dist);
+    if scene.occluded(x, ls.wi, tmax) {
+        return (omega, Rgb::ZERO);
+    }
+    let weight = if ls.delta {
+        ls.li / ((1.0 - alpha) * ls.pdf)
+    } else {
+        ls.li / (p_uniform + (1.0 - alpha) * ls.pdf)
+    };
+    (omega, weight)
+}
+
 /// One FTPD sample at `x` with start direction drawn by the estimator (slice and volume domains).
 pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
-    let omega = sample_uniform_sphere(s.next_2d());
     let mut rays = 0;
-    let weight = match p.weighting {
-        Weighting::Unweighted | Weighting::Importance => Rgb::ONE,
-        Weighting::Radiance => {
-            let mut st = RadianceStats::default();
-            // Light passing x along ω arrives from −ω; p(ω) = 1/(4π).
-            let l = radiance(scene, x, -omega, p.max_bounces, s, &mut st);
-            rays += st.rays;
-            l * (4.0 * std::f64::consts::PI)
+    let (omega, weight) = match p.weighting {
+        Weighting::Unweighted | Weighting::Importance => {
+            (sample_uniform_sphere(s.next_2d()), Rgb::ONE)
         }
+        Weighting::Radiance => radiance_direction(scene, x, p.max_bounces, s, &mut rays),
     };
     let mut out = pair_from(scene, x, omega, t, weight, p, s);
     out.rays += rays;

@@ -366,8 +366,6 @@ fn typical_magnitude(mag: &[f64], ok: &[bool]) -> f64 {
     }
 }
 
-/// Distinguishes temporary files of concurrent writes from the same process.
-
 /// Writes an 8-bit sRGB PNG of `width * height` pixels given in field order: `rgb[y * width + x]`
 /// with **row 0 the bottom row**, so rows are flipped on output (v axis up in the picture).
 ///
@@ -478,7 +476,7 @@ mod tests {
     }
 
     /// A fresh empty directory under the system temp dir.
-    fn test_dir(name: &str) -> PathBuf {
+    fn test_dir(name: &str) -> std::path::PathBuf {
         let d = std::env::temp_dir().join(format!("ftpd3d-png-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();

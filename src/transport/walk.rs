@@ -109,6 +109,23 @@ fn power_heuristic(a: f64, b: f64) -> f64 {
     }
 }
 
+/// A radiance estimate split by what can also be reached by sampling the lights from the start
+/// point: the emission of the first surface seen (`direct`, with the solid-angle density `direct_pdf`
+/// with which light sampling at the start point picks that surface point) and everything else
+/// (`rest`: light reflected by the first surface and beyond).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Radiance {
+    pub direct: Rgb,
+    pub direct_pdf: f64,
+    pub rest: Rgb,
+}
+
+impl Radiance {
+    pub fn total(&self) -> Rgb {
+        self.direct + self.rest
+    }
+}
+
 /// Estimates the radiance arriving at `x` from the direction `look` (unit), i.e. the radiance of the
 /// light that passes `x` travelling along `-look`.
 /// Paths have at most `max_bounces` scattering events; Russian roulette after three.
@@ -119,8 +136,9 @@ pub fn radiance(
     max_bounces: u32,
     s: &mut Sampler,
     st: &mut RadianceStats,
-) -> Rgb {
+) -> Radiance {
     let lights = &scene.lights;
+    let mut out = Radiance::default();
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;
     let mut origin = x;
@@ -134,14 +152,22 @@ pub fn radiance(
         let Some(hit) = scene.intersect(origin, d, f64::INFINITY) else {
             break;
         };
-        let le = scene.emitted(&hit, -d);
-        if le != Rgb::ZERO {
-            let w = if prev_delta {
-                1.0
-            } else {
-                power_heuristic(prev_pdf, lights.pdf_hit(prev_p, hit.prim, hit.p, hit.ng))
-            };
-            l += beta * le * w;
+        if depth == 0 {
+            let le = scene.emitted(&hit, -d);
+            if le != Rgb::ZERO {
+                out.direct = le;
+                out.direct_pdf = lights.pdf_hit(x, hit.prim, hit.p, hit.ng);
+            }
+        } else {
+            let le = scene.emitted(&hit, -d);
+            if le != Rgb::ZERO {
+                let w = if prev_delta {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, lights.pdf_hit(prev_p, hit.prim, hit.p, hit.ng))
+                };
+                l += beta * le * w;
+            }
         }
         if depth >= max_bounces {
             break;
@@ -192,5 +218,6 @@ pub fn radiance(
         d = bs.wi;
         origin = hit.spawn_origin(d);
     }
-    l
+    out.rest = l;
+    out
 }
