@@ -10,6 +10,7 @@
 //! 6. contribution `c = luminance(weight · βA · βB)`, accumulated as ΣP, ΣΔ, ΣΔ² (eq. 14).
 
 pub mod moments;
+pub mod reference;
 
 use crate::math::{Frame, Rgb, luminance};
 use crate::rng::Sampler;
