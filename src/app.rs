@@ -5,6 +5,7 @@ use crate::domain::Plane;
 use crate::domain::slice::SliceSpec;
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
+use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
 use crate::output;
 use crate::render::{self, RenderOptions, RunStats};
 use crate::rng::Sampler;
@@ -253,20 +254,75 @@ pub fn describe_run(
     m.insert("features".into(), scene.features.to_string());
 }
 
-/// Runs FTPD over a plane; the field comes back with its metadata filled in.
+/// The kernel for a scene and parameters: specialised to the scene's features, or every effect.
+pub fn kernel_choice(scene: &Scene, params: &Params, specialise: bool) -> KernelChoice {
+    if specialise {
+        KernelChoice::new(&scene.features, !scene.normals.is_empty(), params.weighting)
+    } else {
+        KernelChoice::all(params.weighting)
+    }
+}
+
+/// Runs FTPD over a plane with the kernel chosen for the scene; the field comes back with its
+/// metadata filled in.
 pub fn run_plane(
     scene: &Scene,
     plane: &Plane,
     params: &Params,
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
-    let mut field = Field::new(plane.width, plane.height, 1);
-    let stats = render::run(&mut field, opts, |cell, s: &mut Sampler| {
-        let x = plane.point(cell, s.next_2d());
-        ftpd::sample_at(scene, x, params, s)
-    })?;
+    run_plane_with(
+        scene,
+        plane,
+        params,
+        opts,
+        kernel_choice(scene, params, true),
+    )
+}
+
+/// [`run_plane`] with a given kernel (which must cover the scene's features).
+pub fn run_plane_with(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+) -> anyhow::Result<(Field, RunStats)> {
+    struct PlaneRun<'a> {
+        scene: &'a Scene,
+        plane: &'a Plane,
+        params: &'a Params,
+        opts: &'a RenderOptions,
+    }
+    impl WithKernel for PlaneRun<'_> {
+        type Output = anyhow::Result<(Field, RunStats)>;
+        fn run<K: Kernel>(self) -> Self::Output {
+            let PlaneRun {
+                scene,
+                plane,
+                params,
+                opts,
+            } = self;
+            let mut field = Field::new(plane.width, plane.height, 1);
+            let stats = render::run(&mut field, opts, |cell, s: &mut Sampler| {
+                let x = plane.point(cell, s.next_2d());
+                ftpd::sample_at_k::<K>(scene, x, params, s)
+            })?;
+            Ok((field, stats))
+        }
+    }
+    let (mut field, stats) = kernel::dispatch(
+        kernel,
+        PlaneRun {
+            scene,
+            plane,
+            params,
+            opts,
+        },
+    )?;
     describe_run(&mut field, scene, params, opts, "slice");
     let m = &mut field.meta;
+    m.insert("kernel".into(), kernel.to_string());
     m.insert("plane".into(), plane.label.clone());
     m.insert("plane.origin".into(), fmt_vec(plane.origin));
     m.insert("plane.u".into(), fmt_vec(plane.u_axis));
@@ -394,10 +450,13 @@ pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()
     Ok(())
 }
 
-/// Kernel rays/s against raw Embree rays/s on the same scene, rays and thread count.
+/// One benchmark run: the specialised kernel, the all-features kernel and raw Embree rays, on the
+/// same scene, slice, samples and threads.
 #[derive(Clone, Debug)]
 pub struct BenchReport {
-    pub kernel: RunStats,
+    pub kernel: KernelChoice,
+    pub specialised: RunStats,
+    pub all_features: RunStats,
     pub raw_rays: u64,
     pub raw_seconds: f64,
 }
@@ -410,59 +469,111 @@ impl BenchReport {
             0.0
         }
     }
-    /// Kernel rays/s over raw rays/s.
-    pub fn ratio(&self) -> f64 {
+    /// Specialised kernel rays/s over raw rays/s.
+    pub fn ray_ratio(&self) -> f64 {
         let raw = self.raw_rays_per_second();
         if raw > 0.0 {
-            self.kernel.rays_per_second() / raw
+            self.specialised.rays_per_second() / raw
+        } else {
+            0.0
+        }
+    }
+    /// Specialised over all-features samples/s.
+    pub fn specialisation_gain(&self) -> f64 {
+        let all = self.all_features.samples_per_second();
+        if all > 0.0 {
+            self.specialised.samples_per_second() / all
         } else {
             0.0
         }
     }
 }
 
-/// Runs the FTPD kernel over `plane`, then traces as many plain closest-hit rays through Embree
-/// (`rtcIntersect1` and nothing else: origins jittered in the same cells, uniform directions, the
-/// same maximum distance t1) on the same number of threads, and reports both rates.
+/// Runs the specialised FTPD kernel over `plane`, then the all-features kernel on the same samples,
+/// then replays through Embree alone (`rtcIntersect1` / `rtcOccluded1`, nothing else) exactly the
+/// rays the kernel traced, recorded in a separate untimed run, on the same number of threads. Each
+/// part runs `repeats` times, interleaved, and the fastest time of each is kept (shared, noisy
+/// machines).
 pub fn bench_plane(
     scene: &Scene,
     plane: &Plane,
     params: &Params,
     opts: &RenderOptions,
+    repeats: u32,
 ) -> anyhow::Result<BenchReport> {
-    use crate::transport::sampling::sample_uniform_sphere;
     use rayon::prelude::*;
-    let (_, kernel) = run_plane(scene, plane, params, opts)?;
-    let cells = plane.cells() as u64;
-    let per_cell = kernel.rays.div_ceil(cells.max(1));
+    let kernel = kernel_choice(scene, params, true);
+    let fastest = |a: Option<RunStats>, b: RunStats| match a {
+        Some(a) if a.seconds <= b.seconds => Some(a),
+        _ => Some(b),
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()?;
+    let rays = record_rays(scene, plane, params, opts, &pool)?;
     let accel = scene.accel();
-    let tmax = params.t1 as f32;
-    let start = Instant::now();
-    let hits: u64 = pool.install(|| {
-        (0..cells as usize)
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|cell| {
-                let cell = cell as u64;
-                let mut s = Sampler::new(opts.seed ^ 0xbe7c4, 0, cell);
-                let mut h = 0u64;
-                for _ in 0..per_cell {
-                    let o = plane.point(cell as usize, s.next_2d()).as_vec3();
-                    let d = sample_uniform_sphere(s.next_2d()).as_vec3();
-                    h += accel.intersect(o, d, 0.0, tmax).is_some() as u64;
-                }
-                h
-            })
-            .sum()
-    });
-    let raw_seconds = start.elapsed().as_secs_f64();
-    std::hint::black_box(hits);
+    let (mut spec, mut all, mut raw_seconds) = (None, None, f64::INFINITY);
+    for _ in 0..repeats.max(1) {
+        spec = fastest(spec, run_plane_with(scene, plane, params, opts, kernel)?.1);
+        let all_kernel = kernel_choice(scene, params, false);
+        all = fastest(
+            all,
+            run_plane_with(scene, plane, params, opts, all_kernel)?.1,
+        );
+        let start = Instant::now();
+        let hits: u64 = pool.install(|| {
+            rays.par_chunks(4096)
+                .map(|chunk| {
+                    let mut h = 0u64;
+                    for r in chunk {
+                        h += if r.shadow {
+                            accel.occluded(r.o, r.d, 0.0, r.tfar) as u64
+                        } else {
+                            accel.intersect(r.o, r.d, 0.0, r.tfar).is_some() as u64
+                        };
+                    }
+                    h
+                })
+                .sum()
+        });
+        std::hint::black_box(hits);
+        raw_seconds = raw_seconds.min(start.elapsed().as_secs_f64());
+    }
     Ok(BenchReport {
         kernel,
-        raw_rays: per_cell * cells,
+        specialised: spec.unwrap_or_default(),
+        all_features: all.unwrap_or_default(),
+        raw_rays: rays.len() as u64,
         raw_seconds,
     })
+}
+
+/// Every ray query of one run of the all-features kernel (which makes the same random decisions,
+/// hence the same rays, as the specialised one), gathered from the pool's threads.
+fn record_rays(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+    pool: &rayon::ThreadPool,
+) -> anyhow::Result<Vec<scene::LoggedRay>> {
+    use crate::kernel::{AllButRadiance, AllFeatures, Record};
+    let mut field = Field::new(plane.width, plane.height, 1);
+    let mut o = opts.clone();
+    o.progress = false;
+    let radiance = params.weighting == Weighting::Radiance;
+    render::run_in(pool, &mut field, &o, |cell, s: &mut Sampler| {
+        let x = plane.point(cell, s.next_2d());
+        if radiance {
+            ftpd::sample_at_k::<Record<AllFeatures>>(scene, x, params, s)
+        } else {
+            ftpd::sample_at_k::<Record<AllButRadiance>>(scene, x, params, s)
+        }
+    })?;
+    // Gather the logs of every worker of the pool.
+    Ok(pool
+        .broadcast(|_| scene::take_ray_log())
+        .into_iter()
+        .flatten()
+        .collect())
 }

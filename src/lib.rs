@@ -13,6 +13,7 @@ pub mod app;
 pub mod domain;
 pub mod field;
 pub mod ftpd;
+pub mod kernel;
 pub mod math;
 pub mod output;
 pub mod render;

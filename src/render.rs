@@ -80,10 +80,23 @@ pub fn run<K>(field: &mut Field, opts: &RenderOptions, kernel: K) -> anyhow::Res
 where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
-    let batches = opts.batches.clamp(1, opts.spp.max(1));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()?;
+    run_in(&pool, field, opts, kernel)
+}
+
+/// [`run`] on a given thread pool (its size overrides `opts.threads`).
+pub fn run_in<K>(
+    pool: &rayon::ThreadPool,
+    field: &mut Field,
+    opts: &RenderOptions,
+    kernel: K,
+) -> anyhow::Result<RunStats>
+where
+    K: Fn(usize, &mut Sampler) -> Sample + Sync,
+{
+    let batches = opts.batches.clamp(1, opts.spp.max(1));
     let total = field.cells.len() as u64 * opts.spp as u64;
     let bar = if opts.progress && std::io::stderr().is_terminal() {
         let b = ProgressBar::new(total);

@@ -12,11 +12,12 @@
 pub mod moments;
 pub mod reference;
 
+use crate::kernel::{AllFeatures, Kernel};
 use crate::math::{Frame, Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::transport::sampling::{sample_uniform_cone_1mc, sample_uniform_sphere};
-use crate::transport::walk::{RadianceStats, radiance, walk};
+use crate::transport::walk::{RadianceStats, radiance_k, walk_k};
 use glam::DVec3;
 use std::fmt;
 
@@ -135,6 +136,18 @@ pub fn radiance_direction(
     s: &mut Sampler,
     rays: &mut u32,
 ) -> (DVec3, Rgb) {
+    radiance_direction_k::<AllFeatures>(scene, x, max_bounces, s, rays)
+}
+
+/// [`radiance_direction`] for kernel `K`.
+#[inline]
+pub fn radiance_direction_k<K: Kernel>(
+    scene: &Scene,
+    x: DVec3,
+    max_bounces: u32,
+    s: &mut Sampler,
+    rays: &mut u32,
+) -> (DVec3, Rgb) {
     use std::f64::consts::PI;
     let lights = &scene.lights;
     let alpha = if lights.is_empty() {
@@ -149,19 +162,19 @@ pub fn radiance_direction(
     if strategy < alpha {
         let omega = sample_uniform_sphere(u);
         // Light passing x along ω arrives from −ω.
-        let r = radiance(scene, x, -omega, max_bounces, s, &mut st);
+        let r = radiance_k::<K>(scene, x, -omega, max_bounces, s, &mut st);
         *rays += st.rays;
         let direct = r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf);
         return (omega, direct + r.rest / p_uniform);
     }
-    let Some(ls) = lights.sample(x, u_l, u) else {
+    let Some(ls) = lights.sample_k::<K>(x, u_l, u) else {
         // A light that faces away: this strategy contributes nothing here.
         return (sample_uniform_sphere(s.next_2d()), Rgb::ZERO);
     };
     let omega = -ls.wi;
     *rays += 1;
     let tmax = ls.dist - scene.eps_at(x) - scene.eps_at(x + ls.wi * ls.dist);
-    if scene.occluded(x, ls.wi, tmax) {
+    if scene.occluded_k::<K>(x, ls.wi, tmax) {
         return (omega, Rgb::ZERO);
     }
     let weight = if ls.delta {
@@ -173,22 +186,49 @@ pub fn radiance_direction(
 }
 
 /// One FTPD sample at `x` with start direction drawn by the estimator (slice and volume domains).
+/// Uses the unspecialised kernel for the weighting; see [`sample_at_k`].
 pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
+    match p.weighting {
+        Weighting::Radiance => sample_at_k::<AllFeatures>(scene, x, p, s),
+        Weighting::Unweighted | Weighting::Importance => {
+            sample_at_k::<crate::kernel::AllButRadiance>(scene, x, p, s)
+        }
+    }
+}
+
+/// [`sample_at`] for kernel `K`, which must cover the scene's features and `p.weighting`
+/// (radiance weighting exactly when `K::RADIANCE`).
+#[inline]
+pub fn sample_at_k<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
+    debug_assert_eq!(K::RADIANCE, p.weighting == Weighting::Radiance);
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
     let mut rays = 0;
-    let (omega, weight) = match p.weighting {
-        Weighting::Unweighted | Weighting::Importance => {
-            (sample_uniform_sphere(s.next_2d()), Rgb::ONE)
-        }
-        Weighting::Radiance => radiance_direction(scene, x, p.max_bounces, s, &mut rays),
+    let (omega, weight) = if K::RADIANCE {
+        radiance_direction_k::<K>(scene, x, p.max_bounces, s, &mut rays)
+    } else {
+        (sample_uniform_sphere(s.next_2d()), Rgb::ONE)
     };
-    let mut out = pair_from(scene, x, omega, t, weight, p, s);
+    let mut out = pair_from_k::<K>(scene, x, omega, t, weight, p, s);
     out.rays += rays;
     out
 }
 
 /// The deflection pair for a given start point, direction ω, run length and weight.
 pub fn pair_from(
+    scene: &Scene,
+    x: DVec3,
+    omega: DVec3,
+    t: f64,
+    weight: Rgb,
+    p: &Params,
+    s: &mut Sampler,
+) -> Sample {
+    pair_from_k::<AllFeatures>(scene, x, omega, t, weight, p, s)
+}
+
+/// [`pair_from`] for kernel `K`.
+#[inline]
+pub fn pair_from_k<K: Kernel>(
     scene: &Scene,
     x: DVec3,
     omega: DVec3,
@@ -207,8 +247,8 @@ pub fn pair_from(
         // No light passes here in this direction: the pair carries no weight; skip tracing it.
         return out;
     }
-    let a = walk(scene, x, omega, t, p.max_bounces, s);
-    let b = walk(scene, x, omega2, t, p.max_bounces, s);
+    let a = walk_k::<K>(scene, x, omega, t, p.max_bounces, s);
+    let b = walk_k::<K>(scene, x, omega2, t, p.max_bounces, s);
     out.rays += a.map_or(1, |w| w.rays) + b.map_or(1, |w| w.rays);
     let (Some(a), Some(b)) = (a, b) else {
         return out;

@@ -137,6 +137,17 @@ impl LightSet {
     /// Samples a light point as seen from `x`. `None` when there are no lights or the point faces
     /// away (back of a one-sided emitter).
     pub fn sample(&self, x: DVec3, u_light: f64, u: (f64, f64)) -> Option<LightSample> {
+        self.sample_k::<crate::kernel::AllFeatures>(x, u_light, u)
+    }
+
+    /// [`sample`](Self::sample) for kernel `K` (no point-light branch when it has none).
+    #[inline]
+    pub fn sample_k<K: crate::kernel::Kernel>(
+        &self,
+        x: DVec3,
+        u_light: f64,
+        u: (f64, f64),
+    ) -> Option<LightSample> {
         if self.is_empty() {
             return None;
         }
@@ -181,7 +192,7 @@ impl LightSet {
             Light::Point {
                 position,
                 intensity,
-            } => {
+            } if K::POINT_LIGHTS => {
                 let to = *position - x;
                 let d2 = to.length_squared();
                 let dist = d2.sqrt();
@@ -196,6 +207,7 @@ impl LightSet {
                     delta: true,
                 })
             }
+            Light::Point { .. } => None,
         }
     }
 

@@ -190,18 +190,42 @@ impl Scene {
     /// Closest hit along the ray `o + t d` (d unit) for t in (0, tmax).
     #[inline]
     pub fn intersect(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
+        self.intersect_k::<crate::kernel::AllFeatures>(o, d, tmax)
+    }
+
+    /// [`intersect`](Self::intersect) for kernel `K` (no shading-normal interpolation when the
+    /// kernel has none).
+    #[inline]
+    pub fn intersect_k<K: crate::kernel::Kernel>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmax: f64,
+    ) -> Option<Hit> {
+        if K::RECORD {
+            log_ray(o, d, tmax, false);
+        }
         let raw = self.accel.intersect(
             o.as_vec3(),
             d.as_vec3(),
             0.0,
             tmax.min(f32::MAX as f64) as f32,
         )?;
-        Some(self.hit_from_raw(o, d, raw))
+        Some(self.hit_from_raw::<K>(o, d, raw))
     }
 
     /// True when something blocks the segment from `o` along unit `d` before `tmax`.
     #[inline]
     pub fn occluded(&self, o: DVec3, d: DVec3, tmax: f64) -> bool {
+        self.occluded_k::<crate::kernel::AllFeatures>(o, d, tmax)
+    }
+
+    /// [`occluded`](Self::occluded) for kernel `K`.
+    #[inline]
+    pub fn occluded_k<K: crate::kernel::Kernel>(&self, o: DVec3, d: DVec3, tmax: f64) -> bool {
+        if K::RECORD && tmax > 0.0 {
+            log_ray(o, d, tmax, true);
+        }
         tmax > 0.0
             && self.accel.occluded(
                 o.as_vec3(),
@@ -211,7 +235,8 @@ impl Scene {
             )
     }
 
-    fn hit_from_raw(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
+    #[inline]
+    fn hit_from_raw<K: crate::kernel::Kernel>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let i = raw.prim as usize;
         let [a, b, c] = self.triangles[i];
         let (pa, pb, pc) = (
@@ -236,7 +261,7 @@ impl Scene {
         } else {
             bary
         };
-        let ns = if self.normals.is_empty() {
+        let ns = if !K::SHADING_NORMALS || self.normals.is_empty() {
             ng
         } else {
             let n = (1.0 - u - v) * self.normals[a as usize].as_dvec3()
@@ -326,4 +351,33 @@ impl Scene {
     pub fn accel(&self) -> &Accel {
         &self.accel
     }
+}
+
+/// A ray query as the kernel made it (benchmarks replay these through Embree alone).
+#[derive(Clone, Copy, Debug)]
+pub struct LoggedRay {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub tfar: f32,
+    /// An occlusion (shadow) query rather than a closest-hit query.
+    pub shadow: bool,
+}
+
+thread_local! {
+    static RAY_LOG: std::cell::RefCell<Vec<LoggedRay>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+fn log_ray(o: DVec3, d: DVec3, tmax: f64, shadow: bool) {
+    let r = LoggedRay {
+        o: o.as_vec3(),
+        d: d.as_vec3(),
+        tfar: tmax.min(f32::MAX as f64) as f32,
+        shadow,
+    };
+    RAY_LOG.with(|l| l.borrow_mut().push(r));
+}
+
+/// Takes this thread's log of rays traced by a recording kernel ([`crate::kernel::Record`]).
+pub fn take_ray_log() -> Vec<LoggedRay> {
+    RAY_LOG.with(|l| std::mem::take(&mut *l.borrow_mut()))
 }

@@ -66,6 +66,7 @@ impl Bsdf {
     }
 
     /// Sample `wi` given `wo`. `None` when the path is absorbed or the sample falls on the wrong side.
+    #[inline]
     pub fn sample(
         &self,
         wo: DVec3,
@@ -181,6 +182,7 @@ impl Bsdf {
     }
 
     /// `f(wo, wi) |cos θi|` of the non-delta lobes (delta lobes evaluate to zero).
+    #[inline]
     pub fn eval(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3, _mode: Mode) -> Rgb {
         let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
         let (ngo, nso) = (ng * side, ns * side);
@@ -207,6 +209,7 @@ impl Bsdf {
     }
 
     /// Solid-angle density with which `sample` produces `wi` through its non-delta lobes.
+    #[inline]
     pub fn pdf(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3) -> f64 {
         let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
         let (ngo, nso) = (ng * side, ns * side);
@@ -255,4 +258,73 @@ pub fn refract(wo: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
     }
     let cos_t = safe_sqrt(1.0 - sin2_t);
     Some((-wo / eta + (cos_i / eta - cos_t) * n).normalize())
+}
+
+/// Specialised entry points: arms of effects the kernel `K` lacks are removed at compile time (after
+/// inlining, the compiler knows those variants cannot occur). A kernel is only chosen for a scene
+/// whose materials it covers, so the removed arms are never needed.
+impl Bsdf {
+    #[inline(always)]
+    fn absent_in<K: crate::kernel::Kernel>(&self) -> bool {
+        match self {
+            Bsdf::Glossy { .. } => !K::GLOSSY,
+            Bsdf::Mirror { .. } => !K::MIRROR,
+            Bsdf::Dielectric { .. } => !K::DIELECTRIC,
+            Bsdf::Black | Bsdf::Diffuse { .. } => false,
+        }
+    }
+
+    #[inline(always)]
+    pub fn is_delta_k<K: crate::kernel::Kernel>(&self) -> bool {
+        !self.absent_in::<K>() && self.is_delta()
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample_k<K: crate::kernel::Kernel>(
+        &self,
+        wo: DVec3,
+        ng: DVec3,
+        ns: DVec3,
+        u_lobe: f64,
+        u: (f64, f64),
+        mode: Mode,
+    ) -> Option<BsdfSample> {
+        if self.absent_in::<K>() {
+            None
+        } else {
+            self.sample(wo, ng, ns, u_lobe, u, mode)
+        }
+    }
+
+    #[inline(always)]
+    pub fn eval_k<K: crate::kernel::Kernel>(
+        &self,
+        wo: DVec3,
+        wi: DVec3,
+        ng: DVec3,
+        ns: DVec3,
+        mode: Mode,
+    ) -> Rgb {
+        if self.absent_in::<K>() {
+            Rgb::ZERO
+        } else {
+            self.eval(wo, wi, ng, ns, mode)
+        }
+    }
+
+    #[inline(always)]
+    pub fn pdf_k<K: crate::kernel::Kernel>(
+        &self,
+        wo: DVec3,
+        wi: DVec3,
+        ng: DVec3,
+        ns: DVec3,
+    ) -> f64 {
+        if self.absent_in::<K>() {
+            0.0
+        } else {
+            self.pdf(wo, wi, ng, ns)
+        }
+    }
 }

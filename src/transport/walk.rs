@@ -6,6 +6,7 @@
 //!   heuristic) that estimates the radiance arriving at a point from a direction, used as the
 //!   radiance weight.
 
+use crate::kernel::{AllFeatures, Kernel};
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
@@ -35,6 +36,19 @@ pub fn walk(
     max_bounces: u32,
     s: &mut Sampler,
 ) -> Option<WalkEnd> {
+    walk_k::<AllFeatures>(scene, x, dir, t, max_bounces, s)
+}
+
+/// [`walk`] for kernel `K`.
+#[inline]
+pub fn walk_k<K: Kernel>(
+    scene: &Scene,
+    x: DVec3,
+    dir: DVec3,
+    t: f64,
+    max_bounces: u32,
+    s: &mut Sampler,
+) -> Option<WalkEnd> {
     // `base` is the true start of the current segment (x, then surface points); `origin` the same
     // point pushed off the surface for the ray query. Lengths are measured from `base`, so the
     // offsets never change the geometry of the walk.
@@ -47,7 +61,8 @@ pub fn walk(
     let mut bounces = 0;
     loop {
         rays += 1;
-        let Some(hit) = scene.intersect(origin, d, remaining + (origin - base).length()) else {
+        let Some(hit) = scene.intersect_k::<K>(origin, d, remaining + (origin - base).length())
+        else {
             return Some(WalkEnd {
                 end: base + d * remaining,
                 beta,
@@ -137,6 +152,19 @@ pub fn radiance(
     s: &mut Sampler,
     st: &mut RadianceStats,
 ) -> Radiance {
+    radiance_k::<AllFeatures>(scene, x, look, max_bounces, s, st)
+}
+
+/// [`radiance`] for kernel `K`.
+#[inline]
+pub fn radiance_k<K: Kernel>(
+    scene: &Scene,
+    x: DVec3,
+    look: DVec3,
+    max_bounces: u32,
+    s: &mut Sampler,
+    st: &mut RadianceStats,
+) -> Radiance {
     let lights = &scene.lights;
     let mut out = Radiance::default();
     let mut l = Rgb::ZERO;
@@ -149,7 +177,7 @@ pub fn radiance(
     let mut depth = 0;
     loop {
         st.rays += 1;
-        let Some(hit) = scene.intersect(origin, d, f64::INFINITY) else {
+        let Some(hit) = scene.intersect_k::<K>(origin, d, f64::INFINITY) else {
             break;
         };
         if depth == 0 {
@@ -175,20 +203,20 @@ pub fn radiance(
         let bsdf = &scene.material(&hit).bsdf;
         let wo = -d;
         // Next-event estimation on surfaces with a non-delta lobe.
-        if !bsdf.is_delta() && !lights.is_empty() {
+        if !bsdf.is_delta_k::<K>() && !lights.is_empty() {
             let u_l = s.next_f64();
             let u = s.next_2d();
-            if let Some(ls) = lights.sample(hit.p, u_l, u) {
-                let f = bsdf.eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
+            if let Some(ls) = lights.sample_k::<K>(hit.p, u_l, u) {
+                let f = bsdf.eval_k::<K>(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
                 if f != Rgb::ZERO {
                     let o = hit.spawn_origin(ls.wi);
                     let tmax = ls.dist - hit.eps - scene.eps_at(hit.p + ls.wi * ls.dist);
                     st.rays += 1;
-                    if !scene.occluded(o, ls.wi, tmax) {
+                    if !scene.occluded_k::<K>(o, ls.wi, tmax) {
                         let w = if ls.delta {
                             1.0
                         } else {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi, hit.ng, hit.ns))
+                            power_heuristic(ls.pdf, bsdf.pdf_k::<K>(wo, ls.wi, hit.ng, hit.ns))
                         };
                         l += beta * f * ls.li * (w / ls.pdf);
                     }
@@ -197,7 +225,7 @@ pub fn radiance(
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let Some(bs) = bsdf.sample(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance) else {
+        let Some(bs) = bsdf.sample_k::<K>(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance) else {
             break;
         };
         beta *= bs.weight;
