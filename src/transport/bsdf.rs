@@ -217,6 +217,11 @@ impl Bsdf {
             return 0.0;
         }
         let cos_i = wi.dot(nso);
+        // `sample` rejects directions below the shading horizon, so none has density there
+        // (the Phong lobe around the mirror direction may reach below it when ns ≠ ng).
+        if cos_i <= 0.0 {
+            return 0.0;
+        }
         match self {
             Bsdf::Black | Bsdf::Dielectric { .. } => 0.0,
             Bsdf::Diffuse { .. } => pdf_cosine_hemisphere(cos_i),
