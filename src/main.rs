@@ -90,6 +90,9 @@ struct RunArgs {
     /// Skip the PNG preview written next to the EXR.
     #[arg(long)]
     no_png: bool,
+    /// Print the scene's feature set and the kernel a run would use, then stop.
+    #[arg(long)]
+    explain: bool,
     /// No progress bar or summary (errors and warnings still go to stderr).
     #[arg(short, long)]
     quiet: bool,
@@ -204,10 +207,75 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn explain(args: &RunArgs) -> anyhow::Result<()> {
+    let scene_path = args
+        .scene
+        .clone()
+        .ok_or_else(|| anyhow::anyhow!("--scene FILE is required"))?;
+    let mut a = args.clone();
+    a.slice.get_or_insert_with(|| "z=0".into());
+    let job = a.job()?;
+    let scene = app::load_job_scene(&job)?;
+    for w in &scene.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    println!("scene      {}", scene_path.display());
+    println!(
+        "geometry   {} triangles ({} degenerate dropped), bounds {:?} .. {:?}, shading normals: {}",
+        scene.triangles.len(),
+        scene.report.degenerate_dropped,
+        scene.bounds.min.to_array(),
+        scene.bounds.max.to_array(),
+        if scene.normals.is_empty() {
+            "no"
+        } else {
+            "yes"
+        }
+    );
+    println!("materials  {}", scene.materials.len());
+    for m in &scene.materials {
+        let emits = if m.emission == ftpd3d::math::Rgb::ZERO {
+            String::new()
+        } else {
+            format!(", emits {:?}", m.emission.to_array())
+        };
+        println!("  {:<20} {:?}{emits}", m.name, m.bsdf);
+    }
+    let (area, point) = scene
+        .lights
+        .lights
+        .iter()
+        .fold((0, 0), |(a, p), l| match l {
+            ftpd3d::scene::Light::Triangle { .. } => (a + 1, p),
+            ftpd3d::scene::Light::Point { .. } => (a, p + 1),
+        });
+    println!(
+        "lights     {area} emissive triangles, {point} point lights, total power {:.4}",
+        scene.lights.total_power()
+    );
+    println!("cameras    {}", scene.cameras.len());
+    if !scene.named_slices.is_empty() {
+        let names: Vec<_> = scene
+            .named_slices
+            .iter()
+            .map(|(n, p)| format!("{n} ({p})"))
+            .collect();
+        println!("slices     {}", names.join(", "));
+    }
+    println!("features   {}", scene.features);
+    println!("weighting  {}", job.estimator.weighting);
+    match job.estimator.resolve(&scene) {
+        Ok(params) => println!("kernel     {}", app::kernel_choice(&scene, &params, true)),
+        Err(e) => println!("kernel     (none: {e:#})"),
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args),
+        None if cli.run.explain => explain(&cli.run),
         None => cli
             .run
             .job()

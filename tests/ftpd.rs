@@ -241,3 +241,35 @@ fn exr_round_trip_equals_the_field() {
     assert!(sigma.iter().all(|s| s.is_finite()));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn specialised_kernels_give_the_all_features_result_bit_for_bit() {
+    use ftpd3d::app::{kernel_choice, run_plane_with};
+    for (name, weighting) in [
+        ("stair_wall.obj", Weighting::Radiance),
+        ("cornell_mirror.obj", Weighting::Radiance),
+        ("glass_sphere.obj", Weighting::Radiance),
+        ("glossy_panels.obj", Weighting::Unweighted),
+        ("plane_point.toml", Weighting::Radiance),
+    ] {
+        let scene = load_scene(&scene_path(name)).unwrap();
+        let plane = Plane::axis_slice(&scene.bounds, "z=0".parse().unwrap(), None, 12).unwrap();
+        let p = Params {
+            t0: 0.2,
+            t1: 2.0,
+            theta_max: 0.1,
+            weighting,
+            max_bounces: 16,
+        };
+        let spec = kernel_choice(&scene, &p, true);
+        let all = kernel_choice(&scene, &p, false);
+        assert_ne!(spec, all, "{name}: a specialised kernel exists");
+        let a = run_plane_with(&scene, &plane, &p, &opts(8, 2, 0), spec)
+            .unwrap()
+            .0;
+        let b = run_plane_with(&scene, &plane, &p, &opts(8, 2, 0), all)
+            .unwrap()
+            .0;
+        assert_eq!(a.cells, b.cells, "{name}: {spec}");
+    }
+}

@@ -106,17 +106,29 @@ impl Plane {
         }
         let (u, v) = spec.axis.plane_axes();
         let (u0, v0, u1, v1) = match window {
-            Some([a, b, c, d]) => (a, b, c, d),
-            None => (
-                bounds.min.dot(u),
-                bounds.min.dot(v),
-                bounds.max.dot(u),
-                bounds.max.dot(v),
-            ),
+            Some([a, b, c, d]) => {
+                if !(c > a && d > b) {
+                    bail!(
+                        "--window {a},{b},{c},{d}: needs u0 < u1 and v0 < v1 (an empty rectangle)"
+                    );
+                }
+                (a, b, c, d)
+            }
+            None => {
+                let (mut u0, mut v0) = (bounds.min.dot(u), bounds.min.dot(v));
+                let (mut u1, mut v1) = (bounds.max.dot(u), bounds.max.dot(v));
+                // A flat scene (e.g. a single plane) seen edge-on: give the flat direction half the
+                // other's extent on each side, so the slice shows the space around it.
+                let pad = 0.5 * (u1 - u0).max(v1 - v0).max(1e-9);
+                if u1 - u0 <= 0.0 {
+                    (u0, u1) = (u0 - pad, u1 + pad);
+                }
+                if v1 - v0 <= 0.0 {
+                    (v0, v1) = (v0 - pad, v1 + pad);
+                }
+                (u0, v0, u1, v1)
+            }
         };
-        if !(u1 > u0 && v1 > v0) {
-            bail!("--window {u0},{v0},{u1},{v1}: needs u0 < u1 and v0 < v1 (an empty rectangle)");
-        }
         let mut n = DVec3::ZERO;
         n[k] = spec.value;
         let origin = n + u * u0 + v * v0;

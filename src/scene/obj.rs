@@ -144,8 +144,14 @@ fn describe(e: &tobj::LoadError) -> String {
     }
 }
 
+/// The f64 nearest the decimal written in the file (tobj parses to f32; `0.8f32 as f64` would be
+/// 0.800000011920929).
+fn decimal(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
+}
+
 fn rgb(v: Option<[f32; 3]>) -> Option<Rgb> {
-    v.map(|c| Rgb::new(c[0] as f64, c[1] as f64, c[2] as f64).max(Rgb::ZERO))
+    v.map(|c| Rgb::new(decimal(c[0]), decimal(c[1]), decimal(c[2])).max(Rgb::ZERO))
 }
 
 fn parse_rgb(s: &str) -> Option<Rgb> {
@@ -182,7 +188,7 @@ pub fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
         4 | 6 | 7 | 9 => {
             let ior = m
                 .optical_density
-                .map(|n| n as f64)
+                .map(decimal)
                 .filter(|n| *n > 0.0 && n.is_finite())
                 .unwrap_or(1.5);
             let tint = m
@@ -205,7 +211,7 @@ pub fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
                 }
                 let exponent = m
                     .shininess
-                    .map(|n| n as f64)
+                    .map(decimal)
                     .filter(|n| n.is_finite() && *n >= 0.0)
                     .unwrap_or(1.0);
                 Bsdf::Glossy { kd, ks, exponent }
