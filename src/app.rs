@@ -100,12 +100,13 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
         .as_deref()
     {
         Some("obj") => scene::obj::load(path),
+        Some("gltf" | "glb") => scene::gltf::load(path),
         Some(other) => bail!(
-            "{}: unsupported scene format '.{other}' (supported: .obj)",
+            "{}: unsupported scene format '.{other}' (supported: .obj, .gltf, .glb)",
             path.display()
         ),
         None => bail!(
-            "{}: no file extension; expected a .obj scene",
+            "{}: no file extension; expected a .obj, .gltf or .glb scene",
             path.display()
         ),
     }
