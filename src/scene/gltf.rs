@@ -61,13 +61,13 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     }
     let bytes = std::fs::read(path).with_context(|| format!("{file}: cannot read"))?;
     check_glb_header(&bytes).map_err(|e| anyhow!("{file}: {e}"))?;
-    let gltf = ::gltf::Gltf::from_slice(&bytes)
-        .map_err(|e| anyhow!("{file}: not a valid glTF 2.0 file: {e}"))?;
+    let invalid = |e: &dyn std::fmt::Display| anyhow!("{file}: not a valid glTF 2.0 file: {e}");
+    let ::gltf::Gltf { document, blob } =
+        ::gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| invalid(&e))?;
     drop(bytes);
-    let ::gltf::Gltf {
-        document: doc,
-        blob,
-    } = gltf;
+    let root = document.into_json();
+    check_attribute_indices(&root).map_err(|e| invalid(&e))?;
+    let doc = ::gltf::Document::from_json(root).map_err(|e| invalid(&e))?;
     let buffers = load_buffers(path, &doc, blob)?;
 
     let mut loader = Loader {
@@ -168,6 +168,25 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
             return Err(format!(
                 "truncated .glb: the binary chunk of {bin_len} bytes runs past the declared end ({length} bytes)"
             ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that every primitive attribute names an existing accessor. The crate's validation looks
+/// up the POSITION accessor before checking its index (and panics on a bad one), so this runs first.
+fn check_attribute_indices(root: &::gltf::json::Root) -> Result<(), String> {
+    for (i, mesh) in root.meshes.iter().enumerate() {
+        for (j, prim) in mesh.primitives.iter().enumerate() {
+            for index in prim.attributes.values() {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "meshes[{i}].primitives[{j}].attributes: accessor {} does not exist ({} accessors)",
+                        index.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
         }
     }
     Ok(())
@@ -368,7 +387,7 @@ impl Loader {
                 self.instance(&mesh, world)?;
             }
             if let Some(camera) = node.camera() {
-                self.camera(&camera, &node, world);
+                self.camera(doc, &camera, &node, world)?;
             }
             if let Some(light) = node.light() {
                 self.light(&light, world);
@@ -539,13 +558,37 @@ impl Loader {
         })
     }
 
-    fn camera(&mut self, camera: &::gltf::Camera, node: &::gltf::Node, world: DMat4) {
+    fn camera(
+        &mut self,
+        doc: &::gltf::Document,
+        camera: &::gltf::Camera,
+        node: &::gltf::Node,
+        world: DMat4,
+    ) -> anyhow::Result<()> {
+        let label = named("camera", camera.index(), camera.name());
+        // The crate's validation only asks for one of the two blocks; `projection()` unwraps the
+        // one that `type` names.
+        {
+            use ::gltf::json::camera::Type;
+            use ::gltf::json::validation::Checked;
+            let json = &doc.as_json().cameras[camera.index()];
+            let consistent = match json.type_ {
+                Checked::Valid(Type::Perspective) => json.perspective.is_some(),
+                Checked::Valid(Type::Orthographic) => json.orthographic.is_some(),
+                Checked::Invalid => false,
+            };
+            if !consistent {
+                bail!(
+                    "{}: {label}: its type has no matching 'perspective' or 'orthographic' block",
+                    self.file
+                );
+            }
+        }
         let name = camera
             .name()
             .or(node.name())
             .filter(|n| !n.is_empty())
             .map_or_else(|| format!("camera {}", camera.index()), str::to_string);
-        let label = named("camera", camera.index(), camera.name());
         match camera.projection() {
             ::gltf::camera::Projection::Perspective(p) => {
                 let eye = world.transform_point3(DVec3::ZERO);
@@ -557,11 +600,11 @@ impl Loader {
                     self.warn(format!(
                         "{label}: degenerate node transform (no view or up direction); skipped"
                     ));
-                    return;
+                    return Ok(());
                 }
                 if !(fov_y > 0.0 && fov_y < std::f64::consts::PI) {
                     self.warn(format!("{label}: yfov {fov_y} is not in (0, π); skipped"));
-                    return;
+                    return Ok(());
                 }
                 let aspect = p
                     .aspect_ratio()
@@ -582,6 +625,7 @@ impl Loader {
                 ));
             }
         }
+        Ok(())
     }
 
     fn light(&mut self, light: &::gltf::khr_lights_punctual::Light, world: DMat4) {
