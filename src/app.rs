@@ -132,12 +132,13 @@ fn extension(path: &Path) -> Option<String> {
 fn load_mesh(path: &Path) -> anyhow::Result<Scene> {
     match extension(path).as_deref() {
         Some("obj") => scene::obj::load(path),
+        Some("gltf" | "glb") => scene::gltf::load(path),
         Some(other) => bail!(
-            "{}: unsupported scene format '.{other}' (supported: .obj, .toml)",
+            "{}: unsupported scene format '.{other}' (supported: .obj, .gltf, .glb, .toml)",
             path.display()
         ),
         None => bail!(
-            "{}: no file extension; expected a .obj or .toml scene",
+            "{}: no file extension; expected a .obj, .gltf, .glb or .toml scene",
             path.display()
         ),
     }

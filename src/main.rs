@@ -42,7 +42,7 @@ enum WeightArg {
 
 #[derive(Args, Debug, Clone)]
 struct RunArgs {
-    /// Scene file (.obj with its .mtl).
+    /// Scene file: .obj (with its .mtl), .gltf or .glb, or a sidecar .toml naming one.
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
     /// Axis-aligned slice plane, e.g. z=1.2 (x=c spans z,y; y=c spans x,z; z=c spans x,y).

@@ -3,4 +3,5 @@ mod bsdf;
 mod cli;
 mod ftpd;
 mod geometry;
+mod gltf;
 mod mis;

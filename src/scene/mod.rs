@@ -1,8 +1,9 @@
 //! The scene: triangles (f32, as Embree sees them), per-triangle geometric normals and materials,
 //! optional per-vertex shading normals, lights, bounds and the feature set. Built by a loader
-//! ([`obj`]), then immutable.
+//! ([`obj`], [`gltf`]), then immutable.
 
 pub mod features;
+pub mod gltf;
 pub mod light;
 pub mod material;
 pub mod obj;

@@ -1,0 +1,658 @@
+//! glTF loading: files are assembled here (JSON with a base64 data-URI buffer, a .bin next to the
+//! .gltf, or a .glb built byte by byte) and checked for world-space geometry, materials, lights,
+//! cameras, and errors that name the file.
+
+use crate::geometry::scene_path;
+use base64::Engine as _;
+use ftpd3d::app::load_scene;
+use ftpd3d::math::Rgb;
+use ftpd3d::scene::{Light, Scene};
+use ftpd3d::transport::bsdf::Bsdf;
+use glam::DVec3;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+
+/// A fresh directory for one test's files, removed when the test ends.
+struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn temp_dir(test: &str) -> TempDir {
+    let dir = std::env::temp_dir().join(format!("ftpd3d-gltf-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    TempDir(dir)
+}
+
+/// One binary buffer with its buffer views and accessors, assembled as a test goes.
+#[derive(Default)]
+struct Bin {
+    data: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Bin {
+    fn view(&mut self, bytes: &[u8]) -> usize {
+        while !self.data.len().is_multiple_of(4) {
+            self.data.push(0);
+        }
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len()}));
+        self.data.extend_from_slice(bytes);
+        self.views.len() - 1
+    }
+
+    fn vec3(&mut self, v: &[[f32; 3]]) -> usize {
+        let bytes: Vec<u8> = v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for p in v {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        self.accessors.push(json!({
+            "bufferView": view, "componentType": 5126, "count": v.len(), "type": "VEC3",
+            "min": lo, "max": hi
+        }));
+        self.accessors.len() - 1
+    }
+
+    /// Unsigned short indices.
+    fn indices(&mut self, idx: &[u16]) -> usize {
+        let bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.accessors.push(
+            json!({"bufferView": view, "componentType": 5123, "count": idx.len(), "type": "SCALAR"}),
+        );
+        self.accessors.len() - 1
+    }
+
+    /// The glTF document: `extra`'s keys (scenes, nodes, meshes, …) plus the buffer, whose `uri` is
+    /// `uri` (none for a GLB).
+    fn document(&self, uri: Option<&str>, extra: Value) -> Value {
+        let mut buffer = json!({"byteLength": self.data.len()});
+        if let Some(u) = uri {
+            buffer["uri"] = json!(u);
+        }
+        let mut doc = json!({
+            "asset": {"version": "2.0"},
+            "buffers": [buffer],
+            "bufferViews": self.views,
+            "accessors": self.accessors,
+        });
+        for (k, v) in extra.as_object().unwrap() {
+            doc[k] = v.clone();
+        }
+        doc
+    }
+
+    /// Writes `name` (.gltf) with the buffer embedded as a base64 data URI.
+    fn write_embedded(&self, dir: &Path, name: &str, extra: Value) -> PathBuf {
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&self.data)
+        );
+        let path = dir.join(name);
+        std::fs::write(&path, self.document(Some(&uri), extra).to_string()).unwrap();
+        path
+    }
+
+    /// Writes `name` (.gltf) and the buffer as `bin` next to it.
+    fn write_external(&self, dir: &Path, name: &str, bin: &str, extra: Value) -> PathBuf {
+        std::fs::write(dir.join(bin), &self.data).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, self.document(Some(bin), extra).to_string()).unwrap();
+        path
+    }
+
+    /// The GLB bytes: 12-byte header, JSON chunk (space-padded), BIN chunk (zero-padded).
+    fn glb(&self, extra: Value) -> Vec<u8> {
+        let mut json = self.document(None, extra).to_string().into_bytes();
+        while !json.len().is_multiple_of(4) {
+            json.push(b' ');
+        }
+        let mut bin = self.data.clone();
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let total = 12 + 8 + json.len() + 8 + bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend(2u32.to_le_bytes());
+        out.extend((total as u32).to_le_bytes());
+        out.extend((json.len() as u32).to_le_bytes());
+        out.extend(0x4E4F534Au32.to_le_bytes()); // "JSON"
+        out.extend(json);
+        out.extend((bin.len() as u32).to_le_bytes());
+        out.extend(0x004E4942u32.to_le_bytes()); // "BIN\0"
+        out.extend(bin);
+        out
+    }
+}
+
+/// The unit quad in z = 0 (x, y in [0, 1]), front side +z, with +z normals: (bin, mesh JSON).
+fn quad(bin: &mut Bin, name: &str, material: Option<usize>) -> Value {
+    let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
+    let nrm = bin.vec3(&[[0., 0., 1.]; 4]);
+    let idx = bin.indices(&[0, 1, 2, 0, 2, 3]);
+    let mut prim = json!({"attributes": {"POSITION": pos, "NORMAL": nrm}, "indices": idx});
+    if let Some(m) = material {
+        prim["material"] = json!(m);
+    }
+    json!({"name": name, "primitives": [prim]})
+}
+
+/// A cube of half-size 0.5 around the origin, 4 vertices per face with the face's normal, wound
+/// counter-clockwise seen from outside.
+fn cube(bin: &mut Bin) -> Value {
+    let faces: [([f32; 3], [f32; 3], [f32; 3]); 6] = [
+        ([1., 0., 0.], [0., 1., 0.], [0., 0., 1.]),
+        ([-1., 0., 0.], [0., 0., 1.], [0., 1., 0.]),
+        ([0., 1., 0.], [0., 0., 1.], [1., 0., 0.]),
+        ([0., -1., 0.], [1., 0., 0.], [0., 0., 1.]),
+        ([0., 0., 1.], [1., 0., 0.], [0., 1., 0.]),
+        ([0., 0., -1.], [0., 1., 0.], [1., 0., 0.]),
+    ];
+    let (mut pos, mut nrm, mut idx) = (Vec::new(), Vec::new(), Vec::new());
+    for (n, u, v) in faces {
+        let base = pos.len() as u16;
+        for (su, sv) in [(-1., -1.), (1., -1.), (1., 1.), (-1., 1.)] {
+            pos.push([0, 1, 2].map(|k| 0.5 * (n[k] + su * u[k] + sv * v[k])));
+            nrm.push(n);
+        }
+        idx.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
+    }
+    let (p, n, i) = (bin.vec3(&pos), bin.vec3(&nrm), bin.indices(&idx));
+    json!({"name": "Cube", "primitives": [{"attributes": {"POSITION": p, "NORMAL": n}, "indices": i}]})
+}
+
+fn world_positions(scene: &Scene) -> Vec<DVec3> {
+    scene.positions.iter().map(|p| p.as_dvec3()).collect()
+}
+
+fn close(a: DVec3, b: DVec3) -> bool {
+    (a - b).abs().max_element() < 1e-5
+}
+
+#[test]
+fn gltf_node_hierarchy_places_the_quad() {
+    let dir = temp_dir("hierarchy");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Quad", None);
+    // Parent translation, child scale: world = T · S. A second tree gives the same with a matrix.
+    let extra = json!({
+        "scene": 0,
+        "scenes": [{"nodes": [0, 2]}],
+        "nodes": [
+            {"translation": [1.0, 2.0, 3.0], "children": [1]},
+            {"scale": [2.0, 3.0, 1.0], "mesh": 0},
+            {"matrix": [2.0, 0, 0, 0,  0, 3.0, 0, 0,  0, 0, 1.0, 0,  1.0, 2.0, -3.0, 1.0], "mesh": 0}
+        ],
+        "meshes": [mesh],
+    });
+    let path = bin.write_embedded(&dir, "quad.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 4);
+    let p = world_positions(&scene);
+    let expect = [
+        DVec3::new(1., 2., 3.),
+        DVec3::new(3., 2., 3.),
+        DVec3::new(3., 5., 3.),
+        DVec3::new(1., 5., 3.),
+    ];
+    for (k, e) in expect.iter().enumerate() {
+        assert!(close(p[k], *e), "vertex {k}: {} vs {e}", p[k]);
+        assert!(close(p[k + 4], *e - DVec3::new(0., 0., 6.)), "{}", p[k + 4]);
+    }
+    assert!(close(scene.bounds.min, DVec3::new(1., 2., -3.)));
+    assert!(close(scene.bounds.max, DVec3::new(3., 5., 3.)));
+    for n in &scene.tri_normals {
+        assert!(close(*n, DVec3::Z), "{n}");
+    }
+    assert_eq!(scene.normals.len(), scene.positions.len());
+    assert_eq!(
+        scene.materials[scene.tri_material[0] as usize].name,
+        "default"
+    );
+    assert!(
+        scene.report.warnings.is_empty(),
+        "{:?}",
+        scene.report.warnings
+    );
+}
+
+#[test]
+fn gltf_instanced_mesh_is_expanded() {
+    let dir = temp_dir("instanced");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Quad", None);
+    let extra = json!({
+        "scenes": [{"nodes": [0, 1, 2]}],
+        "nodes": [
+            {"mesh": 0},
+            {"mesh": 0, "translation": [5.0, 0.0, 0.0]},
+            {"mesh": 0, "translation": [0.0, 0.0, -4.0]}
+        ],
+        "meshes": [mesh],
+    });
+    let path = bin.write_external(&dir, "inst.gltf", "inst.bin", extra);
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 6);
+    assert_eq!(scene.positions.len(), 12);
+    assert!(close(scene.bounds.min, DVec3::new(0., 0., -4.)));
+    assert!(close(scene.bounds.max, DVec3::new(6., 1., 0.)));
+}
+
+#[test]
+fn gltf_negative_scale_keeps_outward_normals() {
+    let dir = temp_dir("mirror");
+    let mut bin = Bin::default();
+    let mesh = cube(&mut bin);
+    // Mirroring, non-uniform parent scale over a rotated child: positions need the full transform,
+    // normals its inverse transpose, and the winding a flip.
+    let half = 15f32.to_radians(); // 30° about z
+    let extra = json!({
+        "scenes": [{"nodes": [0]}],
+        "nodes": [
+            {"scale": [-2.0, 0.5, 1.0], "translation": [3.0, 0.0, 0.0], "children": [1]},
+            {"rotation": [0.0, 0.0, half.sin(), half.cos()], "mesh": 0}
+        ],
+        "meshes": [mesh],
+    });
+    let path = bin.write_embedded(&dir, "cube.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 12);
+    let centre = DVec3::new(3., 0., 0.);
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let ng = scene.tri_normals[t];
+        let mid = tri
+            .iter()
+            .map(|&i| scene.positions[i as usize].as_dvec3())
+            .sum::<DVec3>()
+            / 3.0;
+        assert!((mid - centre).dot(ng) > 0.0, "triangle {t} faces inward");
+        for &i in tri {
+            let ns = scene.normals[i as usize].as_dvec3();
+            assert!((ns.length() - 1.0).abs() < 1e-5);
+            // Flat faces: the transformed shading normal is the geometric normal.
+            assert!(
+                close(ns, ng),
+                "triangle {t}: shading {ns} vs geometric {ng}"
+            );
+        }
+    }
+}
+
+#[test]
+fn gltf_point_light_and_camera_come_through() {
+    let dir = temp_dir("lights");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Floor", None);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let extra = json!({
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"name": "bulb", "type": "point", "color": [1.0, 0.5, 0.25], "intensity": 8.0},
+            {"type": "spot", "intensity": 2.0, "spot": {"outerConeAngle": 0.5}},
+            {"type": "directional", "intensity": 3.0}
+        ]}},
+        "cameras": [
+            {"name": "main", "type": "perspective", "perspective": {"yfov": 0.8, "aspectRatio": 1.5, "znear": 0.01}},
+            {"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.01, "zfar": 10}}
+        ],
+        "scenes": [{"nodes": [0, 1, 3, 4, 5, 6]}],
+        "nodes": [
+            {"mesh": 0},
+            {"translation": [1.0, 0.0, 0.0], "children": [2]},
+            {"translation": [0.0, 2.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            // +90° about y: the camera's −Z turns to −X.
+            {"translation": [0.0, 1.0, 5.0], "rotation": [0.0, h, 0.0, h], "camera": 0},
+            {"translation": [0.0, 3.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"extensions": {"KHR_lights_punctual": {"light": 2}}},
+            {"camera": 1}
+        ],
+        "meshes": [mesh],
+    });
+    let path = bin.write_embedded(&dir, "lights.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    let points: Vec<_> = scene
+        .lights
+        .lights
+        .iter()
+        .filter_map(|l| match l {
+            Light::Point {
+                position,
+                intensity,
+            } => Some((*position, *intensity)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(points.len(), 2, "the point light and the spot light");
+    assert!(close(points[0].0, DVec3::new(1., 2., 0.)));
+    assert!(close(points[0].1, Rgb::new(8., 4., 2.)));
+    assert!(close(points[1].0, DVec3::new(0., 3., 0.)));
+    assert!(scene.features.point_lights);
+    assert!(!scene.features.area_lights);
+    assert_eq!(scene.cameras.len(), 1);
+    let cam = &scene.cameras[0];
+    assert_eq!(cam.name, "main");
+    assert!(close(cam.eye, DVec3::new(0., 1., 5.)));
+    assert!(close(cam.forward, DVec3::NEG_X), "{}", cam.forward);
+    assert!(close(cam.up, DVec3::Y), "{}", cam.up);
+    assert!((cam.fov_y - 0.8).abs() < 1e-6);
+    assert!((cam.aspect.unwrap() - 1.5).abs() < 1e-6);
+    let w = scene.report.warnings.join("\n");
+    assert!(w.contains("spot") && w.contains("cone is ignored"), "{w}");
+    assert!(w.contains("directional") && w.contains("skipped"), "{w}");
+    assert!(w.contains("orthographic"), "{w}");
+    assert!(w.contains("lights.gltf"), "{w}");
+}
+
+#[test]
+fn gltf_emissive_material_is_an_area_light() {
+    let dir = temp_dir("emissive");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Lamp", Some(0));
+    let extra = json!({
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "materials": [{
+            "name": "glow",
+            "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+            "emissiveFactor": [1.0, 0.5, 1.0],
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}
+        }],
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [mesh],
+    });
+    let path = bin.write_embedded(&dir, "lamp.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    let m = &scene.materials[scene.tri_material[0] as usize];
+    assert_eq!(m.name, "glow");
+    assert_eq!(m.emission, Rgb::new(4., 2., 4.));
+    assert_eq!(m.bsdf, Bsdf::Black);
+    assert_eq!(scene.lights.lights.len(), 2);
+    assert!(
+        scene
+            .lights
+            .lights
+            .iter()
+            .all(|l| matches!(l, Light::Triangle { normal, .. } if close(*normal, DVec3::Z)))
+    );
+    assert!(scene.features.area_lights);
+}
+
+#[test]
+fn gltf_transmission_is_a_dielectric_with_its_ior() {
+    let dir = temp_dir("glass");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Pane", Some(1));
+    let extra = json!({
+        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior"],
+        "materials": [
+            {"name": "rough", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+            {
+                "name": "glass",
+                "pbrMetallicRoughness": {"baseColorFactor": [0.9, 1.0, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+                "extensions": {
+                    "KHR_materials_transmission": {"transmissionFactor": 1.0},
+                    "KHR_materials_ior": {"ior": 1.33}
+                }
+            }
+        ],
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [mesh],
+    });
+    let path = bin.write_embedded(&dir, "glass.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    let Bsdf::Dielectric { ior, tint } = scene.materials[scene.tri_material[0] as usize].bsdf
+    else {
+        panic!("{:?}", scene.materials);
+    };
+    assert!((ior - 1.33).abs() < 1e-6, "{ior}");
+    assert!(close(tint, Rgb::new(0.9, 1.0, 0.8)));
+    assert!(scene.features.dielectric);
+    assert_eq!(
+        scene.materials[0].bsdf,
+        Bsdf::Diffuse {
+            kd: Rgb::splat(0.5)
+        }
+    );
+}
+
+#[test]
+fn gltf_glb_loads_and_a_truncated_one_is_an_error_naming_it() {
+    let dir = temp_dir("glb");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Quad", None);
+    let extra = json!({"scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "translation": [0, 0, 1]}], "meshes": [mesh]});
+    let glb = bin.glb(extra);
+    let full = dir.join("quad.glb");
+    std::fs::write(&full, &glb).unwrap();
+    let scene = load_scene(&full).unwrap();
+    assert_eq!(scene.triangles.len(), 2);
+    assert!(close(scene.bounds.max, DVec3::new(1., 1., 1.)));
+
+    for cut in [glb.len() - 10, glb.len() / 2, 7] {
+        let short = dir.join("short.glb");
+        std::fs::write(&short, &glb[..cut]).unwrap();
+        let e = format!("{:#}", load_scene(&short).err().unwrap());
+        assert!(e.contains("short.glb"), "{e}");
+        assert!(e.contains("truncated"), "{e}");
+    }
+}
+
+#[test]
+fn gltf_missing_bin_is_an_error_naming_both_files() {
+    let dir = temp_dir("missing");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Quad", None);
+    let extra = json!({"scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}], "meshes": [mesh]});
+    let path = dir.join("lonely.gltf");
+    std::fs::write(&path, bin.document(Some("gone.bin"), extra).to_string()).unwrap();
+    let e = format!("{:#}", load_scene(&path).err().unwrap());
+    assert!(e.contains("lonely.gltf") && e.contains("gone.bin"), "{e}");
+
+    let e = format!("{:#}", load_scene(&dir.join("nothere.gltf")).err().unwrap());
+    assert!(e.contains("nothere.gltf"), "{e}");
+}
+
+#[test]
+fn gltf_bad_position_accessor_is_an_error_naming_the_mesh() {
+    let dir = temp_dir("badacc");
+    let mut bin = Bin::default();
+    let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.]]);
+    // Quantised positions without KHR_mesh_quantization: not allowed by the core spec.
+    bin.accessors[pos]["componentType"] = json!(5123);
+    let extra = json!({
+        "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"name": "Box", "primitives": [{"attributes": {"POSITION": pos}}]}],
+    });
+    let path = bin.write_embedded(&dir, "scene.gltf", extra);
+    let e = format!("{:#}", load_scene(&path).err().unwrap());
+    assert!(e.contains("scene.gltf"), "{e}");
+    assert!(
+        e.contains("mesh 'Box' primitive 0: POSITION accessor #0 is not VEC3 f32 (it is VEC3 u16)"),
+        "{e}"
+    );
+
+    // An index past the vertices, and an accessor running past its buffer view.
+    let mut bin = Bin::default();
+    let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.]]);
+    let idx = bin.indices(&[0, 1, 7]);
+    let long = bin.vec3(&[[0., 0., 0.]; 3]);
+    bin.accessors[long]["count"] = json!(300);
+    let extra = json!({
+        "scenes": [{"nodes": [0, 1]}], "nodes": [{"mesh": 0}, {"mesh": 1}],
+        "meshes": [
+            {"name": "A", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx}]},
+            {"name": "B", "primitives": [{"attributes": {"POSITION": long}}]}
+        ],
+    });
+    let path = bin.write_embedded(&dir, "bad.gltf", extra.clone());
+    let e = format!("{:#}", load_scene(&path).err().unwrap());
+    assert!(e.contains("bad.gltf: mesh 'A' primitive 0: index 7"), "{e}");
+    let mut extra = extra;
+    extra["scenes"] = json!([{"nodes": [1]}]);
+    let path = bin.write_embedded(&dir, "bad.gltf", extra);
+    let e = format!("{:#}", load_scene(&path).err().unwrap());
+    assert!(
+        e.contains("bad.gltf: mesh 'B' primitive 0") && e.contains("past the end"),
+        "{e}"
+    );
+}
+
+#[test]
+fn gltf_corrupt_files_give_errors_not_panics() {
+    let dir = temp_dir("corrupt");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Quad", Some(0));
+    let extra = json!({
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 1.0}]}},
+        "materials": [{"pbrMetallicRoughness": {"metallicFactor": 0.5}}],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}],
+        "scenes": [{"nodes": [0]}],
+        "nodes": [
+            {"mesh": 0, "children": [1, 2]},
+            {"camera": 0, "translation": [0, 0, 2]},
+            {"extensions": {"KHR_lights_punctual": {"light": 0}}}
+        ],
+        "meshes": [mesh],
+    });
+    let glb = bin.glb(extra);
+    let path = dir.join("c.glb");
+    // Every truncation, and every byte turned into '9' (digits become large counts, offsets and
+    // indices; the binary chunk gets out-of-range indices): an error or a scene, never a panic.
+    for cut in 0..glb.len() {
+        std::fs::write(&path, &glb[..cut]).unwrap();
+        let e = format!("{:#}", load_scene(&path).err().unwrap());
+        assert!(e.contains("c.glb"), "{e}");
+    }
+    let mut errors = 0;
+    for k in 0..glb.len() {
+        let mut bad = glb.clone();
+        bad[k] = b'9';
+        std::fs::write(&path, &bad).unwrap();
+        if let Err(e) = load_scene(&path) {
+            let e = format!("{e:#}");
+            assert!(e.contains("c.glb"), "{e}");
+            errors += 1;
+        }
+    }
+    assert!(errors > 0);
+    // A camera whose type names the block it does not have.
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Quad", None);
+    let extra = json!({
+        "cameras": [{"type": "perspective", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 9}}],
+        "scenes": [{"nodes": [0, 1]}], "nodes": [{"mesh": 0}, {"camera": 0}], "meshes": [mesh],
+    });
+    let path = bin.write_embedded(&dir, "cam.gltf", extra);
+    let e = format!("{:#}", load_scene(&path).err().unwrap());
+    assert!(e.contains("cam.gltf: camera #0"), "{e}");
+}
+
+#[test]
+fn gltf_points_primitive_is_skipped_with_a_warning() {
+    let dir = temp_dir("points");
+    let mut bin = Bin::default();
+    let mut mesh = quad(&mut bin, "Cloud", None);
+    let pts = bin.vec3(&[[5., 5., 5.], [6., 6., 6.]]);
+    mesh["primitives"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"attributes": {"POSITION": pts}, "mode": 0}));
+    let extra = json!({"scenes": [{"nodes": [0, 1]}], "nodes": [{"mesh": 0}, {"mesh": 0}], "meshes": [mesh]});
+    let path = bin.write_embedded(&dir, "cloud.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 4);
+    assert!(close(scene.bounds.max, DVec3::new(1., 1., 0.)));
+    let w = &scene.report.warnings;
+    assert_eq!(
+        w.len(),
+        1,
+        "one warning per primitive, not per instance: {w:?}"
+    );
+    assert!(
+        w[0].contains("cloud.gltf")
+            && w[0].contains("mesh 'Cloud' primitive 1")
+            && w[0].contains("POINTS"),
+        "{w:?}"
+    );
+}
+
+#[test]
+fn gltf_strips_and_fans_are_triangulated() {
+    let dir = temp_dir("strip");
+    let mut bin = Bin::default();
+    // Strip order 0 1 3 2 and fan order 0 1 2 3 of the unit quad, non-indexed: both face +z.
+    let strip = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]]);
+    let fan = bin.vec3(&[[0., 0., 2.], [1., 0., 2.], [1., 1., 2.], [0., 1., 2.]]);
+    let extra = json!({
+        "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [
+            {"attributes": {"POSITION": strip}, "mode": 5},
+            {"attributes": {"POSITION": fan}, "mode": 6}
+        ]}],
+    });
+    let path = bin.write_embedded(&dir, "strip.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 4);
+    assert_eq!(scene.report.degenerate_dropped, 0);
+    for n in &scene.tri_normals {
+        assert!(close(*n, DVec3::Z), "{n}");
+    }
+    assert!(scene.normals.is_empty(), "no NORMAL attribute anywhere");
+}
+
+#[test]
+fn gltf_shipped_cornell_point_scene_loads() {
+    let scene = load_scene(&scene_path("cornell_point.gltf")).unwrap();
+    assert!(
+        scene.report.warnings.is_empty(),
+        "{:?}",
+        scene.report.warnings
+    );
+    assert!(close(scene.bounds.min, DVec3::new(-1., 0., -1.)));
+    assert!(close(scene.bounds.max, DVec3::new(1., 2., 1.)));
+    let [
+        Light::Point {
+            position,
+            intensity,
+        },
+    ] = scene.lights.lights.as_slice()
+    else {
+        panic!("{:?}", scene.lights.lights);
+    };
+    assert!(close(*position, DVec3::new(0., 1.5, 0.)));
+    assert!(close(*intensity, Rgb::splat(5.)));
+    assert!(scene.features.diffuse && scene.features.point_lights);
+    assert!(!(scene.features.glossy || scene.features.mirror || scene.features.area_lights));
+    // Closed room, walls facing inward.
+    let centre = DVec3::new(0., 1., 0.);
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let p = scene.positions[tri[0] as usize].as_dvec3();
+        assert!((centre - p).dot(scene.tri_normals[t]) > 0.0, "triangle {t}");
+    }
+    let cam = &scene.cameras[0];
+    assert!(close(cam.eye, DVec3::new(0., 1., 0.95)));
+    assert!(close(cam.forward, DVec3::NEG_Z));
+    assert!(close(cam.up, DVec3::Y));
+    assert!((cam.fov_y - 0.9).abs() < 1e-6);
+}
