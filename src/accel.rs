@@ -227,8 +227,13 @@ impl Accel {
     }
 
     /// Closest hit along `o + t d` for t in (tnear, tfar), or `None`.
+    /// A ray with non-finite origin or direction, or an empty interval, hits nothing (Embree builds
+    /// with assertions abort the process on such rays).
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<RawHit> {
+        if !ray_is_valid(o, d, tnear, tfar) {
+            return None;
+        }
         let mut rh = sys::RTCRayHit {
             ray: make_ray(o, d, tnear, tfar),
             hit: sys::RTCHit::default(),
@@ -261,6 +266,9 @@ impl Accel {
     /// True when anything lies along `o + t d` for t in (tnear, tfar).
     #[inline]
     pub fn occluded(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> bool {
+        if !ray_is_valid(o, d, tnear, tfar) {
+            return false;
+        }
         let mut ray = make_ray(o, d, tnear, tfar);
         #[cfg(embree3)]
         {
@@ -276,6 +284,14 @@ impl Accel {
         // Embree sets tfar to -inf on a hit.
         ray.tfar < 0.0
     }
+}
+
+/// What Embree accepts: finite origin and direction, 0 ≤ tnear ≤ tfar (tfar may be +inf).
+#[inline]
+fn ray_is_valid(o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> bool {
+    let ok = o.is_finite() && d.is_finite() && d != Vec3::ZERO && tnear >= 0.0 && tnear <= tfar;
+    debug_assert!(ok, "invalid ray o={o} d={d} [{tnear}, {tfar}]");
+    ok
 }
 
 /// A ray with all mask bits set (Embree 4 geometries default to mask 1) and no motion blur time.

@@ -1,8 +1,8 @@
 //! The validated job and what the command line runs: load, estimate, write, summarise.
-//! `main.rs` parses arguments into a [`SliceJob`]; everything here returns errors, never panics.
+//! `main.rs` parses arguments into a [`Job`]; everything here returns errors, never panics.
 
-use crate::domain::Plane;
 use crate::domain::slice::SliceSpec;
+use crate::domain::{CameraView, Domain, Plane};
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
@@ -60,11 +60,6 @@ impl EstimatorArgs {
                 scene.source.display()
             );
         }
-        if self.weighting == Weighting::Importance {
-            bail!(
-                "--weight importance needs a camera domain, which is not available yet; use radiance or unweighted"
-            );
-        }
         Ok(Params {
             t0,
             t1,
@@ -75,16 +70,44 @@ impl EstimatorArgs {
     }
 }
 
-/// A slice run, validated enough to start (the rest is checked against the loaded scene).
+/// Where a run's samples start.
 #[derive(Clone, Debug)]
-pub struct SliceJob {
+pub enum DomainArg {
+    /// A plane: `AXIS=VALUE` or a slice named in the scene file, optionally a window, cells along
+    /// the longer side.
+    Slice {
+        slice: String,
+        window: Option<[f64; 4]>,
+        res: usize,
+    },
+    /// A camera image of `size` pixels (width, height).
+    Camera {
+        camera: CameraArg,
+        size: (usize, usize),
+    },
+}
+
+/// Which camera.
+#[derive(Clone, Debug)]
+pub enum CameraArg {
+    /// A camera of the scene file, by name or index (`None`: the first).
+    Scene(Option<String>),
+    /// Given on the command line.
+    Explicit {
+        eye: glam::DVec3,
+        target: glam::DVec3,
+        up: glam::DVec3,
+        fov_deg: f64,
+    },
+}
+
+/// A run, validated enough to start (the rest is checked against the loaded scene).
+#[derive(Clone, Debug)]
+pub struct Job {
     pub scene: PathBuf,
-    /// `AXIS=VALUE` or a slice named in the scene file.
-    pub slice: String,
+    pub domain: DomainArg,
     /// Extra point lights: position, radiant intensity.
     pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
-    pub window: Option<[f64; 4]>,
-    pub res: usize,
     pub estimator: EstimatorArgs,
     pub render: RenderOptions,
     pub output: PathBuf,
@@ -281,6 +304,50 @@ pub fn run_plane(
     )
 }
 
+/// Runs FTPD over any domain with the given kernel (which must cover the scene's features).
+pub fn run_domain_with<D: Domain>(
+    scene: &Scene,
+    domain: &D,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+) -> anyhow::Result<(Field, RunStats)> {
+    struct DomainRun<'a, D> {
+        scene: &'a Scene,
+        domain: &'a D,
+        params: &'a Params,
+        opts: &'a RenderOptions,
+    }
+    impl<D: Domain> WithKernel for DomainRun<'_, D> {
+        type Output = anyhow::Result<(Field, RunStats)>;
+        fn run<K: Kernel>(self) -> Self::Output {
+            let DomainRun {
+                scene,
+                domain,
+                params,
+                opts,
+            } = self;
+            let (w, h, d) = domain.dims();
+            let mut field = Field::new(w, h, d);
+            let stats = render::run(&mut field, opts, |cell, s: &mut Sampler| {
+                domain.sample::<K>(scene, cell, params, s)
+            })?;
+            Ok((field, stats))
+        }
+    }
+    let (mut field, stats) = kernel::dispatch(
+        kernel,
+        DomainRun {
+            scene,
+            domain,
+            params,
+            opts,
+        },
+    )?;
+    field.meta.insert("kernel".into(), kernel.to_string());
+    Ok((field, stats))
+}
+
 /// [`run_plane`] with a given kernel (which must cover the scene's features).
 pub fn run_plane_with(
     scene: &Scene,
@@ -289,41 +356,9 @@ pub fn run_plane_with(
     opts: &RenderOptions,
     kernel: KernelChoice,
 ) -> anyhow::Result<(Field, RunStats)> {
-    struct PlaneRun<'a> {
-        scene: &'a Scene,
-        plane: &'a Plane,
-        params: &'a Params,
-        opts: &'a RenderOptions,
-    }
-    impl WithKernel for PlaneRun<'_> {
-        type Output = anyhow::Result<(Field, RunStats)>;
-        fn run<K: Kernel>(self) -> Self::Output {
-            let PlaneRun {
-                scene,
-                plane,
-                params,
-                opts,
-            } = self;
-            let mut field = Field::new(plane.width, plane.height, 1);
-            let stats = render::run(&mut field, opts, |cell, s: &mut Sampler| {
-                let x = plane.point(cell, s.next_2d());
-                ftpd::sample_at_k::<K>(scene, x, params, s)
-            })?;
-            Ok((field, stats))
-        }
-    }
-    let (mut field, stats) = kernel::dispatch(
-        kernel,
-        PlaneRun {
-            scene,
-            plane,
-            params,
-            opts,
-        },
-    )?;
+    let (mut field, stats) = run_domain_with(scene, plane, params, opts, kernel)?;
     describe_run(&mut field, scene, params, opts, "slice");
     let m = &mut field.meta;
-    m.insert("kernel".into(), kernel.to_string());
     m.insert("plane".into(), plane.label.clone());
     m.insert("plane.origin".into(), fmt_vec(plane.origin));
     m.insert("plane.u".into(), fmt_vec(plane.u_axis));
@@ -358,7 +393,7 @@ pub fn relative_error_summary(field: &Field) -> (f64, f64) {
 }
 
 /// Loads the job's scene and adds its command-line point lights.
-pub fn load_job_scene(job: &SliceJob) -> anyhow::Result<Scene> {
+pub fn load_job_scene(job: &Job) -> anyhow::Result<Scene> {
     let mut scene = load_scene(&job.scene)?;
     for (p, i) in &job.point_lights {
         scene.lights.add_point(*p, *i);
@@ -367,20 +402,72 @@ pub fn load_job_scene(job: &SliceJob) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-/// Runs a slice job end to end: load, estimate, write EXR (and PNG), print a summary on stderr.
-pub fn run_slice_job(job: &SliceJob) -> anyhow::Result<Field> {
-    if job.res == 0 || job.res > MAX_RES {
-        bail!("--res {}: must be between 1 and {MAX_RES}", job.res);
-    }
+/// Resolves the camera of a job against the scene.
+pub fn resolve_camera(
+    arg: &CameraArg,
+    scene: &Scene,
+    size: (usize, usize),
+) -> anyhow::Result<CameraView> {
+    let camera = match arg {
+        CameraArg::Explicit {
+            eye,
+            target,
+            up,
+            fov_deg,
+        } => scene::sidecar::camera_of(&scene::sidecar::CameraSpec {
+            name: Some("command line".into()),
+            eye: eye.to_array(),
+            target: target.to_array(),
+            up: Some(up.to_array()),
+            fov: *fov_deg,
+        })
+        .context("--eye/--target/--up")?,
+        CameraArg::Scene(which) => {
+            if scene.cameras.is_empty() {
+                bail!(
+                    "--camera: {} defines no camera; give --eye X,Y,Z --target X,Y,Z [--up X,Y,Z] [--fov DEG]",
+                    scene.source.display()
+                );
+            }
+            match which {
+                None => scene.cameras[0].clone(),
+                Some(w) => {
+                    let by_index = w.parse::<usize>().ok().and_then(|i| scene.cameras.get(i));
+                    let by_name = scene.cameras.iter().find(|c| &c.name == w);
+                    by_name.or(by_index).cloned().with_context(|| {
+                        let names: Vec<_> = scene.cameras.iter().map(|c| c.name.as_str()).collect();
+                        format!(
+                            "--camera {w}: no such camera (the scene has: {})",
+                            names.join(", ")
+                        )
+                    })?
+                }
+            }
+        }
+    };
+    CameraView::new(camera, size.0, size.1)
+}
+
+/// Runs a job end to end: load, estimate, write EXR (and PNG), print a summary on stderr.
+pub fn run_job(job: &Job) -> anyhow::Result<Field> {
     if job.render.spp == 0 {
         bail!("--spp 0: at least one sample per cell is needed");
+    }
+    match &job.domain {
+        DomainArg::Slice { res, .. } if *res == 0 || *res > MAX_RES => {
+            bail!("--res {res}: must be between 1 and {MAX_RES}")
+        }
+        DomainArg::Camera { size: (w, h), .. }
+            if *w == 0 || *h == 0 || *w > MAX_RES || *h > MAX_RES =>
+        {
+            bail!("--size {w},{h}: each side must be between 1 and {MAX_RES}")
+        }
+        _ => {}
     }
     check_writable(&job.output)?;
     let t_load = Instant::now();
     let scene = load_job_scene(job)?;
     let params = job.estimator.resolve(&scene)?;
-    let slice = resolve_slice(&job.slice, &scene)?;
-    let plane = Plane::axis_slice(&scene.bounds, slice, job.window, job.res)?;
     let say = |s: String| {
         if !job.quiet {
             eprintln!("{s}");
@@ -398,19 +485,38 @@ pub fn run_slice_job(job: &SliceJob) -> anyhow::Result<Field> {
         scene.features,
         t_load.elapsed().as_secs_f64()
     ));
-    say(format!(
-        "slice {} → {}x{} cells, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
-        plane.label,
-        plane.width,
-        plane.height,
-        job.render.spp,
-        job.render.batches,
-        params.weighting,
-        params.t0,
-        params.t1,
-        job.estimator.angle_deg
-    ));
-    let (field, stats) = run_plane(&scene, &plane, &params, &job.render)?;
+    let describe = |what: String, w: usize, h: usize| {
+        format!(
+            "{what} → {w}x{h} cells, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            job.render.spp,
+            job.render.batches,
+            params.weighting,
+            params.t0,
+            params.t1,
+            job.estimator.angle_deg
+        )
+    };
+    let (field, stats) = match &job.domain {
+        DomainArg::Slice { slice, window, res } => {
+            let spec = resolve_slice(slice, &scene)?;
+            let plane = Plane::axis_slice(&scene.bounds, spec, *window, *res)?;
+            say(describe(
+                format!("slice {}", plane.label),
+                plane.width,
+                plane.height,
+            ));
+            run_plane(&scene, &plane, &params, &job.render)?
+        }
+        DomainArg::Camera { camera, size } => {
+            let view = resolve_camera(camera, &scene, *size)?;
+            say(describe(
+                format!("camera '{}'", view.camera.name),
+                view.width,
+                view.height,
+            ));
+            run_camera(&scene, &view, &params, &job.render)?
+        }
+    };
     let (rel_mean, rel_p95) = relative_error_summary(&field);
     say(format!(
         "done in {:.2} s: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
@@ -427,6 +533,34 @@ pub fn run_slice_job(job: &SliceJob) -> anyhow::Result<Field> {
     write_outputs(&field, &job.output, job.png)?;
     say(format!("wrote {}", job.output.display()));
     Ok(field)
+}
+
+/// Importance-weighted FTPD over a camera image, with its beauty image (`radiance.R/G/B`).
+pub fn run_camera(
+    scene: &Scene,
+    view: &CameraView,
+    params: &Params,
+    opts: &RenderOptions,
+) -> anyhow::Result<(Field, RunStats)> {
+    let (mut field, stats) = run_domain_with(
+        scene,
+        view,
+        params,
+        opts,
+        kernel_choice(scene, params, true),
+    )?;
+    describe_run(&mut field, scene, params, opts, "camera");
+    let c = &view.camera;
+    let m = &mut field.meta;
+    m.insert("camera".into(), c.name.clone());
+    m.insert("camera.eye".into(), fmt_vec(c.eye));
+    m.insert("camera.forward".into(), fmt_vec(c.forward));
+    m.insert("camera.up".into(), fmt_vec(c.up));
+    m.insert(
+        "camera.fov_y_deg".into(),
+        format!("{}", c.fov_y.to_degrees()),
+    );
+    Ok((field, stats))
 }
 
 /// Writes the EXR (with the Sobel gradient of σ as `grad.x`/`grad.y`, per cell) and, when asked,

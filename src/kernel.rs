@@ -19,7 +19,8 @@ pub trait Kernel: Send + Sync + 'static {
     const DIELECTRIC: bool;
     const POINT_LIGHTS: bool;
     const SHADING_NORMALS: bool;
-    /// The weighting needs radiance estimates (light sampling, MIS).
+    /// Radiance estimates with light sampling and MIS are compiled in (radiance weighting, and
+    /// the beauty image of importance-weighted camera runs).
     const RADIANCE: bool;
     /// Log every ray query (benchmarks only: see [`Record`]).
     const RECORD: bool = false;
@@ -79,7 +80,7 @@ pub struct KernelChoice {
 
 impl KernelChoice {
     pub fn new(f: &Features, has_shading_normals: bool, weighting: Weighting) -> KernelChoice {
-        let radiance = weighting == Weighting::Radiance;
+        let radiance = matches!(weighting, Weighting::Radiance | Weighting::Importance);
         KernelChoice {
             glossy: f.glossy,
             mirror: f.mirror,
@@ -100,7 +101,7 @@ impl KernelChoice {
             dielectric: true,
             point_lights: true,
             shading_normals: true,
-            radiance: weighting == Weighting::Radiance,
+            radiance: matches!(weighting, Weighting::Radiance | Weighting::Importance),
         }
     }
 }

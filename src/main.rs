@@ -1,7 +1,7 @@
 //! The command line: parses arguments (clap) into a validated job, runs it, reports errors.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use ftpd3d::app::{self, EstimatorArgs, SliceJob};
+use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job};
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
 use std::path::PathBuf;
@@ -38,6 +38,8 @@ enum WeightArg {
     Radiance,
     /// Every direction alike.
     Unweighted,
+    /// Pairs start at a camera along pixel rays (camera images; the default there).
+    Importance,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -64,8 +66,28 @@ struct RunArgs {
     #[arg(long, default_value_t = 8)]
     batches: u32,
     /// Direction weighting.
-    #[arg(long = "weight", value_enum, default_value = "radiance")]
-    weight: WeightArg,
+    /// [default: radiance for slices, importance for camera images]
+    #[arg(long = "weight", value_enum)]
+    weight: Option<WeightArg>,
+    /// Camera image instead of a slice: a camera of the scene file by name or index (the first
+    /// when no value is given).
+    #[arg(long, value_name = "NAME", num_args = 0..=1, default_missing_value = "", conflicts_with = "slice")]
+    camera: Option<String>,
+    /// Camera position (with --target) instead of a scene camera.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, conflicts_with_all = ["slice", "camera"], requires = "target")]
+    eye: Option<glam::DVec3>,
+    /// Point the camera looks at.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, requires = "eye")]
+    target: Option<glam::DVec3>,
+    /// Camera up vector.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,1,0")]
+    up: glam::DVec3,
+    /// Vertical field of view of --eye cameras, degrees.
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
+    /// Camera image size in pixels.
+    #[arg(long, value_name = "W,H", value_parser = parse_size, default_value = "512,512")]
+    size: (usize, usize),
     /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
@@ -98,6 +120,37 @@ struct RunArgs {
     quiet: bool,
 }
 
+fn parse_vec3(s: &str) -> Result<glam::DVec3, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{t}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    match v.as_slice() {
+        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok(glam::DVec3::new(*a, *b, *c)),
+        [_, _, _] => Err("values must be finite".into()),
+        _ => Err(format!(
+            "expected 3 comma-separated numbers x,y,z, got {}",
+            v.len()
+        )),
+    }
+}
+
+fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let (w, h) = s
+        .split_once(',')
+        .ok_or_else(|| format!("'{s}': expected W,H such as 640,480"))?;
+    let p = |t: &str| {
+        t.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("'{t}' is not a whole number"))
+    };
+    Ok((p(w)?, p(h)?))
+}
+
 fn parse_window(s: &str) -> Result<[f64; 4], String> {
     let v: Vec<f64> = s
         .split(',')
@@ -118,32 +171,68 @@ fn parse_window(s: &str) -> Result<[f64; 4], String> {
 }
 
 impl RunArgs {
-    fn job(&self) -> anyhow::Result<SliceJob> {
+    fn job(&self) -> anyhow::Result<Job> {
         let scene = self
             .scene
             .clone()
             .ok_or_else(|| anyhow::anyhow!("--scene FILE is required (try --help)"))?;
-        let slice = self
-            .slice
-            .clone()
-            .ok_or_else(|| anyhow::anyhow!("--slice AXIS=VALUE is required, e.g. --slice z=0"))?;
-        let output = self.output.clone().unwrap_or_else(|| {
-            let stem = scene
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "scene".into());
-            PathBuf::from("out").join(format!("{stem}_{}.exr", slice.replace(['=', '/', ' '], "")))
-        });
-        Ok(SliceJob {
+        let stem = scene
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".into());
+        let camera = match (&self.camera, self.eye, self.target) {
+            (_, Some(eye), Some(target)) => Some(CameraArg::Explicit {
+                eye,
+                target,
+                up: self.up,
+                fov_deg: self.fov,
+            }),
+            (Some(name), _, _) => Some(CameraArg::Scene((!name.is_empty()).then(|| name.clone()))),
+            _ => None,
+        };
+        let (domain, default_out, default_weight) = match camera {
+            Some(camera) => (
+                DomainArg::Camera {
+                    camera,
+                    size: self.size,
+                },
+                format!("{stem}_camera.exr"),
+                WeightArg::Importance,
+            ),
+            None => {
+                let slice = self.slice.clone().ok_or_else(|| {
+                    anyhow::anyhow!("--slice AXIS=VALUE (e.g. --slice z=0) or --camera is required")
+                })?;
+                let out = format!("{stem}_{}.exr", slice.replace(['=', '/', ' '], ""));
+                (
+                    DomainArg::Slice {
+                        slice,
+                        window: self.window,
+                        res: self.res,
+                    },
+                    out,
+                    WeightArg::Radiance,
+                )
+            }
+        };
+        let weight = self.weight.unwrap_or(default_weight);
+        let camera_run = matches!(domain, DomainArg::Camera { .. });
+        if camera_run != matches!(weight, WeightArg::Importance) {
+            anyhow::bail!(if camera_run {
+                "--weight: camera images are importance-weighted (pairs start along the pixel rays)"
+            } else {
+                "--weight importance needs a camera: give --camera [NAME] or --eye/--target"
+            });
+        }
+        Ok(Job {
             scene,
-            slice,
+            domain,
             point_lights: self.point_light.clone(),
-            window: self.window,
-            res: self.res,
             estimator: EstimatorArgs {
-                weighting: match self.weight {
+                weighting: match weight {
                     WeightArg::Radiance => Weighting::Radiance,
                     WeightArg::Unweighted => Weighting::Unweighted,
+                    WeightArg::Importance => Weighting::Importance,
                 },
                 t0: self.t0,
                 t1: self.t1,
@@ -157,7 +246,10 @@ impl RunArgs {
                 threads: self.threads,
                 progress: !self.quiet,
             },
-            output,
+            output: self
+                .output
+                .clone()
+                .unwrap_or_else(|| PathBuf::from("out").join(default_out)),
             png: !self.no_png,
             quiet: self.quiet,
         })
@@ -168,8 +260,11 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
     let job = args.job()?;
     let scene = app::load_job_scene(&job)?;
     let params = job.estimator.resolve(&scene)?;
-    let slice = app::resolve_slice(&job.slice, &scene)?;
-    let plane = ftpd3d::domain::Plane::axis_slice(&scene.bounds, slice, job.window, job.res)?;
+    let DomainArg::Slice { slice, window, res } = &job.domain else {
+        anyhow::bail!("bench runs on a slice: give --slice");
+    };
+    let slice = app::resolve_slice(slice, &scene)?;
+    let plane = ftpd3d::domain::Plane::axis_slice(&scene.bounds, slice, *window, *res)?;
     let mut opts = job.render.clone();
     opts.progress = false;
     let r = app::bench_plane(&scene, &plane, &params, &opts, 3)?;
@@ -213,7 +308,9 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         .clone()
         .ok_or_else(|| anyhow::anyhow!("--scene FILE is required"))?;
     let mut a = args.clone();
-    a.slice.get_or_insert_with(|| "z=0".into());
+    if a.camera.is_none() && a.eye.is_none() {
+        a.slice.get_or_insert_with(|| "z=0".into());
+    }
     let job = a.job()?;
     let scene = app::load_job_scene(&job)?;
     for w in &scene.report.warnings {
@@ -276,10 +373,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args),
         None if cli.run.explain => explain(&cli.run),
-        None => cli
-            .run
-            .job()
-            .and_then(|job| app::run_slice_job(&job).map(|_| ())),
+        None => cli.run.job().and_then(|job| app::run_job(&job).map(|_| ())),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -114,3 +114,67 @@ fn a_run_writes_exr_and_png_and_never_leaves_temporaries() {
     assert!(leftovers.is_empty());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn camera_runs_write_radiance_and_refuse_wrong_weightings() {
+    let dir = std::env::temp_dir().join(format!("ftpd3d-cam-{}", std::process::id()));
+    let out = dir.join("cam.exr");
+    let gltf = scene_path("cornell_point.gltf");
+    let (ok, _, err) = ftpd3d(&[
+        "--scene",
+        gltf.to_str().unwrap(),
+        "--camera",
+        "--size",
+        "16,12",
+        "--spp",
+        "4",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let (w, h, r) = ftpd3d::output::exr::read_channel(&out, "radiance.G").unwrap();
+    assert_eq!((w, h), (16, 12));
+    assert!(r.iter().all(|x| x.is_finite() && *x >= 0.0));
+    let cornell = scene_path("cornell_mirror.obj");
+    let c = cornell.to_str().unwrap();
+    for (args, msg) in [
+        (vec!["--camera"], "defines no camera"),
+        (
+            vec!["--eye", "0,1,0", "--target", "0,1,0"],
+            "target equals eye",
+        ),
+        (
+            vec![
+                "--eye", "0,1,0", "--target", "0,1,-1", "--weight", "radiance",
+            ],
+            "camera images are importance-weighted",
+        ),
+        (
+            vec!["--slice", "z=0", "--weight", "importance"],
+            "needs a camera",
+        ),
+        (
+            vec!["--eye", "0,1,0", "--target", "0,1,-1", "--size", "0,10"],
+            "--size 0,10",
+        ),
+    ] {
+        let mut all = vec!["--scene", c, "--quiet", "-o", out.to_str().unwrap()];
+        all.extend(args.iter().copied());
+        let (ok, _, err) = ftpd3d(&all);
+        assert!(!ok && err.contains(msg), "{args:?}: {err}");
+    }
+    let (ok, _, err) = ftpd3d(&[
+        "--scene",
+        gltf.to_str().unwrap(),
+        "--camera",
+        "nope",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && err.contains("--camera nope: no such camera (the scene has: inside)"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -273,3 +273,51 @@ fn specialised_kernels_give_the_all_features_result_bit_for_bit() {
         assert_eq!(a.cells, b.cells, "{name}: {spec}");
     }
 }
+
+#[test]
+fn camera_image_of_an_empty_scene_is_zero_and_beauty_sees_the_light() {
+    use ftpd3d::app::run_camera;
+    use ftpd3d::domain::CameraView;
+    use ftpd3d::scene::Camera;
+    let cam = |eye: DVec3, forward: DVec3| Camera {
+        name: "test".into(),
+        eye,
+        forward,
+        up: if forward.y.abs() > 0.9 {
+            DVec3::Z
+        } else {
+            DVec3::Y
+        },
+        fov_y: 0.6,
+        aspect: None,
+    };
+    let p = Params {
+        t0: 0.5,
+        t1: 2.0,
+        theta_max: 0.1,
+        weighting: Weighting::Importance,
+        max_bounces: 8,
+    };
+    // Empty: the only geometry is 10 km behind the camera.
+    let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    let far = crate::geometry::translated(&scene, glam::Vec3::new(0.0, 1e4, 0.0));
+    let view = CameraView::new(cam(DVec3::ZERO, -DVec3::Y), 16, 12).unwrap();
+    let (field, _) = run_camera(&far, &view, &p, &opts(16, 1, 0)).unwrap();
+    assert_eq!((field.width, field.height), (16, 12));
+    for v in field.values() {
+        assert!(v.valid);
+        assert_eq!(v.sigma, 0.0);
+    }
+    // A camera in the Cornell box looking up at the light: its beauty image is bright where the
+    // light is (radiance Ke = (17, 12, 4) seen directly), and the deflection pairs hit the ceiling.
+    let cornell = load_scene(&scene_path("cornell_mirror.obj")).unwrap();
+    let view = CameraView::new(cam(DVec3::new(0.0, 1.0, 0.0), DVec3::Y), 9, 9).unwrap();
+    let (field, _) = run_camera(&cornell, &view, &p, &opts(64, 1, 0)).unwrap();
+    let centre = field.cells[4 * 9 + 4];
+    let l = centre.fluence();
+    assert!(
+        (l.x - 17.0).abs() < 1e-9 && (l.y - 12.0).abs() < 1e-9 && (l.z - 4.0).abs() < 1e-9,
+        "{l:?}"
+    );
+    assert_eq!(field.meta["domain"], "camera");
+}

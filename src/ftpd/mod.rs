@@ -200,16 +200,39 @@ pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample
 /// (radiance weighting exactly when `K::RADIANCE`).
 #[inline]
 pub fn sample_at_k<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
-    debug_assert_eq!(K::RADIANCE, p.weighting == Weighting::Radiance);
+    debug_assert!(K::RADIANCE || p.weighting != Weighting::Radiance);
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
     let mut rays = 0;
-    let (omega, weight) = if K::RADIANCE {
+    let (omega, weight) = if K::RADIANCE && p.weighting == Weighting::Radiance {
         radiance_direction_k::<K>(scene, x, p.max_bounces, s, &mut rays)
     } else {
         (sample_uniform_sphere(s.next_2d()), Rgb::ONE)
     };
     let mut out = pair_from_k::<K>(scene, x, omega, t, weight, p, s);
     out.rays += rays;
+    out
+}
+
+/// One importance-weighted sample from a camera (paper section 5.7): the pair starts at the eye
+/// along the pixel direction `omega` with weight 1; `weight` of the result carries the radiance
+/// arriving along the same primary ray (a plain path-traced beauty image), not the pair's weight.
+#[inline]
+pub fn sample_camera_k<K: Kernel>(
+    scene: &Scene,
+    eye: DVec3,
+    omega: DVec3,
+    p: &Params,
+    s: &mut Sampler,
+) -> Sample {
+    let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
+    let mut out = pair_from_k::<K>(scene, eye, omega, t, Rgb::ONE, p, s);
+    if K::RADIANCE {
+        let mut st = RadianceStats::default();
+        out.weight = radiance_k::<K>(scene, eye, omega, p.max_bounces, s, &mut st).total();
+        out.rays += st.rays;
+    } else {
+        out.weight = Rgb::ZERO;
+    }
     out
 }
 

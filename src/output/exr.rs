@@ -9,6 +9,7 @@
 //! | `ftpd.stderr`, `ftpd.relerr` | f32  | standard error of σ from independent batches, and /σ    |
 //! | `weight`                     | f32  | mean contribution weight ΣP / samples                    |
 //! | `fluence.R/G/B`              | f32  | incident radiance integrated over the sphere (radiance weighting only) |
+//! | `radiance.R/G/B`             | f32  | camera images: a path-traced beauty image along the same pixel rays |
 //! | `samples`                    | u32  | samples taken at the cell                                |
 //! | `valid`                      | f32  | 1 where σ is defined (ΣP > 0)                             |
 //! | `sum.w`, `sum.wd`, `sum.wd2` | f32  | ΣP, ΣPΔ, ΣPΔ² rounded, for viewing                        |
@@ -99,7 +100,13 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     f32ch("sum.w", per(&|k| field.cells[k].s0));
     f32ch("sum.wd", per(&|k| field.cells[k].s1));
     f32ch("sum.wd2", per(&|k| field.cells[k].s2));
-    if field.meta.get("weighting").is_some_and(|w| w == "radiance") {
+    if field.meta.get("domain").is_some_and(|d| d == "camera") {
+        // Camera runs keep the beauty image's radiance in the fluence sums.
+        let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
+        f32ch("radiance.R", per(&|k| fl[k].x));
+        f32ch("radiance.G", per(&|k| fl[k].y));
+        f32ch("radiance.B", per(&|k| fl[k].z));
+    } else if field.meta.get("weighting").is_some_and(|w| w == "radiance") {
         let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
         f32ch("fluence.R", per(&|k| fl[k].x));
         f32ch("fluence.G", per(&|k| fl[k].y));
