@@ -181,10 +181,16 @@ pub fn radiance(
             if let Some(ls) = lights.sample(hit.p, u_l, u) {
                 let f = bsdf.eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
                 if f != Rgb::ZERO {
+                    // Aim the shadow ray from the offset origin at the light point itself: along
+                    // `ls.wi` from the offset origin the light's plane is nearer than `ls.dist` by
+                    // up to `hit.eps / cos` (at the light), so an oblique light would occlude itself.
                     let o = hit.spawn_origin(ls.wi);
-                    let tmax = ls.dist - hit.eps - scene.eps_at(hit.p + ls.wi * ls.dist);
+                    let target = hit.p + ls.wi * ls.dist;
+                    let to = target - o;
+                    let len = to.length();
+                    let tmax = len - scene.eps_at(target);
                     st.rays += 1;
-                    if !scene.occluded(o, ls.wi, tmax) {
+                    if !scene.occluded(o, to / len, tmax) {
                         let w = if ls.delta {
                             1.0
                         } else {
