@@ -3,3 +3,4 @@ mod bsdf;
 mod cli;
 mod ftpd;
 mod geometry;
+mod valid;
