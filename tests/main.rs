@@ -5,3 +5,4 @@ mod ftpd;
 mod geometry;
 mod gltf;
 mod mis;
+mod valid;

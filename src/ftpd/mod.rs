@@ -173,8 +173,7 @@ pub fn radiance_direction_k<K: Kernel>(
     };
     let omega = -ls.wi;
     *rays += 1;
-    let tmax = ls.dist - scene.eps_at(x) - scene.eps_at(x + ls.wi * ls.dist);
-    if scene.occluded_k::<K>(x, ls.wi, tmax) {
+    if !scene.visible_k::<K>(x, x + ls.wi * ls.dist) {
         return (omega, Rgb::ZERO);
     }
     let weight = if ls.delta {

@@ -37,7 +37,7 @@ pub fn sample_reference(
             let to = *position - x;
             let d = to.length();
             let wi = to / d;
-            let visible = !scene.occluded(x, wi, d - scene.eps_at(x) - scene.eps_at(*position));
+            let visible = scene.visible(x, *position);
             let w = if visible {
                 *intensity / (d * d)
             } else {
@@ -82,13 +82,7 @@ pub fn radiance_plain(
                 let dist = to.length();
                 let wi = to / dist;
                 let f = bsdf.eval(-d, wi, hit.ng, hit.ns, Mode::Radiance);
-                if f != Rgb::ZERO
-                    && !scene.occluded(
-                        hit.spawn_origin(wi),
-                        wi,
-                        dist - hit.eps - scene.eps_at(*position),
-                    )
-                {
+                if f != Rgb::ZERO && scene.visible(hit.spawn_origin(wi), *position) {
                     l += beta * f * *intensity / (dist * dist);
                 }
             }

@@ -221,6 +221,26 @@ impl Scene {
         self.occluded_k::<crate::kernel::AllFeatures>(o, d, tmax)
     }
 
+    /// True when nothing blocks the segment from `o` (a point off any surface, e.g. from
+    /// [`Hit::spawn_origin`]) to the point `target` (e.g. a sampled light point), which may lie on
+    /// a surface: the ray is aimed at `target` itself and stops short of it by its error bound.
+    /// (Keeping a direction measured from an un-offset point would make oblique lights occlude
+    /// themselves.)
+    #[inline]
+    pub fn visible_k<K: crate::kernel::Kernel>(&self, o: DVec3, target: DVec3) -> bool {
+        let to = target - o;
+        let len = to.length();
+        if !(len > 0.0) || !len.is_finite() {
+            return false;
+        }
+        !self.occluded_k::<K>(o, to / len, len - self.eps_at(target))
+    }
+
+    /// [`visible_k`](Self::visible_k) with every effect.
+    pub fn visible(&self, o: DVec3, target: DVec3) -> bool {
+        self.visible_k::<crate::kernel::AllFeatures>(o, target)
+    }
+
     /// [`occluded`](Self::occluded) for kernel `K`.
     #[inline]
     pub fn occluded_k<K: crate::kernel::Kernel>(&self, o: DVec3, d: DVec3, tmax: f64) -> bool {

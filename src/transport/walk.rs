@@ -209,10 +209,8 @@ pub fn radiance_k<K: Kernel>(
             if let Some(ls) = lights.sample_k::<K>(hit.p, u_l, u) {
                 let f = bsdf.eval_k::<K>(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
                 if f != Rgb::ZERO {
-                    let o = hit.spawn_origin(ls.wi);
-                    let tmax = ls.dist - hit.eps - scene.eps_at(hit.p + ls.wi * ls.dist);
                     st.rays += 1;
-                    if !scene.occluded_k::<K>(o, ls.wi, tmax) {
+                    if scene.visible_k::<K>(hit.spawn_origin(ls.wi), hit.p + ls.wi * ls.dist) {
                         let w = if ls.delta {
                             1.0
                         } else {
