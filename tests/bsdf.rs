@@ -1238,13 +1238,14 @@ fn reciprocity_of_diffuse_and_glossy() {
                 // Cosines scale both sides equally. Below the normal range (cos^n α underflows
                 // for the sharp lobes) precision is absolute: 2^-1074 times factors < 1e4, far
                 // below f64::MIN_POSITIVE.
+                // Here f cos θi cos θo = ks (n+1)/2π cos^n α · min(cos θi, cos θo).
                 let cos_a = r.dot(wi).abs();
                 let dspec = if *n > 0.0 {
-                    ks * (n + 2.0) / TAU * n * cos_a.powf(n - 1.0)
+                    ks * (n + 1.0) / TAU * n * cos_a.powf(n - 1.0)
                 } else {
                     0.0
                 };
-                let cc = (wo.dot(ns) * wi.dot(ns)).abs();
+                let cc = wo.dot(ns).abs().min(wi.dot(ns).abs());
                 let tol = 16.0 * EPS * (f1.max(f2) + dspec * cc) + f64::MIN_POSITIVE;
                 assert!(
                     (f1 - f2).abs() <= tol,

@@ -27,8 +27,11 @@ pub enum Bsdf {
     Black,
     /// Lambertian with albedo `kd`.
     Diffuse { kd: Rgb },
-    /// `kd` Lambertian plus `ks` normalised Phong lobe of exponent `exponent` around the mirror
-    /// direction; the lobe is chosen in proportion to the albedos' luminance.
+    /// `kd` Lambertian plus `ks` glossy Phong lobe of exponent `exponent` around the mirror
+    /// direction: `f = ks (n+1)/(2π) cos^n α / max(cos θi, cos θo)`, which is reciprocal, never
+    /// reflects more than `ks`, and tends to the perfect mirror `ks` as n → ∞ (the max-cosine
+    /// denominator of Ashikhmin and Shirley's specular term). The lobe is chosen in proportion to
+    /// the albedos' luminance.
     Glossy { kd: Rgb, ks: Rgb, exponent: f64 },
     /// `kd` Lambertian plus a perfect mirror of reflectance `ks`.
     Mirror { kd: Rgb, ks: Rgb },
@@ -198,8 +201,12 @@ impl Bsdf {
             Bsdf::Diffuse { kd } | Bsdf::Mirror { kd, .. } => *kd * (FRAC_1_PI * cos_i),
             Bsdf::Glossy { kd, ks, exponent } => {
                 let cos_a = reflect(wo, nso).dot(wi);
+                // Phong lobe divided by max(cos θi, cos θo) (cos θi > 0 here, so no division by
+                // zero): symmetric in wo and wi, albedo ≤ ks, and f cos θi / pdf = ks cos θi /
+                // max(cos θi, cos θo) → ks as the exponent grows, i.e. the lobe tends to the
+                // perfect mirror of reflectance ks (the paper's Fig. 4c/d).
                 let spec = if cos_a > 0.0 {
-                    (exponent + 2.0) / TAU * cos_a.powf(*exponent)
+                    (exponent + 1.0) / TAU * cos_a.powf(*exponent) / cos_i.max(wo.dot(nso))
                 } else {
                     0.0
                 };
