@@ -109,7 +109,7 @@ pub fn perturb(
     let local = sample_uniform_cone_1mc(u, one_minus_cos_max);
     let omega2 = Frame::from_z(omega).to_world(local);
     // θ from the local coordinates: exact for tiny angles.
-    let sin_t = local.x.hypot(local.y);
+    let sin_t = (local.x * local.x + local.y * local.y).sqrt(); // unit vector: no overflow
     let cos_t = local.z;
     let tan_half = sin_t / (1.0 + cos_t);
     let chord = 2.0 * tan_half / (1.0 + tan_half * tan_half).sqrt(); // 2 sin(θ/2)

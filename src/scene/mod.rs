@@ -92,6 +92,8 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Named slice planes from a sidecar file: (name, plane such as `z=0`).
     pub named_slices: Vec<(String, String)>,
+    /// Diagonal of the bounds (1 for an empty scene), cached: the hit code uses it per ray.
+    extent: f64,
     accel: Accel,
 }
 
@@ -178,14 +180,18 @@ impl Scene {
             report,
             cameras: Vec::new(),
             named_slices: Vec::new(),
+            extent: {
+                let d = bounds.diagonal();
+                if d > 0.0 && d.is_finite() { d } else { 1.0 }
+            },
             accel,
         })
     }
 
     /// Diagonal of the bounds (1 for an empty scene, so that defaults stay meaningful).
+    #[inline]
     pub fn extent(&self) -> f64 {
-        let d = self.bounds.diagonal();
-        if d > 0.0 && d.is_finite() { d } else { 1.0 }
+        self.extent
     }
 
     /// Closest hit along the ray `o + t d` (d unit) for t in (0, tmax).
@@ -270,7 +276,6 @@ impl Scene {
         // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
         // f64 rounding, where that is well conditioned; Embree's f32 barycentrics otherwise (grazing
         // rays), which keep the point on the triangle.
-        let bary = (1.0 - u - v) * pa + u * pb + v * pc;
         let dn = d.dot(ng);
         let t_plane = (pa - o).dot(ng) / dn;
         let t_raw = raw.t as f64;
@@ -280,7 +285,7 @@ impl Scene {
         {
             o + d * t_plane
         } else {
-            bary
+            (1.0 - u - v) * pa + u * pb + v * pc
         };
         let ns = if !K::SHADING_NORMALS || self.normals.is_empty() {
             ng
