@@ -73,10 +73,10 @@ impl EstimatorArgs {
 /// Where a run's samples start.
 #[derive(Clone, Debug)]
 pub enum DomainArg {
-    /// A plane: `AXIS=VALUE` or a slice named in the scene file, optionally a window, cells along
-    /// the longer side.
+    /// One or more planes (axis slices, named slices or arbitrary planes), optionally a window
+    /// (axis slices only), cells along the longer side. Each plane is written to its own file.
     Slice {
-        slice: String,
+        slices: Vec<SliceArg>,
         window: Option<[f64; 4]>,
         res: usize,
     },
@@ -85,6 +85,38 @@ pub enum DomainArg {
         camera: CameraArg,
         size: (usize, usize),
     },
+}
+
+/// One plane of a slice run.
+#[derive(Clone, Debug)]
+pub enum SliceArg {
+    /// `AXIS=VALUE` or the name of a slice in the scene file.
+    Axis(String),
+    /// `origin=… normal=… [up=…] [size=…]`.
+    Plane(crate::domain::slice::PlaneSpec),
+}
+
+impl SliceArg {
+    /// A short name for file names: `z0.5`, `plane2`.
+    pub fn file_label(&self, index: usize) -> String {
+        match self {
+            SliceArg::Axis(a) => a.replace(['=', '/', ' '], ""),
+            SliceArg::Plane(_) => format!("plane{index}"),
+        }
+    }
+}
+
+/// The output file of slice `index` of `count`: the job's output itself for a single slice, else
+/// `<stem>_<label>.exr` next to it.
+pub fn slice_output(output: &Path, slice: &SliceArg, index: usize, count: usize) -> PathBuf {
+    if count <= 1 {
+        return output.to_path_buf();
+    }
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    output.with_file_name(format!("{stem}_{}.exr", slice.file_label(index)))
 }
 
 /// Which camera.
@@ -448,8 +480,9 @@ pub fn resolve_camera(
     CameraView::new(camera, size.0, size.1)
 }
 
-/// Runs a job end to end: load, estimate, write EXR (and PNG), print a summary on stderr.
-pub fn run_job(job: &Job) -> anyhow::Result<Field> {
+/// Runs a job end to end: load, estimate, write EXR (and PNG) per plane or camera, print a summary
+/// on stderr. Every output location is checked before any work.
+pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
     if job.render.spp == 0 {
         bail!("--spp 0: at least one sample per cell is needed");
     }
@@ -464,7 +497,9 @@ pub fn run_job(job: &Job) -> anyhow::Result<Field> {
         }
         _ => {}
     }
-    check_writable(&job.output)?;
+    if matches!(job.domain, DomainArg::Camera { .. }) {
+        check_writable(&job.output)?;
+    }
     let t_load = Instant::now();
     let scene = load_job_scene(job)?;
     let params = job.estimator.resolve(&scene)?;
@@ -496,16 +531,53 @@ pub fn run_job(job: &Job) -> anyhow::Result<Field> {
             job.estimator.angle_deg
         )
     };
+    let report = |field: &Field, stats: &RunStats| {
+        let (rel_mean, rel_p95) = relative_error_summary(field);
+        say(format!(
+            "done in {:.2} s: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
+             {} pairs hit the bounce cap ({}), {} non-finite samples dropped",
+            stats.seconds,
+            stats.samples_per_second(),
+            stats.rays_per_second(),
+            rel_mean,
+            rel_p95,
+            stats.capped,
+            params.max_bounces,
+            stats.clamped
+        ));
+    };
     let (field, stats) = match &job.domain {
-        DomainArg::Slice { slice, window, res } => {
-            let spec = resolve_slice(slice, &scene)?;
-            let plane = Plane::axis_slice(&scene.bounds, spec, *window, *res)?;
-            say(describe(
-                format!("slice {}", plane.label),
-                plane.width,
-                plane.height,
-            ));
-            run_plane(&scene, &plane, &params, &job.render)?
+        DomainArg::Slice {
+            slices,
+            window,
+            res,
+        } => {
+            let mut planes = Vec::with_capacity(slices.len());
+            for (k, arg) in slices.iter().enumerate() {
+                let plane = match arg {
+                    SliceArg::Axis(a) => {
+                        Plane::axis_slice(&scene.bounds, resolve_slice(a, &scene)?, *window, *res)?
+                    }
+                    SliceArg::Plane(spec) => Plane::from_spec(&scene.bounds, spec, *res)?,
+                };
+                let out = slice_output(&job.output, arg, k, slices.len());
+                check_writable(&out)?;
+                planes.push((plane, out));
+            }
+            let mut fields = Vec::with_capacity(planes.len());
+            for (plane, out) in &planes {
+                say(describe(
+                    format!("slice {}", plane.label),
+                    plane.width,
+                    plane.height,
+                ));
+                let (field, stats) = run_plane(&scene, plane, &params, &job.render)?;
+                report(&field, &stats);
+                write_outputs(&field, out, job.png)?;
+                say(format!("wrote {}", out.display()));
+                fields.push(field);
+            }
+            return Ok(fields);
         }
         DomainArg::Camera { camera, size } => {
             let view = resolve_camera(camera, &scene, *size)?;
@@ -517,22 +589,10 @@ pub fn run_job(job: &Job) -> anyhow::Result<Field> {
             run_camera(&scene, &view, &params, &job.render)?
         }
     };
-    let (rel_mean, rel_p95) = relative_error_summary(&field);
-    say(format!(
-        "done in {:.2} s: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
-         {} pairs hit the bounce cap ({}), {} non-finite samples dropped",
-        stats.seconds,
-        stats.samples_per_second(),
-        stats.rays_per_second(),
-        rel_mean,
-        rel_p95,
-        stats.capped,
-        params.max_bounces,
-        stats.clamped
-    ));
+    report(&field, &stats);
     write_outputs(&field, &job.output, job.png)?;
     say(format!("wrote {}", job.output.display()));
-    Ok(field)
+    Ok(vec![field])
 }
 
 /// Importance-weighted FTPD over a camera image, with its beauty image (`radiance.R/G/B`).

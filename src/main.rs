@@ -1,7 +1,7 @@
 //! The command line: parses arguments (clap) into a validated job, runs it, reports errors.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job};
+use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job, SliceArg};
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
 use std::path::PathBuf;
@@ -47,9 +47,17 @@ struct RunArgs {
     /// Scene file: .obj (with its .mtl), .gltf or .glb, or a sidecar .toml naming one.
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
-    /// Axis-aligned slice plane, e.g. z=1.2 (x=c spans z,y; y=c spans x,z; z=c spans x,y).
+    /// Axis-aligned slice plane, e.g. z=1.2 (x=c spans z,y; y=c spans x,z; z=c spans x,y), or a
+    /// slice named in the scene file; repeatable (each slice is written to its own file).
     #[arg(long, value_name = "AXIS=VALUE|NAME")]
-    slice: Option<String>,
+    slice: Vec<String>,
+    /// Evenly spaced axis slices AXIS=FROM:TO:COUNT, e.g. z=0.2:2.0:10.
+    #[arg(long, value_name = "AXIS=FROM:TO:COUNT", value_parser = parse_slices)]
+    slices: Vec<SliceRange>,
+    /// Arbitrary plane "origin=X,Y,Z normal=X,Y,Z [up=X,Y,Z] [size=W,H]" (quoted; keys may also be
+    /// separated by ';'); repeatable.
+    #[arg(long, value_name = "SPEC")]
+    plane: Vec<ftpd3d::domain::slice::PlaneSpec>,
     /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
     #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = app::parse_point_light)]
     point_light: Vec<(glam::DVec3, glam::DVec3)>,
@@ -71,10 +79,10 @@ struct RunArgs {
     weight: Option<WeightArg>,
     /// Camera image instead of a slice: a camera of the scene file by name or index (the first
     /// when no value is given).
-    #[arg(long, value_name = "NAME", num_args = 0..=1, default_missing_value = "", conflicts_with = "slice")]
+    #[arg(long, value_name = "NAME", num_args = 0..=1, default_missing_value = "", conflicts_with_all = ["slice", "slices", "plane"])]
     camera: Option<String>,
     /// Camera position (with --target) instead of a scene camera.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, conflicts_with_all = ["slice", "camera"], requires = "target")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, conflicts_with_all = ["slice", "slices", "plane", "camera"], requires = "target")]
     eye: Option<glam::DVec3>,
     /// Point the camera looks at.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, requires = "eye")]
@@ -118,6 +126,14 @@ struct RunArgs {
     /// No progress bar or summary (errors and warnings still go to stderr).
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// The slices of one `--slices` value.
+#[derive(Clone, Debug)]
+struct SliceRange(Vec<ftpd3d::domain::slice::SliceSpec>);
+
+fn parse_slices(s: &str) -> Result<SliceRange, String> {
+    ftpd3d::domain::slice::parse_slice_range(s).map(SliceRange)
 }
 
 fn parse_vec3(s: &str) -> Result<glam::DVec3, String> {
@@ -200,13 +216,25 @@ impl RunArgs {
                 WeightArg::Importance,
             ),
             None => {
-                let slice = self.slice.clone().ok_or_else(|| {
-                    anyhow::anyhow!("--slice AXIS=VALUE (e.g. --slice z=0) or --camera is required")
-                })?;
-                let out = format!("{stem}_{}.exr", slice.replace(['=', '/', ' '], ""));
+                let mut slices: Vec<SliceArg> =
+                    self.slice.iter().cloned().map(SliceArg::Axis).collect();
+                slices.extend(
+                    self.slices
+                        .iter()
+                        .flat_map(|r| &r.0)
+                        .map(|s| SliceArg::Axis(s.to_string())),
+                );
+                slices.extend(self.plane.iter().copied().map(SliceArg::Plane));
+                let out = match slices.as_slice() {
+                    [] => anyhow::bail!(
+                        "--slice AXIS=VALUE (e.g. --slice z=0), --slices, --plane or --camera is required"
+                    ),
+                    [one] => format!("{stem}_{}.exr", one.file_label(0)),
+                    _ => format!("{stem}.exr"),
+                };
                 (
                     DomainArg::Slice {
-                        slice,
+                        slices,
                         window: self.window,
                         res: self.res,
                     },
@@ -260,11 +288,24 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
     let job = args.job()?;
     let scene = app::load_job_scene(&job)?;
     let params = job.estimator.resolve(&scene)?;
-    let DomainArg::Slice { slice, window, res } = &job.domain else {
+    let DomainArg::Slice {
+        slices,
+        window,
+        res,
+    } = &job.domain
+    else {
         anyhow::bail!("bench runs on a slice: give --slice");
     };
-    let slice = app::resolve_slice(slice, &scene)?;
-    let plane = ftpd3d::domain::Plane::axis_slice(&scene.bounds, slice, *window, *res)?;
+    let plane = match slices.first() {
+        Some(SliceArg::Axis(a)) => ftpd3d::domain::Plane::axis_slice(
+            &scene.bounds,
+            app::resolve_slice(a, &scene)?,
+            *window,
+            *res,
+        )?,
+        Some(SliceArg::Plane(spec)) => ftpd3d::domain::Plane::from_spec(&scene.bounds, spec, *res)?,
+        None => anyhow::bail!("bench runs on a slice: give --slice"),
+    };
     let mut opts = job.render.clone();
     opts.progress = false;
     let r = app::bench_plane(&scene, &plane, &params, &opts, 3)?;
@@ -308,8 +349,8 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         .clone()
         .ok_or_else(|| anyhow::anyhow!("--scene FILE is required"))?;
     let mut a = args.clone();
-    if a.camera.is_none() && a.eye.is_none() {
-        a.slice.get_or_insert_with(|| "z=0".into());
+    if a.camera.is_none() && a.eye.is_none() && a.slice.is_empty() {
+        a.slice.push("z=0".into());
     }
     let job = a.job()?;
     let scene = app::load_job_scene(&job)?;
@@ -381,5 +422,16 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn command_line_definition_is_consistent() {
+        Cli::command().debug_assert();
     }
 }

@@ -178,3 +178,45 @@ fn camera_runs_write_radiance_and_refuse_wrong_weightings() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn several_slices_and_arbitrary_planes_share_one_run() {
+    let dir = std::env::temp_dir().join(format!("ftpd3d-multi-{}", std::process::id()));
+    let out = dir.join("c.exr");
+    let cornell = scene_path("cornell_mirror.obj");
+    let (ok, _, err) = ftpd3d(&[
+        "--scene",
+        cornell.to_str().unwrap(),
+        "--slices",
+        "z=-0.5:0.5:3",
+        "--plane",
+        "origin=0,1,0 normal=1,0,1 size=1,0.5",
+        "--res",
+        "8",
+        "--spp",
+        "2",
+        "--quiet",
+        "--no-png",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    for name in ["c_z-0.5.exr", "c_z0.exr", "c_z0.5.exr", "c_plane3.exr"] {
+        let f = ftpd3d::output::exr::read_exr(&dir.join(name)).unwrap();
+        assert_eq!(f.total_samples(), 2 * (f.width * f.height) as u64, "{name}");
+    }
+    let plane = ftpd3d::output::exr::read_exr(&dir.join("c_plane3.exr")).unwrap();
+    assert_eq!((plane.width, plane.height), (8, 4));
+    assert!(plane.meta["plane"].starts_with("plane origin=0,1,0"));
+    // A bad plane is refused before any work, naming the flag's problem.
+    let (ok, _, err) = ftpd3d(&[
+        "--scene",
+        cornell.to_str().unwrap(),
+        "--plane",
+        "origin=0,1,0",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("normal=x,y,z is required"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

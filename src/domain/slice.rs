@@ -190,9 +190,252 @@ impl Plane {
     }
 }
 
+/// An arbitrary plane: `origin=x,y,z normal=x,y,z [up=x,y,z] [size=w,h]` (keys in any order,
+/// separated by spaces or semicolons).
+///
+/// The image's v axis is `up` projected into the plane (default +y, or +z when the normal is
+/// nearly parallel to y), u = v × normal, so (u, v, normal) is right-handed. With `size` the
+/// rectangle is centred on `origin`; without it, it covers the scene bounds projected onto the plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneSpec {
+    pub origin: DVec3,
+    pub normal: DVec3,
+    pub up: Option<DVec3>,
+    pub size: Option<(f64, f64)>,
+}
+
+fn parse_numbers(key: &str, v: &str, n: usize) -> Result<Vec<f64>, String> {
+    let xs: Vec<f64> = v
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("{key}={v}: '{t}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    if xs.len() != n || !xs.iter().all(|x| x.is_finite()) {
+        return Err(format!(
+            "{key}={v}: expected {n} finite comma-separated numbers"
+        ));
+    }
+    Ok(xs)
+}
+
+impl FromStr for PlaneSpec {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (mut origin, mut normal, mut up, mut size) = (None, None, None, None);
+        for item in s.split([' ', ';']).filter(|t| !t.is_empty()) {
+            let (k, v) = item
+                .split_once('=')
+                .ok_or_else(|| format!("'{item}': expected KEY=VALUE"))?;
+            match k {
+                "origin" => origin = Some(DVec3::from_slice(&parse_numbers(k, v, 3)?)),
+                "normal" => normal = Some(DVec3::from_slice(&parse_numbers(k, v, 3)?)),
+                "up" => up = Some(DVec3::from_slice(&parse_numbers(k, v, 3)?)),
+                "size" => {
+                    let w = parse_numbers(k, v, 2)?;
+                    if !(w[0] > 0.0 && w[1] > 0.0) {
+                        return Err(format!("size={v}: both sides must be > 0"));
+                    }
+                    size = Some((w[0], w[1]));
+                }
+                other => {
+                    return Err(format!(
+                        "unknown key '{other}' (use origin, normal, up, size)"
+                    ));
+                }
+            }
+        }
+        let origin = origin.ok_or("origin=x,y,z is required")?;
+        let normal = normal.ok_or("normal=x,y,z is required")?;
+        let normal = normal.try_normalize().ok_or("normal must not be zero")?;
+        Ok(PlaneSpec {
+            origin,
+            normal,
+            up,
+            size,
+        })
+    }
+}
+
+impl Plane {
+    /// An arbitrary plane (see [`PlaneSpec`]) with `res` cells along the longer side.
+    pub fn from_spec(bounds: &Aabb, spec: &PlaneSpec, res: usize) -> anyhow::Result<Plane> {
+        let n = spec.normal;
+        let up = spec
+            .up
+            .unwrap_or(if n.y.abs() > 0.99 { DVec3::Z } else { DVec3::Y });
+        let Some(v) = (up - n * up.dot(n)).try_normalize() else {
+            bail!(
+                "--plane: up ({}, {}, {}) is parallel to the normal",
+                up.x,
+                up.y,
+                up.z
+            );
+        };
+        let u = v.cross(n);
+        let label = format!(
+            "plane origin={},{},{} normal={},{},{}",
+            spec.origin.x, spec.origin.y, spec.origin.z, n.x, n.y, n.z
+        );
+        let (lo, hi) = match spec.size {
+            Some((w, h)) => ((-0.5 * w, -0.5 * h), (0.5 * w, 0.5 * h)),
+            None => {
+                if bounds.is_empty() {
+                    bail!("--plane: the scene has no bounds to cover; give size=w,h");
+                }
+                let (mut lo, mut hi) = (
+                    (f64::INFINITY, f64::INFINITY),
+                    (f64::NEG_INFINITY, f64::NEG_INFINITY),
+                );
+                for k in 0..8 {
+                    let c = DVec3::new(
+                        if k & 1 == 0 {
+                            bounds.min.x
+                        } else {
+                            bounds.max.x
+                        },
+                        if k & 2 == 0 {
+                            bounds.min.y
+                        } else {
+                            bounds.max.y
+                        },
+                        if k & 4 == 0 {
+                            bounds.min.z
+                        } else {
+                            bounds.max.z
+                        },
+                    ) - spec.origin;
+                    let (a, b) = (c.dot(u), c.dot(v));
+                    lo = (lo.0.min(a), lo.1.min(b));
+                    hi = (hi.0.max(a), hi.1.max(b));
+                }
+                let pad = 0.5 * (hi.0 - lo.0).max(hi.1 - lo.1).max(1e-9);
+                if hi.0 - lo.0 <= 0.0 {
+                    (lo.0, hi.0) = (lo.0 - pad, hi.0 + pad);
+                }
+                if hi.1 - lo.1 <= 0.0 {
+                    (lo.1, hi.1) = (lo.1 - pad, hi.1 + pad);
+                }
+                (lo, hi)
+            }
+        };
+        let origin = spec.origin + u * lo.0 + v * lo.1;
+        Plane::new(origin, u, v, (hi.0 - lo.0, hi.1 - lo.1), res, label)
+    }
+}
+
+/// `axis=from:to:count`: `count` evenly spaced axis slices from `from` to `to` (inclusive).
+pub fn parse_slice_range(s: &str) -> Result<Vec<SliceSpec>, String> {
+    let (axis, range) = s
+        .split_once('=')
+        .ok_or_else(|| format!("'{s}': expected AXIS=FROM:TO:COUNT"))?;
+    let parts: Vec<&str> = range.split(':').collect();
+    let [from, to, count] = parts.as_slice() else {
+        return Err(format!(
+            "'{s}': expected AXIS=FROM:TO:COUNT such as z=0.2:2.0:10"
+        ));
+    };
+    let num = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("'{s}': '{t}' is not a number"))
+    };
+    let (from, to) = (num(from)?, num(to)?);
+    let count: usize = count
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}': count '{count}' is not a whole number"))?;
+    if count == 0 || count > 10_000 {
+        return Err(format!("'{s}': count must be between 1 and 10000"));
+    }
+    (0..count)
+        .map(|k| {
+            let t = if count == 1 {
+                0.0
+            } else {
+                k as f64 / (count - 1) as f64
+            };
+            format!("{axis}={}", from + (to - from) * t).parse::<SliceSpec>()
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn arbitrary_planes_are_right_handed_and_cover_the_bounds() {
+        let b = Aabb {
+            min: DVec3::new(-1.0, 0.0, -1.0),
+            max: DVec3::new(1.0, 2.0, 1.0),
+        };
+        let spec: PlaneSpec = "origin=0,1,0 normal=1,0,1".parse().unwrap();
+        let p = Plane::from_spec(&b, &spec, 64).unwrap();
+        assert!((p.u_axis.cross(p.v_axis) - spec.normal).length() < 1e-12);
+        assert!((p.v_axis - DVec3::Y).length() < 1e-12, "up projects to +y");
+        // Every bounds corner projects inside the rectangle.
+        let n = p.normal();
+        for k in 0..8 {
+            let c = DVec3::new(
+                [-1.0, 1.0][k & 1],
+                [0.0, 2.0][(k >> 1) & 1],
+                [-1.0, 1.0][(k >> 2) & 1],
+            );
+            let d = c - p.origin;
+            let (a, bb) = (d.dot(p.u_axis), d.dot(p.v_axis));
+            assert!(a >= -1e-12 && a <= p.size.0 + 1e-12 && bb >= -1e-12 && bb <= p.size.1 + 1e-12);
+            let _ = n;
+        }
+        // The centre of the plane's rectangle lies on the plane through origin.
+        let centre = p.point(0, (0.0, 0.0)) + p.u_axis * 0.5 * p.size.0 + p.v_axis * 0.5 * p.size.1;
+        assert!((centre - spec.origin).dot(spec.normal).abs() < 1e-12);
+        let sized: PlaneSpec = "origin=0,1,0;normal=0,0,1;size=2,1".parse().unwrap();
+        let q = Plane::from_spec(&b, &sized, 10).unwrap();
+        assert_eq!((q.width, q.height), (10, 5));
+        assert!((q.origin - DVec3::new(-1.0, 0.5, 0.0)).length() < 1e-12);
+        assert!(
+            "origin=0,0,0"
+                .parse::<PlaneSpec>()
+                .unwrap_err()
+                .contains("normal")
+        );
+        assert!(
+            "origin=0,0,0 normal=0,0,0"
+                .parse::<PlaneSpec>()
+                .unwrap_err()
+                .contains("zero")
+        );
+        assert!(
+            "origin=0,0,0 normal=0,1,0 up=0,2,0"
+                .parse::<PlaneSpec>()
+                .is_ok()
+        );
+        assert!(
+            Plane::from_spec(
+                &b,
+                &"origin=0,0,0 normal=0,1,0 up=0,2,0".parse().unwrap(),
+                8
+            )
+            .is_err()
+        );
+    }
+
+    #[test]
+    fn slice_ranges() {
+        let v = parse_slice_range("z=0.2:2.0:10").unwrap();
+        assert_eq!(v.len(), 10);
+        assert_eq!(v[0].value, 0.2);
+        assert!((v[9].value - 2.0).abs() < 1e-12);
+        assert!(parse_slice_range("z=1:2").is_err());
+        assert!(
+            parse_slice_range("q=1:2:3")
+                .unwrap_err()
+                .contains("unknown axis")
+        );
+    }
 
     #[test]
     fn parse_slices() {
