@@ -285,6 +285,8 @@ impl RunArgs {
 }
 
 fn bench(args: &RunArgs) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
     let job = args.job()?;
     let scene = app::load_job_scene(&job)?;
     let params = job.estimator.resolve(&scene)?;
@@ -315,7 +317,7 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
         opts.threads
     };
     let line = |name: &str, s: &ftpd3d::render::RunStats| {
-        println!(
+        format!(
             "{name:<20} {:>11} rays in {:>7.3} s = {:.3e} rays/s, {:.3e} samples/s",
             s.rays,
             s.seconds,
@@ -323,27 +325,35 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
             s.samples_per_second()
         )
     };
-    println!("scene                {}", job.scene.display());
-    println!("features             {}", scene.features);
-    println!(
+    writeln!(out, "scene                {}", job.scene.display())?;
+    writeln!(out, "features             {}", scene.features)?;
+    writeln!(
+        out,
         "slice                {} ({}x{}), {} spp, weighting {}, {} threads, best of 3",
         plane.label, plane.width, plane.height, opts.spp, params.weighting, threads
-    );
-    println!("specialised kernel   {}", r.kernel);
-    line("specialised", &r.specialised);
-    line("all-features", &r.all_features);
-    println!(
+    )?;
+    writeln!(out, "specialised kernel   {}", r.kernel)?;
+    writeln!(out, "{}", line("specialised", &r.specialised))?;
+    writeln!(out, "{}", line("all-features", &r.all_features))?;
+    writeln!(
+        out,
         "raw rtcIntersect1    {:>11} rays in {:>7.3} s = {:.3e} rays/s",
         r.raw_rays,
         r.raw_seconds,
         r.raw_rays_per_second()
-    );
-    println!("kernel/raw rays/s    {:.3}", r.ray_ratio());
-    println!("specialised/all samples/s {:.3}", r.specialisation_gain());
+    )?;
+    writeln!(out, "kernel/raw rays/s    {:.3}", r.ray_ratio())?;
+    writeln!(
+        out,
+        "specialised/all samples/s {:.3}",
+        r.specialisation_gain()
+    )?;
     Ok(())
 }
 
 fn explain(args: &RunArgs) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
     let scene_path = args
         .scene
         .clone()
@@ -357,8 +367,9 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
-    println!("scene      {}", scene_path.display());
-    println!(
+    writeln!(out, "scene      {}", scene_path.display())?;
+    writeln!(
+        out,
         "geometry   {} triangles ({} degenerate dropped), bounds {:?} .. {:?}, shading normals: {}",
         scene.triangles.len(),
         scene.report.degenerate_dropped,
@@ -369,15 +380,15 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         } else {
             "yes"
         }
-    );
-    println!("materials  {}", scene.materials.len());
+    )?;
+    writeln!(out, "materials  {}", scene.materials.len())?;
     for m in &scene.materials {
         let emits = if m.emission == ftpd3d::math::Rgb::ZERO {
             String::new()
         } else {
             format!(", emits {:?}", m.emission.to_array())
         };
-        println!("  {:<20} {:?}{emits}", m.name, m.bsdf);
+        writeln!(out, "  {:<20} {:?}{emits}", m.name, m.bsdf)?;
     }
     let (area, point) = scene
         .lights
@@ -387,24 +398,29 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
             ftpd3d::scene::Light::Triangle { .. } => (a + 1, p),
             ftpd3d::scene::Light::Point { .. } => (a, p + 1),
         });
-    println!(
+    writeln!(
+        out,
         "lights     {area} emissive triangles, {point} point lights, total power {:.4}",
         scene.lights.total_power()
-    );
-    println!("cameras    {}", scene.cameras.len());
+    )?;
+    writeln!(out, "cameras    {}", scene.cameras.len())?;
     if !scene.named_slices.is_empty() {
         let names: Vec<_> = scene
             .named_slices
             .iter()
             .map(|(n, p)| format!("{n} ({p})"))
             .collect();
-        println!("slices     {}", names.join(", "));
+        writeln!(out, "slices     {}", names.join(", "))?;
     }
-    println!("features   {}", scene.features);
-    println!("weighting  {}", job.estimator.weighting);
+    writeln!(out, "features   {}", scene.features)?;
+    writeln!(out, "weighting  {}", job.estimator.weighting)?;
     match job.estimator.resolve(&scene) {
-        Ok(params) => println!("kernel     {}", app::kernel_choice(&scene, &params, true)),
-        Err(e) => println!("kernel     (none: {e:#})"),
+        Ok(params) => writeln!(
+            out,
+            "kernel     {}",
+            app::kernel_choice(&scene, &params, true)
+        )?,
+        Err(e) => writeln!(out, "kernel     (none: {e:#})")?,
     }
     Ok(())
 }
@@ -418,6 +434,13 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // A closed pipe (`ftpd3d --explain | head`) is not an error of ours.
+        Err(e)
+            if e.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
