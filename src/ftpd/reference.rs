@@ -8,7 +8,7 @@
 //! sample, its own deflection pair along its exact direction with weight `I / d² · V`.
 
 use super::{Params, pair_from};
-use crate::math::{Rgb, luminance};
+use crate::math::Rgb;
 use crate::rng::Sampler;
 use crate::scene::{Light, Scene};
 use crate::transport::bsdf::Mode;
@@ -98,14 +98,7 @@ pub fn radiance_plain(
             break;
         };
         beta *= bs.weight;
-        if depth >= 3 {
-            let q = beta.max_element().min(0.95);
-            if q <= 0.0 || s.next_f64() >= q {
-                break;
-            }
-            beta /= q;
-        }
-        if luminance(beta) <= 0.0 {
+        if !crate::transport::walk::survives(&mut beta, depth + 1, s) {
             break;
         }
         d = bs.wi;

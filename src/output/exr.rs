@@ -176,16 +176,23 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     })
 }
 
-/// Reads a field written by [`write_exr`] back (exact sums, sample counts, metadata).
-pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
-    let image = read()
+type AnyImage = Image<Layer<AnyChannels<FlatSamples>>>;
+
+/// The first layer of an EXR file, all channels and attributes.
+fn read_image(path: &Path) -> anyhow::Result<AnyImage> {
+    read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| anyhow::anyhow!("{}: not a readable EXR file ({e})", path.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: not a readable EXR file ({e})", path.display()))
+}
+
+/// Reads a field written by [`write_exr`] back (exact sums, sample counts, metadata).
+pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
+    let image = read_image(path)?;
     let layer = &image.layer_data;
     let (w, h) = (layer.size.x(), layer.size.y());
     let chan = |name: &str| -> anyhow::Result<&FlatSamples> {
@@ -239,14 +246,7 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
 
 /// Reads one f32 channel of an EXR in field order (row 0 = bottom), for tests and tools.
 pub fn read_channel(path: &Path, name: &str) -> anyhow::Result<(usize, usize, Vec<f32>)> {
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let image = read_image(path)?;
     let layer = &image.layer_data;
     let (w, h) = (layer.size.x(), layer.size.y());
     let c = layer

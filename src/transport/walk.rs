@@ -107,6 +107,21 @@ pub fn walk_k<K: Kernel>(
     }
 }
 
+/// Russian roulette after three scattering events: continues with probability
+/// min(max component of β, 0.95), dividing β by it (unbiased); false when the path ends, or carries
+/// nothing.
+#[inline]
+pub fn survives(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
+    if depth > 3 {
+        let q = beta.max_element().min(0.95);
+        if q <= 0.0 || s.next_f64() >= q {
+            return false;
+        }
+        *beta /= q;
+    }
+    luminance(*beta) > 0.0
+}
+
 /// Statistics of a radiance estimate.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RadianceStats {
@@ -228,14 +243,7 @@ pub fn radiance_k<K: Kernel>(
         };
         beta *= bs.weight;
         depth += 1;
-        if depth > 3 {
-            let q = beta.max_element().min(0.95);
-            if q <= 0.0 || s.next_f64() >= q {
-                break;
-            }
-            beta /= q;
-        }
-        if luminance(beta) <= 0.0 {
+        if !survives(&mut beta, depth, s) {
             break;
         }
         prev_p = hit.p;
