@@ -90,6 +90,11 @@ struct RunArgs {
     /// Skip the PNG preview written next to the EXR.
     #[arg(long)]
     no_png: bool,
+    /// Flatland: confine every direction to the slice plane (2D light transport, as in the paper's
+    /// 2D figures). The scene must be extruded along the slice normal; point-light intensities are
+    /// per radian.
+    #[arg(long)]
+    flatland: bool,
     /// Print the scene's feature set and the kernel a run would use, then stop.
     #[arg(long)]
     explain: bool,
@@ -160,16 +165,21 @@ impl RunArgs {
             output,
             png: !self.no_png,
             quiet: self.quiet,
+            flatland: self.flatland,
         })
     }
 }
 
 fn bench(args: &RunArgs) -> anyhow::Result<()> {
     let job = args.job()?;
-    let scene = app::load_job_scene(&job)?;
-    let params = job.estimator.resolve(&scene)?;
+    let mut scene = app::load_job_scene(&job)?;
     let slice = app::resolve_slice(&job.slice, &scene)?;
     let plane = ftpd3d::domain::Plane::axis_slice(&scene.bounds, slice, job.window, job.res)?;
+    let params = if job.flatland {
+        app::prepare_flatland(&mut scene, &plane, &job.estimator)?
+    } else {
+        job.estimator.resolve(&scene)?
+    };
     let mut opts = job.render.clone();
     opts.progress = false;
     let r = app::bench_plane(&scene, &plane, &params, &opts, 3)?;
@@ -215,7 +225,7 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     let mut a = args.clone();
     a.slice.get_or_insert_with(|| "z=0".into());
     let job = a.job()?;
-    let scene = app::load_job_scene(&job)?;
+    let mut scene = app::load_job_scene(&job)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
@@ -264,7 +274,24 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     }
     println!("features   {}", scene.features);
     println!("weighting  {}", job.estimator.weighting);
-    match job.estimator.resolve(&scene) {
+    let params = if job.flatland {
+        println!("flatland   in the slice {}", job.slice);
+        app::resolve_slice(&job.slice, &scene)
+            .and_then(|slice| {
+                ftpd3d::domain::Plane::axis_slice(&scene.bounds, slice, job.window, job.res)
+            })
+            .and_then(|plane| app::prepare_flatland(&mut scene, &plane, &job.estimator))
+    } else {
+        job.estimator.resolve(&scene)
+    };
+    if let Some(f) = &scene.flat {
+        println!(
+            "           {} light cross-sections, 2D power {:.4}",
+            f.lights.lights.len(),
+            f.lights.total_power()
+        );
+    }
+    match params {
         Ok(params) => println!("kernel     {}", app::kernel_choice(&scene, &params, true)),
         Err(e) => println!("kernel     (none: {e:#})"),
     }
