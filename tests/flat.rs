@@ -49,11 +49,7 @@ type Path2 = (Vec<(f64, f64)>, bool, u32);
 /// A scene of 2D polylines extruded along the normal of `pl` over [−1, 1]: each path is
 /// (points, closed, material); every segment a → b becomes a quad facing to the right of a → b
 /// (outward for counter-clockwise polygons, inward for clockwise ones).
-fn extruded(
-    pl: &Flatland,
-    paths: &[Path2],
-    materials: Vec<Material>,
-) -> Scene {
+fn extruded(pl: &Flatland, paths: &[Path2], materials: Vec<Material>) -> Scene {
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
     let mut tri_material = Vec::new();

@@ -859,8 +859,13 @@ mod tests {
         assert_eq!(cos_power_integral(1.0), 2.0);
         assert!((cos_power_integral(2.0) - FRAC_PI_2).abs() < 1e-15);
         assert!((cos_power_integral(3.0) - 4.0 / 3.0).abs() < 1e-15);
-        // Midpoint rule with many points (smooth periodic-like integrand): relative error ≪ 1e-9.
-        for m in [0.5, 1.5, 7.3, 37.0, 200.0, 1029.0] {
+        // √π Γ((m+1)/2)/Γ(m/2+1) for fractional m (Python's math.lgamma).
+        for (m, v) in [(0.5, 2.396280469471182), (1.5, 1.7480383695280806)] {
+            assert!((cos_power_integral(m) / v - 1.0).abs() < 1e-14, "m = {m}");
+        }
+        // Midpoint rule with many points (the integrand vanishes smoothly at ±π/2 for m ≥ 1):
+        // relative error ≪ 1e-9.
+        for m in [1.5, 7.3, 37.0, 200.0, 1029.0] {
             let k = 200_000;
             let h = PI / k as f64;
             let q: f64 = (0..k)
@@ -869,12 +874,16 @@ mod tests {
             let c = cos_power_integral(m);
             assert!((q / c - 1.0).abs() < 1e-9, "m = {m}: {q} vs {c}");
         }
-        // Both sides of the switch to the asymptotic series.
+        // Both sides of the switch to the asymptotic series: one ulp apart in m, I changes by
+        // ~1e-16 relative (d ln I/dm ≈ −1/2m).
+        let m = 4096.0f64;
         let (a, b) = (
-            cos_power_integral(4096.0),
-            cos_power_integral(4096.0 + 1e-9),
+            cos_power_integral(m),
+            cos_power_integral(f64::from_bits(m.to_bits() + 1)),
         );
-        assert!((a / b - 1.0).abs() < 1e-13, "{a} {b}");
+        assert!((a / b - 1.0).abs() < 1e-14, "{a} {b}");
+        // Exact value of I(4096) = π ∏ (2k−1)/(2k), k = 1..2048 (40-digit decimal arithmetic).
+        assert!((a / 0.039_163_676_357_077_836 - 1.0).abs() < 1e-14, "{a}");
         let r = cos_power_integral(10000.0) / cos_power_integral(9998.0);
         assert!((r - 9999.0 / 10000.0).abs() < 1e-14, "{r}");
     }
