@@ -823,11 +823,12 @@ impl FlatScene {
                 let off = plane.distance(*position);
                 if off.abs() > 1e-9 * scene.extent().max(position.abs().max_element()) {
                     anyhow::bail!(
-                        "{file}: --flatland: the point light at ({}, {}, {}) lies {off:e} off the \
-                         slice plane {label}; in flatland, point lights must lie in the plane",
+                        "{file}: --flatland: the point light at ({}, {}, {}) lies {} off the slice \
+                         plane {label}; in flatland, point lights must lie in the plane",
                         position.x,
                         position.y,
-                        position.z
+                        position.z,
+                        off.abs()
                     );
                 }
                 lights.push(FlatLight::Point {
