@@ -22,6 +22,8 @@ For every OBJ it verifies
     the scene); in a room every object lies strictly inside the room;
   * stair wall only: the centre of every tread sees the light's centre and
     corners;
+  * flatland scenes (flat_*): every triangle crossing z = 0 has its normal in
+    that plane (the scene is extruded along z, as --flatland requires);
 and prints bounds per scene and object. Exits non-zero on any failure.
 """
 
@@ -45,6 +47,9 @@ EXPECT = {
                           'panel_2_phong1029': 'open', 'strip_2': 'open',
                           'panel_3_mirror': 'open', 'light': 'open'},
     'glass_sphere.obj': {'sphere': 'solid', 'floor': 'open', 'light': 'open'},
+    'flat_stair_wall.obj': {'stairs': 'solid', 'light': 'open'},
+    'flat_mirrors.obj': {'light': 'open', 'mirror_left': 'solid', 'mirror_right': 'solid',
+                         'box_left': 'solid', 'box_right': 'solid'},
 }
 
 EPS = 1e-9
@@ -387,11 +392,32 @@ def check_file(path):
         print(msg)
         if name == 'stair_wall.obj':
             check_treads_lit(verts, objects, o, errors)
+    if name.startswith('flat_'):
+        check_extruded(verts, objects, errors)
 
     for e in errors:
         print('   ERROR: ' + e)
     print('   %s' % ('OK' if not errors else '%d error(s)' % len(errors)))
     return not errors
+
+
+def check_extruded(verts, objects, errors):
+    """Flatland scenes: every triangle that meets the slice z = 0 along more
+    than a point has its normal in that plane (what `--flatland` requires)."""
+    crossing = 0
+    for o in objects:
+        for t in o.tris:
+            zs = [verts[v][2] for v in t]
+            if min(zs) >= 0 or max(zs) <= 0:
+                if not (min(zs) == max(zs) == 0) and sum(z == 0 for z in zs) < 2:
+                    continue
+            crossing += 1
+            n = unit(tri_normal(verts, t))
+            if abs(n[2]) > 1e-9:
+                errors.append('%s: a triangle crosses z = 0 with its normal %.3g deg out of the plane'
+                              % (o.name, math.degrees(math.asin(min(1.0, abs(n[2]))))))
+    print('   extruded along z: %d triangles cross z = 0, all with in-plane normals' % crossing
+          if not errors else '   extrusion check failed')
 
 
 def check_treads_lit(verts, objects, lamp, errors):

@@ -10,6 +10,7 @@ use crate::output;
 use crate::render::{self, RenderOptions, RunStats};
 use crate::rng::Sampler;
 use crate::scene::{self, Scene};
+use crate::transport::flat::Flatland;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -32,7 +33,12 @@ pub const DEFAULT_T1_OF_DIAGONAL: f64 = 0.5;
 impl EstimatorArgs {
     /// Checks the values and fills scene-relative defaults.
     pub fn resolve(&self, scene: &Scene) -> anyhow::Result<Params> {
-        let d = scene.extent();
+        self.resolve_with_extent(scene, scene.extent())
+    }
+
+    /// [`resolve`](Self::resolve) with run-length defaults relative to the length `d` instead of the
+    /// scene diagonal (flatland uses the diagonal of the scene's cross-section).
+    pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> anyhow::Result<Params> {
         let t0 = self.t0.unwrap_or(DEFAULT_T0_OF_DIAGONAL * d);
         let t1 = self
             .t1
@@ -66,8 +72,68 @@ impl EstimatorArgs {
             theta_max: self.angle_deg.to_radians(),
             weighting: self.weighting,
             max_bounces: self.max_bounces,
+            flat: None,
         })
     }
+}
+
+/// Diagonal of the bounds projected onto the plane of `fl` (the size of a flatland scene).
+pub fn flat_extent(bounds: &scene::Aabb, fl: &Flatland) -> f64 {
+    if bounds.is_empty() {
+        return 1.0;
+    }
+    let (mut lo, mut hi) = (
+        glam::DVec2::splat(f64::INFINITY),
+        glam::DVec2::splat(f64::NEG_INFINITY),
+    );
+    for k in 0..8 {
+        let c = glam::DVec3::new(
+            if k & 1 == 0 {
+                bounds.min.x
+            } else {
+                bounds.max.x
+            },
+            if k & 2 == 0 {
+                bounds.min.y
+            } else {
+                bounds.max.y
+            },
+            if k & 4 == 0 {
+                bounds.min.z
+            } else {
+                bounds.max.z
+            },
+        );
+        let q = glam::DVec2::new(c.dot(fl.e1), c.dot(fl.e2));
+        lo = lo.min(q);
+        hi = hi.max(q);
+    }
+    let d = (hi - lo).length();
+    if d > 0.0 && d.is_finite() { d } else { 1.0 }
+}
+
+/// Sets up a flatland run on `plane`: validates and prepares the scene
+/// ([`Scene::prepare_flatland`]), resolves the estimator settings with run-length defaults relative
+/// to the cross-section's diagonal, and returns them with [`Params::flat`] set.
+pub fn prepare_flatland(
+    scene: &mut Scene,
+    plane: &Plane,
+    args: &EstimatorArgs,
+) -> anyhow::Result<Params> {
+    let fl = Flatland::of_plane(plane);
+    scene.prepare_flatland(fl, &plane.label)?;
+    let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
+    if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {
+        bail!(
+            "--flatland --weight radiance: no light of {} meets the slice plane {} (emissive \
+             triangles must cross it, point lights lie in it); use --weight unweighted or another \
+             slice",
+            scene.source.display(),
+            plane.label
+        );
+    }
+    params.flat = Some(fl);
+    Ok(params)
 }
 
 /// Where a run's samples start.
@@ -145,6 +211,8 @@ pub struct Job {
     pub output: PathBuf,
     pub png: bool,
     pub quiet: bool,
+    /// Confine every direction to the slice plane (2D light transport in an extruded scene).
+    pub flatland: bool,
 }
 
 /// Largest accepted `--res`.
@@ -308,15 +376,17 @@ pub fn describe_run(
     m.insert("spp".into(), opts.spp.to_string());
     m.insert("batches".into(), opts.batches.to_string());
     m.insert("features".into(), scene.features.to_string());
+    m.insert("flatland".into(), params.flat.is_some().to_string());
 }
 
 /// The kernel for a scene and parameters: specialised to the scene's features, or every effect.
 pub fn kernel_choice(scene: &Scene, params: &Params, specialise: bool) -> KernelChoice {
-    if specialise {
+    let k = if specialise {
         KernelChoice::new(&scene.features, !scene.normals.is_empty(), params.weighting)
     } else {
         KernelChoice::all(params.weighting)
-    }
+    };
+    k.with_flatland(params.flat.is_some())
 }
 
 /// Runs FTPD over a plane with the kernel chosen for the scene; the field comes back with its
@@ -388,6 +458,7 @@ pub fn run_plane_with(
     opts: &RenderOptions,
     kernel: KernelChoice,
 ) -> anyhow::Result<(Field, RunStats)> {
+    check_flatland(scene, plane, params, kernel)?;
     let (mut field, stats) = run_domain_with(scene, plane, params, opts, kernel)?;
     describe_run(&mut field, scene, params, opts, "slice");
     let m = &mut field.meta;
@@ -400,6 +471,42 @@ pub fn run_plane_with(
         format!("{},{}", plane.size.0, plane.size.1),
     );
     Ok((field, stats))
+}
+
+/// A flatland run needs a flatland kernel, a scene prepared for its plane, and a domain in it.
+fn check_flatland(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    kernel: KernelChoice,
+) -> anyhow::Result<()> {
+    match (params.flat, kernel.flatland) {
+        (None, false) => Ok(()),
+        (Some(fl), true) => {
+            let prepared = scene.flat.as_ref().map(|f| f.plane);
+            if prepared != Some(fl) {
+                bail!(
+                    "flatland run on {}: the scene was not prepared for this plane \
+                     (Scene::prepare_flatland)",
+                    plane.label
+                );
+            }
+            let tol = 1e-9 * scene.extent().max(plane.origin.abs().max_element());
+            if plane.normal().cross(fl.normal).length() > 1e-12
+                || fl.distance(plane.origin).abs() > tol
+            {
+                bail!(
+                    "flatland run: the domain {} does not lie in the flatland plane",
+                    plane.label
+                );
+            }
+            Ok(())
+        }
+        (flat, _) => bail!(
+            "{kernel} cannot run a {} estimator",
+            if flat.is_some() { "flatland" } else { "3D" }
+        ),
+    }
 }
 
 fn fmt_vec(v: glam::DVec3) -> String {
@@ -500,9 +607,11 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
     if matches!(job.domain, DomainArg::Camera { .. }) {
         check_writable(&job.output)?;
     }
+    if job.flatland && matches!(job.domain, DomainArg::Camera { .. }) {
+        bail!("--flatland works on slices (the plane confines the directions), not camera images");
+    }
     let t_load = Instant::now();
-    let scene = load_job_scene(job)?;
-    let params = job.estimator.resolve(&scene)?;
+    let mut scene = load_job_scene(job)?;
     let say = |s: String| {
         if !job.quiet {
             eprintln!("{s}");
@@ -520,7 +629,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
         scene.features,
         t_load.elapsed().as_secs_f64()
     ));
-    let describe = |what: String, w: usize, h: usize| {
+    let describe = |what: String, w: usize, h: usize, params: &Params| {
         format!(
             "{what} → {w}x{h} cells, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
             job.render.spp,
@@ -531,7 +640,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
             job.estimator.angle_deg
         )
     };
-    let report = |field: &Field, stats: &RunStats| {
+    let report = |field: &Field, stats: &RunStats, params: &Params| {
         let (rel_mean, rel_p95) = relative_error_summary(field);
         say(format!(
             "done in {:.2} s: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
@@ -546,12 +655,13 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
             stats.clamped
         ));
     };
-    let (field, stats) = match &job.domain {
+    match &job.domain {
         DomainArg::Slice {
             slices,
             window,
             res,
         } => {
+            // Every plane and output is resolved and checked before the first plane runs.
             let mut planes = Vec::with_capacity(slices.len());
             for (k, arg) in slices.iter().enumerate() {
                 let plane = match arg {
@@ -564,35 +674,55 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
                 check_writable(&out)?;
                 planes.push((plane, out));
             }
+            if !job.flatland {
+                job.estimator.resolve(&scene)?;
+            }
             let mut fields = Vec::with_capacity(planes.len());
             for (plane, out) in &planes {
+                let params = if job.flatland {
+                    let params = prepare_flatland(&mut scene, plane, &job.estimator)?;
+                    if let Some(f) = &scene.flat {
+                        say(format!(
+                            "flatland in {}: {} light cross-sections, 2D power {:.4}",
+                            plane.label,
+                            f.lights.lights.len(),
+                            f.lights.total_power()
+                        ));
+                    }
+                    params
+                } else {
+                    job.estimator.resolve(&scene)?
+                };
                 say(describe(
                     format!("slice {}", plane.label),
                     plane.width,
                     plane.height,
+                    &params,
                 ));
                 let (field, stats) = run_plane(&scene, plane, &params, &job.render)?;
-                report(&field, &stats);
+                report(&field, &stats, &params);
                 write_outputs(&field, out, job.png)?;
                 say(format!("wrote {}", out.display()));
                 fields.push(field);
             }
-            return Ok(fields);
+            Ok(fields)
         }
         DomainArg::Camera { camera, size } => {
+            let params = job.estimator.resolve(&scene)?;
             let view = resolve_camera(camera, &scene, *size)?;
             say(describe(
                 format!("camera '{}'", view.camera.name),
                 view.width,
                 view.height,
+                &params,
             ));
-            run_camera(&scene, &view, &params, &job.render)?
+            let (field, stats) = run_camera(&scene, &view, &params, &job.render)?;
+            report(&field, &stats, &params);
+            write_outputs(&field, &job.output, job.png)?;
+            say(format!("wrote {}", job.output.display()));
+            Ok(vec![field])
         }
-    };
-    report(&field, &stats);
-    write_outputs(&field, &job.output, job.png)?;
-    say(format!("wrote {}", job.output.display()));
-    Ok(vec![field])
+    }
 }
 
 /// Importance-weighted FTPD over a camera image, with its beauty image (`radiance.R/G/B`).
@@ -752,17 +882,19 @@ fn record_rays(
     opts: &RenderOptions,
     pool: &rayon::ThreadPool,
 ) -> anyhow::Result<Vec<scene::LoggedRay>> {
-    use crate::kernel::{AllButRadiance, AllFeatures, Record};
+    use crate::kernel::{AllButRadiance, AllButRadianceFlat, AllFeatures, AllFeaturesFlat, Record};
     let mut field = Field::new(plane.width, plane.height, 1);
     let mut o = opts.clone();
     o.progress = false;
     let radiance = params.weighting == Weighting::Radiance;
+    let flatland = params.flat.is_some();
     render::run_in(pool, &mut field, &o, |cell, s: &mut Sampler| {
         let x = plane.point(cell, s.next_2d());
-        if radiance {
-            ftpd::sample_at_k::<Record<AllFeatures>>(scene, x, params, s)
-        } else {
-            ftpd::sample_at_k::<Record<AllButRadiance>>(scene, x, params, s)
+        match (radiance, flatland) {
+            (true, false) => ftpd::sample_at_k::<Record<AllFeatures>>(scene, x, params, s),
+            (false, false) => ftpd::sample_at_k::<Record<AllButRadiance>>(scene, x, params, s),
+            (true, true) => ftpd::sample_at_k::<Record<AllFeaturesFlat>>(scene, x, params, s),
+            (false, true) => ftpd::sample_at_k::<Record<AllButRadianceFlat>>(scene, x, params, s),
         }
     })?;
     // Gather the logs of every worker of the pool.

@@ -7,6 +7,10 @@
 //! lights no Dirac-light handling, a scene without shading normals no normal interpolation. The
 //! kernel is chosen once per run from the scene's [`Features`] and the weighting ([`dispatch`]);
 //! [`AllFeatures`] is the unspecialised kernel every scene may use.
+//!
+//! `FLATLAND` is not a scene feature but a mode of the run: directions confined to the slice plane
+//! (2D light transport, angle measure; see [`crate::transport::flat`]). 3D kernels compile every
+//! flatland branch out, so the 3D code paths are the same as without it.
 
 use crate::ftpd::Weighting;
 use crate::scene::Features;
@@ -22,6 +26,9 @@ pub trait Kernel: Send + Sync + 'static {
     /// Radiance estimates with light sampling and MIS are compiled in (radiance weighting, and
     /// the beauty image of importance-weighted camera runs).
     const RADIANCE: bool;
+    /// Flatland: every direction lies in the slice plane, densities are per radian
+    /// (the scene must have been prepared with [`crate::scene::Scene::prepare_flatland`]).
+    const FLATLAND: bool;
     /// Log every ray query (benchmarks only: see [`Record`]).
     const RECORD: bool = false;
 }
@@ -38,6 +45,7 @@ impl<K: Kernel> Kernel for Record<K> {
     const POINT_LIGHTS: bool = K::POINT_LIGHTS;
     const SHADING_NORMALS: bool = K::SHADING_NORMALS;
     const RADIANCE: bool = K::RADIANCE;
+    const FLATLAND: bool = K::FLATLAND;
     const RECORD: bool = true;
 }
 
@@ -49,10 +57,18 @@ pub struct Spec<
     const P: bool,
     const N: bool,
     const R: bool,
+    const F: bool,
 >;
 
-impl<const G: bool, const M: bool, const D: bool, const P: bool, const N: bool, const R: bool>
-    Kernel for Spec<G, M, D, P, N, R>
+impl<
+    const G: bool,
+    const M: bool,
+    const D: bool,
+    const P: bool,
+    const N: bool,
+    const R: bool,
+    const F: bool,
+> Kernel for Spec<G, M, D, P, N, R, F>
 {
     const GLOSSY: bool = G;
     const MIRROR: bool = M;
@@ -60,12 +76,17 @@ impl<const G: bool, const M: bool, const D: bool, const P: bool, const N: bool, 
     const POINT_LIGHTS: bool = P;
     const SHADING_NORMALS: bool = N;
     const RADIANCE: bool = R;
+    const FLATLAND: bool = F;
 }
 
-/// The unspecialised kernel: every effect compiled in.
-pub type AllFeatures = Spec<true, true, true, true, true, true>;
-/// Every effect but radiance estimation (for unweighted and importance weighting).
-pub type AllButRadiance = Spec<true, true, true, true, true, false>;
+/// The unspecialised kernel: every effect compiled in (3D).
+pub type AllFeatures = Spec<true, true, true, true, true, true, false>;
+/// Every effect but radiance estimation (for unweighted and importance weighting; 3D).
+pub type AllButRadiance = Spec<true, true, true, true, true, false, false>;
+/// [`AllFeatures`] in flatland.
+pub type AllFeaturesFlat = Spec<true, true, true, true, true, true, true>;
+/// [`AllButRadiance`] in flatland.
+pub type AllButRadianceFlat = Spec<true, true, true, true, true, false, true>;
 
 /// The effects a run needs: the scene's features plus the weighting.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,6 +97,8 @@ pub struct KernelChoice {
     pub point_lights: bool,
     pub shading_normals: bool,
     pub radiance: bool,
+    /// Directions confined to the slice plane (a mode of the run, not a scene feature).
+    pub flatland: bool,
 }
 
 impl KernelChoice {
@@ -89,6 +112,7 @@ impl KernelChoice {
             point_lights: f.point_lights && radiance,
             shading_normals: has_shading_normals,
             radiance,
+            flatland: false,
         }
     }
 
@@ -102,7 +126,13 @@ impl KernelChoice {
             point_lights: true,
             shading_normals: true,
             radiance: matches!(weighting, Weighting::Radiance | Weighting::Importance),
+            flatland: false,
         }
+    }
+
+    /// The same effects in flatland (`true`) or in 3D.
+    pub fn with_flatland(self, flatland: bool) -> KernelChoice {
+        KernelChoice { flatland, ..self }
     }
 }
 
@@ -111,13 +141,14 @@ impl fmt::Display for KernelChoice {
         let on = |b: bool| if b { "+" } else { "-" };
         write!(
             f,
-            "kernel<{}glossy {}mirror {}dielectric {}point-lights {}shading-normals {}radiance>",
+            "kernel<{}glossy {}mirror {}dielectric {}point-lights {}shading-normals {}radiance {}flatland>",
             on(self.glossy),
             on(self.mirror),
             on(self.dielectric),
             on(self.point_lights),
             on(self.shading_normals),
-            on(self.radiance)
+            on(self.radiance),
+            on(self.flatland)
         )
     }
 }
@@ -128,7 +159,7 @@ pub trait WithKernel {
     fn run<K: Kernel>(self) -> Self::Output;
 }
 
-/// Calls `f.run::<K>()` with the kernel type matching `c` (64 monomorphised variants).
+/// Calls `f.run::<K>()` with the kernel type matching `c` (128 monomorphised variants).
 pub fn dispatch<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
     fn g<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
         if c.glossy {
@@ -183,9 +214,27 @@ pub fn dispatch<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
         f: F,
     ) -> F::Output {
         if c.radiance {
-            f.run::<Spec<G, M, D, P, N, true>>()
+            fl::<F, G, M, D, P, N, true>(c, f)
         } else {
-            f.run::<Spec<G, M, D, P, N, false>>()
+            fl::<F, G, M, D, P, N, false>(c, f)
+        }
+    }
+    fn fl<
+        F: WithKernel,
+        const G: bool,
+        const M: bool,
+        const D: bool,
+        const P: bool,
+        const N: bool,
+        const R: bool,
+    >(
+        c: KernelChoice,
+        f: F,
+    ) -> F::Output {
+        if c.flatland {
+            f.run::<Spec<G, M, D, P, N, R, true>>()
+        } else {
+            f.run::<Spec<G, M, D, P, N, R, false>>()
         }
     }
     g(c, f)

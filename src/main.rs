@@ -120,6 +120,11 @@ struct RunArgs {
     /// Skip the PNG preview written next to the EXR.
     #[arg(long)]
     no_png: bool,
+    /// Flatland: confine every direction to the slice plane (2D light transport, as in the paper's
+    /// 2D figures). The scene must be extruded along the slice normal; point-light intensities are
+    /// per radian.
+    #[arg(long)]
+    flatland: bool,
     /// Print the scene's feature set and the kernel a run would use, then stop.
     #[arg(long)]
     explain: bool,
@@ -280,6 +285,7 @@ impl RunArgs {
                 .unwrap_or_else(|| PathBuf::from("out").join(default_out)),
             png: !self.no_png,
             quiet: self.quiet,
+            flatland: self.flatland,
         })
     }
 }
@@ -288,8 +294,7 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
     use std::io::Write;
     let mut out = std::io::stdout().lock();
     let job = args.job()?;
-    let scene = app::load_job_scene(&job)?;
-    let params = job.estimator.resolve(&scene)?;
+    let mut scene = app::load_job_scene(&job)?;
     let DomainArg::Slice {
         slices,
         window,
@@ -307,6 +312,11 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
         )?,
         Some(SliceArg::Plane(spec)) => ftpd3d::domain::Plane::from_spec(&scene.bounds, spec, *res)?,
         None => anyhow::bail!("bench runs on a slice: give --slice"),
+    };
+    let params = if job.flatland {
+        app::prepare_flatland(&mut scene, &plane, &job.estimator)?
+    } else {
+        job.estimator.resolve(&scene)?
     };
     let mut opts = job.render.clone();
     opts.progress = false;
@@ -363,7 +373,7 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         a.slice.push("z=0".into());
     }
     let job = a.job()?;
-    let scene = app::load_job_scene(&job)?;
+    let mut scene = app::load_job_scene(&job)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
@@ -414,7 +424,40 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     }
     writeln!(out, "features   {}", scene.features)?;
     writeln!(out, "weighting  {}", job.estimator.weighting)?;
-    match job.estimator.resolve(&scene) {
+    let params = match (&job.domain, job.flatland) {
+        (
+            DomainArg::Slice {
+                slices,
+                window,
+                res,
+            },
+            true,
+        ) => {
+            let plane = match slices.first() {
+                Some(SliceArg::Axis(a)) => app::resolve_slice(a, &scene).and_then(|spec| {
+                    ftpd3d::domain::Plane::axis_slice(&scene.bounds, spec, *window, *res)
+                }),
+                Some(SliceArg::Plane(spec)) => {
+                    ftpd3d::domain::Plane::from_spec(&scene.bounds, spec, *res)
+                }
+                None => Err(anyhow::anyhow!("--flatland needs a slice")),
+            };
+            if let Ok(p) = &plane {
+                writeln!(out, "flatland   in the slice {}", p.label)?;
+            }
+            plane.and_then(|plane| app::prepare_flatland(&mut scene, &plane, &job.estimator))
+        }
+        _ => job.estimator.resolve(&scene),
+    };
+    if let Some(f) = &scene.flat {
+        writeln!(
+            out,
+            "           {} light cross-sections, 2D power {:.4}",
+            f.lights.lights.len(),
+            f.lights.total_power()
+        )?;
+    }
+    match params {
         Ok(params) => writeln!(
             out,
             "kernel     {}",

@@ -39,7 +39,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 const EPS: f64 = f64::EPSILON;
 const SEED: u64 = 0x5eed_b5df;
 /// Significance of each chi-square test.
-const ALPHA: f64 = 1e-4;
+pub(crate) const ALPHA: f64 = 1e-4;
 /// Samples per chi-square case and per furnace (Monte Carlo mean) case.
 const N_SAMPLES: usize = 100_000;
 const N_FURNACE: usize = 40_000;
@@ -111,7 +111,7 @@ fn poisson_upper_tail(lambda: f64, k: u64) -> f64 {
 
 /// Pearson's chi-square test of `observed` against `expected` counts; `expected_err` bounds the
 /// quadrature error of each expected count.
-fn chi2_test(label: &str, observed: &[f64], expected: &[f64], expected_err: &[f64]) {
+pub(crate) fn chi2_test(label: &str, observed: &[f64], expected: &[f64], expected_err: &[f64]) {
     let total_o: f64 = observed.iter().sum();
     let total_e: f64 = expected.iter().sum();
     assert!(
@@ -178,7 +178,7 @@ fn chi2_test(label: &str, observed: &[f64], expected: &[f64], expected_err: &[f6
 }
 
 /// Mean and standard error of the mean.
-fn mean_and_se(sum: f64, sum2: f64, n: usize) -> (f64, f64) {
+pub(crate) fn mean_and_se(sum: f64, sum2: f64, n: usize) -> (f64, f64) {
     let n = n as f64;
     let mean = sum / n;
     let var = ((sum2 / n - mean * mean) * n / (n - 1.0)).max(0.0);
@@ -189,7 +189,7 @@ fn mean_and_se(sum: f64, sum2: f64, n: usize) -> (f64, f64) {
 // Spherical quadrature
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton on the three-term recurrence).
-fn gauss_legendre(m: usize) -> Vec<(f64, f64)> {
+pub(crate) fn gauss_legendre(m: usize) -> Vec<(f64, f64)> {
     (0..m)
         .map(|i| {
             let mut x = (PI * (i as f64 + 0.75) / (m as f64 + 0.5)).cos();

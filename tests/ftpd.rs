@@ -19,6 +19,7 @@ fn unweighted(t0: f64, t1: f64, angle_deg: f64) -> Params {
         theta_max: angle_deg.to_radians(),
         weighting: Weighting::Unweighted,
         max_bounces: 32,
+        flat: None,
     }
 }
 
@@ -195,6 +196,7 @@ fn small_run(seed: u64, threads: usize) -> Field {
         theta_max: 0.05,
         weighting: Weighting::Radiance,
         max_bounces: 16,
+        flat: None,
     };
     run_plane(&scene, &plane, &p, &opts(16, seed, threads))
         .unwrap()
@@ -260,6 +262,7 @@ fn specialised_kernels_give_the_all_features_result_bit_for_bit() {
             theta_max: 0.1,
             weighting,
             max_bounces: 16,
+            flat: None,
         };
         let spec = kernel_choice(&scene, &p, true);
         let all = kernel_choice(&scene, &p, false);
@@ -297,6 +300,7 @@ fn camera_image_of_an_empty_scene_is_zero_and_beauty_sees_the_light() {
         theta_max: 0.1,
         weighting: Weighting::Importance,
         max_bounces: 8,
+        flat: None,
     };
     // Empty: the only geometry is 10 km behind the camera.
     let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();

@@ -51,6 +51,7 @@ fn mis_radiance_weighting_matches_the_reference() {
         theta_max: 0.2,
         weighting: Weighting::Radiance,
         max_bounces: 12,
+        flat: None,
     };
     let n = 8000;
     for (k, x) in [

@@ -897,6 +897,7 @@ fn valid_unweighted_ftpd_at_a_diffuse_plane_matches_quadrature() {
         theta_max: setup.theta_max,
         weighting: Weighting::Unweighted,
         max_bounces: 64, // walks bounce at most once here: the cap is never reached
+        flat: None,
     };
     let started = std::time::Instant::now();
     let run = run_ftpd(&scene, setup.x(), &p, 4001, 32, 100_000);
@@ -983,6 +984,7 @@ fn valid_glossy_sigma_falls_with_the_exponent_towards_its_mirror_limit() {
         theta_max: setup.theta_max,
         weighting: Weighting::Unweighted,
         max_bounces: 64,
+        flat: None,
     };
     let run = |bsdf: Bsdf, seed: u64| {
         let scene = big_plane(Material {

@@ -8,6 +8,10 @@
 //! 4. two independent walks of length T from x along ω and ω' with throughputs βA, βB;
 //! 5. `Δ = s(r) (‖a − b‖ / (T ‖ω − ω'‖) − 1)` (eq. 9, both paths start at x);
 //! 6. contribution `c = luminance(weight · βA · βB)`, accumulated as ΣP, ΣΔ, ΣΔ² (eq. 14).
+//!
+//! In flatland (`K::FLATLAND`, [`Params::flat`]) ω is uniform on the circle of in-plane directions
+//! (density 1/2π), ω' is ω turned by an angle uniform in [−θmax, θmax], and all densities are per
+//! radian ([`crate::transport::flat`]).
 
 pub mod moments;
 pub mod reference;
@@ -16,6 +20,7 @@ use crate::kernel::{AllFeatures, Kernel};
 use crate::math::{Frame, Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
+use crate::transport::flat::{self, Flatland};
 use crate::transport::sampling::{sample_uniform_cone_1mc, sample_uniform_sphere};
 use crate::transport::walk::{RadianceStats, radiance_k, walk_k};
 use glam::DVec3;
@@ -53,6 +58,10 @@ pub struct Params {
     pub weighting: Weighting,
     /// Cap on scattering events per walk and per radiance path.
     pub max_bounces: u32,
+    /// Flatland runs only: the slice plane every direction is confined to. The scene must have been
+    /// prepared for the same plane ([`Scene::prepare_flatland`]) and the kernel must be a flatland
+    /// one (`K::FLATLAND`).
+    pub flat: Option<Flatland>,
 }
 
 impl Params {
@@ -150,26 +159,44 @@ pub fn radiance_direction_k<K: Kernel>(
 ) -> (DVec3, Rgb) {
     use std::f64::consts::PI;
     let lights = &scene.lights;
-    let alpha = if lights.is_empty() {
-        1.0
+    let lights_empty = if K::FLATLAND {
+        scene.flat().lights.is_empty()
     } else {
-        UNIFORM_FRACTION
+        lights.is_empty()
     };
-    let p_uniform = alpha / (4.0 * PI);
+    let alpha = if lights_empty { 1.0 } else { UNIFORM_FRACTION };
+    // Densities per steradian, or per radian in flatland.
+    let p_uniform = if K::FLATLAND {
+        alpha * flat::PDF_CIRCLE
+    } else {
+        alpha / (4.0 * PI)
+    };
     let mut st = RadianceStats::default();
     let strategy = s.next_f64();
     let (u_l, u) = (s.next_f64(), s.next_2d());
+    let uniform = |u: (f64, f64)| {
+        if K::FLATLAND {
+            scene.flat().plane.sample_circle(u.0)
+        } else {
+            sample_uniform_sphere(u)
+        }
+    };
     if strategy < alpha {
-        let omega = sample_uniform_sphere(u);
+        let omega = uniform(u);
         // Light passing x along ω arrives from −ω.
         let r = radiance_k::<K>(scene, x, -omega, max_bounces, s, &mut st);
         *rays += st.rays;
         let direct = r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf);
         return (omega, direct + r.rest / p_uniform);
     }
-    let Some(ls) = lights.sample_k::<K>(x, u_l, u) else {
+    let sample = if K::FLATLAND {
+        scene.flat().lights.sample_k::<K>(x, u_l, u.0)
+    } else {
+        lights.sample_k::<K>(x, u_l, u)
+    };
+    let Some(ls) = sample else {
         // A light that faces away: this strategy contributes nothing here.
-        return (sample_uniform_sphere(s.next_2d()), Rgb::ZERO);
+        return (uniform(s.next_2d()), Rgb::ZERO);
     };
     let omega = -ls.wi;
     *rays += 1;
@@ -185,25 +212,33 @@ pub fn radiance_direction_k<K: Kernel>(
 }
 
 /// One FTPD sample at `x` with start direction drawn by the estimator (slice and volume domains).
-/// Uses the unspecialised kernel for the weighting; see [`sample_at_k`].
+/// Uses the unspecialised kernel for the weighting (in flatland when `p.flat` is set); see
+/// [`sample_at_k`].
 pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
-    match p.weighting {
-        Weighting::Radiance => sample_at_k::<AllFeatures>(scene, x, p, s),
-        Weighting::Unweighted | Weighting::Importance => {
-            sample_at_k::<crate::kernel::AllButRadiance>(scene, x, p, s)
-        }
+    use crate::kernel::{AllButRadiance, AllButRadianceFlat, AllFeaturesFlat};
+    let radiance = p.weighting == Weighting::Radiance;
+    match (radiance, p.flat.is_some()) {
+        (true, false) => sample_at_k::<AllFeatures>(scene, x, p, s),
+        (false, false) => sample_at_k::<AllButRadiance>(scene, x, p, s),
+        (true, true) => sample_at_k::<AllFeaturesFlat>(scene, x, p, s),
+        (false, true) => sample_at_k::<AllButRadianceFlat>(scene, x, p, s),
     }
 }
 
 /// [`sample_at`] for kernel `K`, which must cover the scene's features and `p.weighting`
-/// (radiance weighting exactly when `K::RADIANCE`).
+/// (radiance weighting exactly when `K::RADIANCE`), and be a flatland kernel exactly when `p.flat`
+/// is set (then `x` lies in that plane and the scene is prepared for it).
 #[inline]
 pub fn sample_at_k<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
     debug_assert!(K::RADIANCE || p.weighting != Weighting::Radiance);
+    debug_assert_eq!(K::FLATLAND, p.flat.is_some());
+    debug_assert!(!K::FLATLAND || p.flat == Some(scene.flat().plane));
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
     let mut rays = 0;
     let (omega, weight) = if K::RADIANCE && p.weighting == Weighting::Radiance {
         radiance_direction_k::<K>(scene, x, p.max_bounces, s, &mut rays)
+    } else if K::FLATLAND {
+        (flat_plane(p).sample_circle(s.next_2d().0), Rgb::ONE)
     } else {
         (sample_uniform_sphere(s.next_2d()), Rgb::ONE)
     };
@@ -235,6 +270,14 @@ pub fn sample_camera_k<K: Kernel>(
     out
 }
 
+/// The plane of a flatland run (flatland kernels only).
+#[inline(always)]
+fn flat_plane(p: &Params) -> &Flatland {
+    p.flat
+        .as_ref()
+        .expect("a flatland kernel needs Params::flat (the slice plane)")
+}
+
 /// The deflection pair for a given start point, direction ω, run length and weight.
 pub fn pair_from(
     scene: &Scene,
@@ -264,7 +307,17 @@ pub fn pair_from_k<K: Kernel>(
         ..Default::default()
     };
     let tan_half_max = (0.5 * p.theta_max).tan();
-    let (omega2, chord, r) = perturb(omega, p.one_minus_cos_max(), tan_half_max, s.next_2d());
+    let (omega2, chord, r) = if K::FLATLAND {
+        flat::perturb(
+            flat_plane(p),
+            omega,
+            p.theta_max,
+            tan_half_max,
+            s.next_2d().0,
+        )
+    } else {
+        perturb(omega, p.one_minus_cos_max(), tan_half_max, s.next_2d())
+    };
     if luminance(weight) <= 0.0 {
         // No light passes here in this direction: the pair carries no weight; skip tracing it.
         return out;

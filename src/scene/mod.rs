@@ -11,6 +11,7 @@ pub mod sidecar;
 
 use crate::accel::{Accel, RawHit};
 use crate::math::Rgb;
+use crate::transport::flat::{FlatScene, Flatland};
 use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -94,6 +95,9 @@ pub struct Scene {
     pub named_slices: Vec<(String, String)>,
     /// Diagonal of the bounds (1 for an empty scene), cached: the hit code uses it per ray.
     extent: f64,
+    /// The slice plane of a flatland run with its light cross-sections and 2D materials, set by
+    /// [`Scene::prepare_flatland`]; `None` for 3D runs.
+    pub flat: Option<FlatScene>,
     accel: Accel,
 }
 
@@ -184,8 +188,25 @@ impl Scene {
                 let d = bounds.diagonal();
                 if d > 0.0 && d.is_finite() { d } else { 1.0 }
             },
+            flat: None,
             accel,
         })
+    }
+
+    /// Prepares a flatland run on `plane` (named `label`, e.g. `z=0`, in messages): checks that the
+    /// geometry is extruded along the plane normal and point lights lie in the plane, and computes
+    /// the emitters' cross-sections. Call after every light has been added.
+    pub fn prepare_flatland(&mut self, plane: Flatland, label: &str) -> anyhow::Result<()> {
+        self.flat = Some(FlatScene::new(self, plane, label)?);
+        Ok(())
+    }
+
+    /// The flatland preparation; flatland kernels run only on prepared scenes.
+    #[inline]
+    pub fn flat(&self) -> &FlatScene {
+        self.flat
+            .as_ref()
+            .expect("a flatland kernel needs a scene prepared with Scene::prepare_flatland")
     }
 
     /// Diagonal of the bounds (1 for an empty scene, so that defaults stay meaningful).
@@ -308,6 +329,18 @@ impl Scene {
             .max_element()
             .max(o.abs().max_element());
         let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
+        // Flatland: normals projected into the plane (the geometric one is in it up to the
+        // validated 1e-4; shading normals may point anywhere), so scattered directions stay in it.
+        let (ng, ns) = if K::FLATLAND {
+            let pl = &self.flat().plane;
+            let ngp = pl.in_plane(ng).unwrap_or(ng);
+            let nsp = pl
+                .in_plane(ns)
+                .map_or(ngp, |n| if n.dot(ngp) < 0.0 { -n } else { n });
+            (ngp, nsp)
+        } else {
+            (ng, ns)
+        };
         Hit {
             t: raw.t as f64,
             p,

@@ -63,7 +63,7 @@ impl Bsdf {
     }
 
     /// Probability of choosing the diffuse lobe of a two-lobe mixture.
-    fn diffuse_probability(kd: Rgb, ks: Rgb) -> f64 {
+    pub(crate) fn diffuse_probability(kd: Rgb, ks: Rgb) -> f64 {
         let (d, s) = (luminance(kd).max(0.0), luminance(ks).max(0.0));
         if d + s > 0.0 { d / (d + s) } else { 1.0 }
     }

@@ -1,4 +1,5 @@
 //! Light transport: sampling warps, scattering models, and the random walks built from them.
 pub mod bsdf;
+pub mod flat;
 pub mod sampling;
 pub mod walk;

@@ -5,12 +5,16 @@
 //! - [`radiance`]: a path tracer with next-event estimation and multiple importance sampling (power
 //!   heuristic) that estimates the radiance arriving at a point from a direction, used as the
 //!   radiance weight.
+//!
+//! Flatland kernels (`K::FLATLAND`) take their BSDFs and lights from [`crate::transport::flat`]
+//! (angle measure, in-plane directions); the rest of both paths is shared with 3D.
 
 use crate::kernel::{AllFeatures, Kernel};
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::transport::bsdf::Mode;
+use crate::transport::flat::FlatBsdf;
 use glam::DVec3;
 
 /// Where a walk ended and what it carried.
@@ -90,12 +94,26 @@ pub fn walk_k<K: Kernel>(
                 rays,
             });
         }
-        let m = scene.material(&hit);
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let bs = m
-            .bsdf
-            .sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)?;
+        let bs = if K::FLATLAND {
+            let fs = scene.flat();
+            fs.bsdfs[hit.material as usize].sample(
+                &fs.plane,
+                -d,
+                hit.ng,
+                hit.ns,
+                u_lobe,
+                u,
+                s,
+                Mode::Importance,
+            )?
+        } else {
+            scene
+                .material(&hit)
+                .bsdf
+                .sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)?
+        };
         beta *= bs.weight;
         if beta == Rgb::ZERO {
             return None;
@@ -120,6 +138,12 @@ pub fn survives(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
         *beta /= q;
     }
     luminance(*beta) > 0.0
+}
+
+/// The 2D form of the material at a hit (flatland kernels only).
+#[inline(always)]
+fn flat_bsdf<'a>(scene: &'a Scene, hit: &crate::scene::Hit) -> &'a FlatBsdf {
+    &scene.flat().bsdfs[hit.material as usize]
 }
 
 /// Statistics of a radiance estimate.
@@ -181,6 +205,11 @@ pub fn radiance_k<K: Kernel>(
     st: &mut RadianceStats,
 ) -> Radiance {
     let lights = &scene.lights;
+    let lights_empty = if K::FLATLAND {
+        scene.flat().lights.is_empty()
+    } else {
+        lights.is_empty()
+    };
     let mut out = Radiance::default();
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;
@@ -199,7 +228,11 @@ pub fn radiance_k<K: Kernel>(
             let le = scene.emitted(&hit, -d);
             if le != Rgb::ZERO {
                 out.direct = le;
-                out.direct_pdf = lights.pdf_hit(x, hit.prim, hit.p, hit.ng);
+                out.direct_pdf = if K::FLATLAND {
+                    scene.flat().lights.pdf_hit(x, hit.prim, hit.p)
+                } else {
+                    lights.pdf_hit(x, hit.prim, hit.p, hit.ng)
+                };
             }
         } else {
             let le = scene.emitted(&hit, -d);
@@ -207,7 +240,12 @@ pub fn radiance_k<K: Kernel>(
                 let w = if prev_delta {
                     1.0
                 } else {
-                    power_heuristic(prev_pdf, lights.pdf_hit(prev_p, hit.prim, hit.p, hit.ng))
+                    let p_light = if K::FLATLAND {
+                        scene.flat().lights.pdf_hit(prev_p, hit.prim, hit.p)
+                    } else {
+                        lights.pdf_hit(prev_p, hit.prim, hit.p, hit.ng)
+                    };
+                    power_heuristic(prev_pdf, p_light)
                 };
                 l += beta * le * w;
             }
@@ -218,18 +256,32 @@ pub fn radiance_k<K: Kernel>(
         let bsdf = &scene.material(&hit).bsdf;
         let wo = -d;
         // Next-event estimation on surfaces with a non-delta lobe.
-        if !bsdf.is_delta_k::<K>() && !lights.is_empty() {
+        if !bsdf.is_delta_k::<K>() && !lights_empty {
             let u_l = s.next_f64();
             let u = s.next_2d();
-            if let Some(ls) = lights.sample_k::<K>(hit.p, u_l, u) {
-                let f = bsdf.eval_k::<K>(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
+            let sample = if K::FLATLAND {
+                scene.flat().lights.sample_k::<K>(hit.p, u_l, u.0)
+            } else {
+                lights.sample_k::<K>(hit.p, u_l, u)
+            };
+            if let Some(ls) = sample {
+                let f = if K::FLATLAND {
+                    flat_bsdf(scene, &hit).eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance)
+                } else {
+                    bsdf.eval_k::<K>(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance)
+                };
                 if f != Rgb::ZERO {
                     st.rays += 1;
                     if scene.visible_k::<K>(hit.spawn_origin(ls.wi), hit.p + ls.wi * ls.dist) {
                         let w = if ls.delta {
                             1.0
                         } else {
-                            power_heuristic(ls.pdf, bsdf.pdf_k::<K>(wo, ls.wi, hit.ng, hit.ns))
+                            let p_bsdf = if K::FLATLAND {
+                                flat_bsdf(scene, &hit).pdf(wo, ls.wi, hit.ng, hit.ns)
+                            } else {
+                                bsdf.pdf_k::<K>(wo, ls.wi, hit.ng, hit.ns)
+                            };
+                            power_heuristic(ls.pdf, p_bsdf)
                         };
                         l += beta * f * ls.li * (w / ls.pdf);
                     }
@@ -238,7 +290,22 @@ pub fn radiance_k<K: Kernel>(
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let Some(bs) = bsdf.sample_k::<K>(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance) else {
+        let sampled = if K::FLATLAND {
+            let fs = scene.flat();
+            flat_bsdf(scene, &hit).sample(
+                &fs.plane,
+                wo,
+                hit.ng,
+                hit.ns,
+                u_lobe,
+                u,
+                s,
+                Mode::Radiance,
+            )
+        } else {
+            bsdf.sample_k::<K>(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance)
+        };
+        let Some(bs) = sampled else {
             break;
         };
         beta *= bs.weight;
