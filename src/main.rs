@@ -1,7 +1,8 @@
 //! The command line: parses arguments (clap) into a validated job, runs it, reports errors.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use ftpd3d::app::{self, EstimatorArgs, SliceJob};
+use ftpd3d::app::{self, EstimatorArgs, SliceJob, VolumeJob};
+use ftpd3d::domain::VolumeRes;
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
 use std::path::PathBuf;
@@ -17,6 +18,8 @@ const VERSION: &str = concat!(
 /// Finite-Time Path Deflection (FTPD) fields of 3D scenes, by path-space Monte Carlo through Embree.
 ///
 /// Example: ftpd3d --scene scenes/cornell_mirror.obj --slice z=0 --res 256 --spp 64
+///
+/// Volume: ftpd3d --scene scenes/cornell_mirror.obj --volume 64 --spp 32 (writes a .vti for ParaView)
 #[derive(Parser, Debug)]
 #[command(name = "ftpd3d", version = VERSION, args_conflicts_with_subcommands = true)]
 struct Cli {
@@ -48,6 +51,14 @@ struct RunArgs {
     /// Axis-aligned slice plane, e.g. z=1.2 (x=c spans z,y; y=c spans x,z; z=c spans x,y).
     #[arg(long, value_name = "AXIS=VALUE|NAME")]
     slice: Option<String>,
+    /// A voxel grid instead of a slice, written as VTK ImageData (.vti): N voxels along the longest
+    /// side of the box (the others by aspect), or NX,NY,NZ.
+    #[arg(long, value_name = "N|NX,NY,NZ", value_parser = parse_volume,
+          conflicts_with_all = ["slice", "window", "res"])]
+    volume: Option<VolumeRes>,
+    /// The box a volume covers [default: the scene bounds, flat sides padded].
+    #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", allow_hyphen_values = true, value_parser = ftpd3d::domain::volume::parse_box)]
+    bbox: Option<[f64; 6]>,
     /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
     #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = app::parse_point_light)]
     point_light: Vec<(glam::DVec3, glam::DVec3)>,
@@ -84,10 +95,10 @@ struct RunArgs {
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Output EXR [default: out/<scene>_<slice>.exr].
+    /// Output EXR, or .vti for a volume [default: out/<scene>_<slice>.exr, out/<scene>_volume.vti].
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
-    /// Skip the PNG preview written next to the EXR.
+    /// Skip the PNG previews written next to the EXR (a volume's: its middle z-slice).
     #[arg(long)]
     no_png: bool,
     /// Print the scene's feature set and the kernel a run would use, then stop.
@@ -96,6 +107,10 @@ struct RunArgs {
     /// No progress bar or summary (errors and warnings still go to stderr).
     #[arg(short, long)]
     quiet: bool,
+}
+
+fn parse_volume(s: &str) -> Result<VolumeRes, String> {
+    s.parse()
 }
 
 fn parse_window(s: &str) -> Result<[f64; 4], String> {
@@ -118,53 +133,98 @@ fn parse_window(s: &str) -> Result<[f64; 4], String> {
 }
 
 impl RunArgs {
-    fn job(&self) -> anyhow::Result<SliceJob> {
-        let scene = self
-            .scene
+    fn scene(&self) -> anyhow::Result<PathBuf> {
+        self.scene
             .clone()
-            .ok_or_else(|| anyhow::anyhow!("--scene FILE is required (try --help)"))?;
-        let slice = self
-            .slice
-            .clone()
-            .ok_or_else(|| anyhow::anyhow!("--slice AXIS=VALUE is required, e.g. --slice z=0"))?;
-        let output = self.output.clone().unwrap_or_else(|| {
+            .ok_or_else(|| anyhow::anyhow!("--scene FILE is required (try --help)"))
+    }
+
+    /// `out/<scene stem>_<suffix>` unless `-o` was given.
+    fn output_or(&self, scene: &std::path::Path, suffix: &str) -> PathBuf {
+        self.output.clone().unwrap_or_else(|| {
             let stem = scene
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scene".into());
-            PathBuf::from("out").join(format!("{stem}_{}.exr", slice.replace(['=', '/', ' '], "")))
-        });
+            PathBuf::from("out").join(format!("{stem}_{suffix}"))
+        })
+    }
+
+    fn job(&self) -> anyhow::Result<SliceJob> {
+        if let Some(b) = self.bbox {
+            anyhow::bail!(
+                "--box {}: a box bounds a volume; add --volume N (slices take --window)",
+                b.map(|x| x.to_string()).join(",")
+            );
+        }
+        let scene = self.scene()?;
+        let slice = self.slice.clone().ok_or_else(|| {
+            anyhow::anyhow!(
+                "--slice AXIS=VALUE (e.g. --slice z=0) or --volume N (e.g. --volume 64) is required"
+            )
+        })?;
+        let output = self.output_or(
+            &scene,
+            &format!("{}.exr", slice.replace(['=', '/', ' '], "")),
+        );
         Ok(SliceJob {
             scene,
             slice,
             point_lights: self.point_light.clone(),
             window: self.window,
             res: self.res,
-            estimator: EstimatorArgs {
-                weighting: match self.weight {
-                    WeightArg::Radiance => Weighting::Radiance,
-                    WeightArg::Unweighted => Weighting::Unweighted,
-                },
-                t0: self.t0,
-                t1: self.t1,
-                angle_deg: self.angle,
-                max_bounces: self.max_bounces,
-            },
-            render: RenderOptions {
-                spp: self.spp,
-                batches: self.batches,
-                seed: self.seed,
-                threads: self.threads,
-                progress: !self.quiet,
-            },
+            estimator: self.estimator(),
+            render: self.render(),
             output,
             png: !self.no_png,
             quiet: self.quiet,
         })
     }
+
+    fn volume_job(&self, res: VolumeRes) -> anyhow::Result<VolumeJob> {
+        let scene = self.scene()?;
+        let output = self.output_or(&scene, "volume.vti");
+        Ok(VolumeJob {
+            scene,
+            point_lights: self.point_light.clone(),
+            res,
+            bbox: self.bbox,
+            estimator: self.estimator(),
+            render: self.render(),
+            output,
+            png: !self.no_png,
+            quiet: self.quiet,
+        })
+    }
+
+    fn estimator(&self) -> EstimatorArgs {
+        EstimatorArgs {
+            weighting: match self.weight {
+                WeightArg::Radiance => Weighting::Radiance,
+                WeightArg::Unweighted => Weighting::Unweighted,
+            },
+            t0: self.t0,
+            t1: self.t1,
+            angle_deg: self.angle,
+            max_bounces: self.max_bounces,
+        }
+    }
+
+    fn render(&self) -> RenderOptions {
+        RenderOptions {
+            spp: self.spp,
+            batches: self.batches,
+            seed: self.seed,
+            threads: self.threads,
+            progress: !self.quiet,
+        }
+    }
 }
 
 fn bench(args: &RunArgs) -> anyhow::Result<()> {
+    if args.volume.is_some() {
+        anyhow::bail!("bench runs on a slice: use --slice instead of --volume");
+    }
     let job = args.job()?;
     let scene = app::load_job_scene(&job)?;
     let params = job.estimator.resolve(&scene)?;
@@ -276,10 +336,16 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args),
         None if cli.run.explain => explain(&cli.run),
-        None => cli
-            .run
-            .job()
-            .and_then(|job| app::run_slice_job(&job).map(|_| ())),
+        None => match cli.run.volume {
+            Some(res) => cli
+                .run
+                .volume_job(res)
+                .and_then(|job| app::run_volume_job(&job).map(|_| ())),
+            None => cli
+                .run
+                .job()
+                .and_then(|job| app::run_slice_job(&job).map(|_| ())),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
