@@ -4,3 +4,4 @@ mod cli;
 mod ftpd;
 mod geometry;
 mod mis;
+mod volume;
