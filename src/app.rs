@@ -356,9 +356,12 @@ fn fmt_vec(v: glam::DVec3) -> String {
 
 /// Mean and 95th percentile of the relative standard error over valid cells with σ > 0.
 pub fn relative_error_summary(field: &Field) -> (f64, f64) {
+    // Cell by cell, not through `Field::values`: a volume's memory budget has no room for a
+    // second copy of every cell.
     let mut rel: Vec<f64> = field
-        .values()
+        .cells
         .iter()
+        .map(|c| c.finalize())
         .filter(|v| v.valid && v.sigma > 0.0)
         .map(|v| v.stderr / v.sigma)
         .filter(|r| r.is_finite())

@@ -274,6 +274,7 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         .ok_or_else(|| anyhow::anyhow!("--scene FILE is required"))?;
     let mut a = args.clone();
     a.slice.get_or_insert_with(|| "z=0".into());
+    a.bbox = None;
     let job = a.job()?;
     let scene = app::load_job_scene(&job)?;
     for w in &scene.report.warnings {
