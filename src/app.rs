@@ -1,8 +1,10 @@
 //! The validated job and what the command line runs: load, estimate, write, summarise.
-//! `main.rs` parses arguments into a [`Job`]; everything here returns errors, never panics.
+//! `main.rs` parses arguments into a [`Job`] or a [`VolumeJob`]; everything here returns errors,
+//! never panics.
 
 use crate::domain::slice::SliceSpec;
-use crate::domain::{CameraView, Domain, Plane};
+use crate::domain::volume::Volume;
+use crate::domain::{CameraView, Domain, Plane, Subset, VolumeRes};
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
@@ -515,9 +517,12 @@ fn fmt_vec(v: glam::DVec3) -> String {
 
 /// Mean and 95th percentile of the relative standard error over valid cells with σ > 0.
 pub fn relative_error_summary(field: &Field) -> (f64, f64) {
+    // Cell by cell, not through `Field::values`: a volume's memory budget has no room for a
+    // second copy of every cell.
     let mut rel: Vec<f64> = field
-        .values()
+        .cells
         .iter()
+        .map(|c| c.finalize())
         .filter(|v| v.valid && v.sigma > 0.0)
         .map(|v| v.stderr / v.sigma)
         .filter(|r| r.is_finite())
@@ -533,8 +538,16 @@ pub fn relative_error_summary(field: &Field) -> (f64, f64) {
 
 /// Loads the job's scene and adds its command-line point lights.
 pub fn load_job_scene(job: &Job) -> anyhow::Result<Scene> {
-    let mut scene = load_scene(&job.scene)?;
-    for (p, i) in &job.point_lights {
+    load_scene_with_lights(&job.scene, &job.point_lights)
+}
+
+/// Loads a scene and adds point lights (position, radiant intensity) to it.
+pub fn load_scene_with_lights(
+    path: &Path,
+    point_lights: &[(glam::DVec3, glam::DVec3)],
+) -> anyhow::Result<Scene> {
+    let mut scene = load_scene(path)?;
+    for (p, i) in point_lights {
         scene.lights.add_point(*p, *i);
     }
     scene.features = scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
@@ -763,6 +776,358 @@ pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()
     let (gx, gy) = output::png::sobel(&sigma, &valid, w, h);
     output::exr::write_exr(path, field, &[("grad.x", gx), ("grad.y", gy)])?;
     if png {
+        output::png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
+        output::png::write_gradient_preview(
+            &path.with_extension("grad.png"),
+            &sigma,
+            &valid,
+            w,
+            h,
+        )?;
+    }
+    Ok(())
+}
+
+/// A volume run, validated enough to start (the rest is checked against the loaded scene).
+#[derive(Clone, Debug)]
+pub struct VolumeJob {
+    pub scene: PathBuf,
+    /// Extra point lights: position, radiant intensity.
+    pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
+    /// `--volume`: voxels along the longest side, or along each axis.
+    pub res: VolumeRes,
+    /// `--box xmin,ymin,zmin,xmax,ymax,zmax`; `None` = the scene bounds (flat sides padded).
+    pub bbox: Option<[f64; 6]>,
+    pub estimator: EstimatorArgs,
+    pub render: RenderOptions,
+    /// The `.vti` to write.
+    pub output: PathBuf,
+    /// Also write PNG previews of the middle z-slice.
+    pub png: bool,
+    pub quiet: bool,
+}
+
+/// Memory assumed when `/proc/meminfo` cannot be read: 8 GiB.
+pub const FALLBACK_MEMORY_BYTES: u64 = 8 << 30;
+
+/// Memory available to a new run: `MemAvailable` from `/proc/meminfo`, and whether it was read
+/// (else [`FALLBACK_MEMORY_BYTES`]).
+pub fn available_memory() -> (u64, bool) {
+    let kb = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
+        s.lines()
+            .find_map(|l| l.strip_prefix("MemAvailable:"))
+            .and_then(|r| r.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+    });
+    match kb {
+        Some(kb) => (kb.saturating_mul(1024), true),
+        None => (FALLBACK_MEMORY_BYTES, false),
+    }
+}
+
+/// `1.5 GB`, `640 GB`, `3.2 TB` (decimal units).
+pub fn human_bytes(b: f64) -> String {
+    let units = ["B", "kB", "MB", "GB", "TB", "PB", "EB"];
+    let mut x = b;
+    let mut u = 0;
+    while x >= 1000.0 && u + 1 < units.len() {
+        x /= 1000.0;
+        u += 1;
+    }
+    if u == 0 || x >= 100.0 {
+        format!("{x:.0} {}", units[u])
+    } else {
+        format!("{x:.1} {}", units[u])
+    }
+}
+
+/// Memory a volume of `dims` voxels needs ([`output::vti::bytes_per_voxel`] each), without
+/// overflowing however large the request.
+pub fn volume_bytes(dims: [usize; 3]) -> u128 {
+    dims.iter()
+        .fold(1u128, |a, &d| a.saturating_mul(d as u128))
+        .saturating_mul(output::vti::bytes_per_voxel() as u128)
+}
+
+/// The voxel counts of `res` over a box of `size`, refused (naming `--volume` and the largest grid
+/// of the same shape that would fit) when they need more than `available` bytes. Arithmetic only:
+/// this runs before anything is allocated.
+pub fn check_volume_memory(
+    res: VolumeRes,
+    size: glam::DVec3,
+    available: u64,
+    measured: bool,
+) -> anyhow::Result<[usize; 3]> {
+    let dims = Volume::dims_for(res, size);
+    let need = volume_bytes(dims);
+    let fits = |d: [usize; 3]| volume_bytes(d) <= available as u128;
+    if !fits(dims) {
+        let suggestion = match res {
+            VolumeRes::Longest(n) => {
+                // Largest m < n whose grid fits (the count grows with m).
+                let (mut lo, mut hi) = (0usize, n);
+                while hi - lo > 1 {
+                    let mid = lo + (hi - lo) / 2;
+                    if fits(Volume::dims_for(VolumeRes::Longest(mid), size)) {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                (lo >= 1).then_some(VolumeRes::Longest(lo))
+            }
+            VolumeRes::Dims(d) => {
+                let mut f = (available as f64 / need as f64).cbrt();
+                let mut best = None;
+                while f > 0.0 {
+                    let e = d.map(|x| ((x as f64 * f).floor() as usize).clamp(1, x));
+                    if fits(e) {
+                        best = Some(VolumeRes::Dims(e));
+                        break;
+                    }
+                    if e == [1, 1, 1] {
+                        break;
+                    }
+                    f *= 0.99;
+                }
+                best
+            }
+        };
+        let voxels = dims.iter().map(|&d| d as f64).product::<f64>();
+        let have = format!(
+            "this machine has {} available{}",
+            human_bytes(available as f64),
+            if measured {
+                ""
+            } else {
+                " (assumed: /proc/meminfo could not be read)"
+            }
+        );
+        let fit = match suggestion {
+            Some(r) => format!("; --volume {r} would fit"),
+            None => String::new(),
+        };
+        bail!(
+            "--volume {res}: {}x{}x{} = {voxels:.1e} voxels need {} of memory ({} bytes each), \
+             {have}{fit}",
+            dims[0],
+            dims[1],
+            dims[2],
+            human_bytes(need as f64),
+            output::vti::bytes_per_voxel()
+        );
+    }
+    if let Some(d) = dims.iter().find(|&&d| d > i32::MAX as usize) {
+        bail!("--volume {res}: {d} voxels along one axis is more than a VTK image can index");
+    }
+    Ok(dims)
+}
+
+/// How long a run should take, from a short calibration on a few random cells.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Eta {
+    /// Estimated seconds for the whole run.
+    pub seconds: f64,
+    /// Samples per second measured.
+    pub rate: f64,
+    /// Cells and samples per cell of the last calibration round.
+    pub cells: usize,
+    pub spp: u32,
+    /// Time spent calibrating, all rounds.
+    pub calibration_seconds: f64,
+}
+
+/// Seconds the calibration aims at: its last round runs at least this long (or the whole spp).
+pub const CALIBRATION_SECONDS: f64 = 0.25;
+
+/// Estimates the run time of `domain` at `opts.spp` by running the same kernel on the same threads
+/// over random cells (128 per thread to start, so every thread has work), doubling the samples per
+/// cell, then the cells, until a round takes [`CALIBRATION_SECONDS`] (or covers the whole run).
+/// Its samples come from other streams and are thrown away; the run itself is unchanged.
+pub fn estimate_time<D: Domain>(
+    scene: &Scene,
+    domain: &D,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+) -> anyhow::Result<Eta> {
+    let (w, h, d) = domain.dims();
+    let total = w * h * d;
+    let threads = if opts.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        opts.threads
+    };
+    let mut pick = Sampler::new(opts.seed, u64::MAX, u64::MAX);
+    let mut subset = Subset {
+        inner: domain,
+        cells: Vec::new(),
+    };
+    let mut want = (128 * threads).min(total);
+    let mut o = opts.clone();
+    o.progress = false;
+    o.batches = 1;
+    o.seed = opts.seed ^ 0xCA11_B4A7_E000_0000;
+    o.spp = 1;
+    let start = Instant::now();
+    loop {
+        while subset.cells.len() < want {
+            let c = (pick.next_f64() * total as f64) as usize;
+            subset.cells.push(c.min(total - 1));
+        }
+        let (_, stats) = run_domain_with(scene, &subset, params, &o, kernel)?;
+        let whole = o.spp >= opts.spp && want >= total;
+        if stats.seconds >= CALIBRATION_SECONDS || whole {
+            let rate = stats.samples_per_second();
+            let samples = total as f64 * opts.spp as f64;
+            return Ok(Eta {
+                seconds: if rate > 0.0 { samples / rate } else { 0.0 },
+                rate,
+                cells: subset.cells.len(),
+                spp: o.spp,
+                calibration_seconds: start.elapsed().as_secs_f64(),
+            });
+        }
+        if o.spp < opts.spp {
+            o.spp = o.spp.saturating_mul(2).min(opts.spp);
+        } else {
+            want = want.saturating_mul(2).min(total);
+        }
+    }
+}
+
+/// Runs FTPD over a volume with the kernel chosen for the scene; the field (`nx` × `ny` × `nz`
+/// cells) comes back with its metadata filled in.
+pub fn run_volume(
+    scene: &Scene,
+    volume: &Volume,
+    params: &Params,
+    opts: &RenderOptions,
+) -> anyhow::Result<(Field, RunStats)> {
+    let kernel = kernel_choice(scene, params, true);
+    let (mut field, stats) = run_domain_with(scene, volume, params, opts, kernel)?;
+    describe_run(&mut field, scene, params, opts, "volume");
+    let m = &mut field.meta;
+    m.insert("kernel".into(), kernel.to_string());
+    let (lo, hi) = (volume.origin, volume.max_corner());
+    m.insert(
+        "volume.box".into(),
+        format!("{},{},{},{},{},{}", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z),
+    );
+    m.insert(
+        "volume.dims".into(),
+        format!("{},{},{}", volume.nx, volume.ny, volume.nz),
+    );
+    m.insert("volume.spacing".into(), fmt_vec(volume.spacing));
+    Ok((field, stats))
+}
+
+/// Runs a volume job end to end: load, check memory, estimate the time, run, write the `.vti` (and
+/// PNG previews of the middle z-slice), print a summary on stderr.
+pub fn run_volume_job(job: &VolumeJob) -> anyhow::Result<Field> {
+    if job.render.spp == 0 {
+        bail!("--spp 0: at least one sample per cell is needed");
+    }
+    if extension(&job.output).as_deref() != Some("vti") {
+        bail!(
+            "-o {}: a volume is written as VTK ImageData; name the file .vti",
+            job.output.display()
+        );
+    }
+    check_writable(&job.output)?;
+    let t_load = Instant::now();
+    let scene = load_scene_with_lights(&job.scene, &job.point_lights)?;
+    let params = job.estimator.resolve(&scene)?;
+    let bbox = Volume::resolve_box(&scene.bounds, job.bbox)?;
+    let (available, measured) = available_memory();
+    let dims = check_volume_memory(job.res, bbox.max - bbox.min, available, measured)?;
+    let volume = Volume::new(&bbox, dims)?;
+    let say = |s: String| {
+        if !job.quiet {
+            eprintln!("{s}");
+        }
+    };
+    for w in &scene.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    say(format!(
+        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s)",
+        job.scene.display(),
+        scene.triangles.len(),
+        scene.report.degenerate_dropped,
+        scene.lights.lights.len(),
+        scene.features,
+        t_load.elapsed().as_secs_f64()
+    ));
+    say(format!(
+        "volume {}x{}x{} voxels over [{}] .. [{}], spacing [{}], {} spp in {} batches, \
+         weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°; memory {} of {} available",
+        volume.nx,
+        volume.ny,
+        volume.nz,
+        fmt_vec(bbox.min),
+        fmt_vec(bbox.max),
+        fmt_vec(volume.spacing),
+        job.render.spp,
+        job.render.batches,
+        params.weighting,
+        params.t0,
+        params.t1,
+        job.estimator.angle_deg,
+        human_bytes(volume_bytes(dims) as f64),
+        human_bytes(available as f64),
+    ));
+    let eta = if job.quiet {
+        None
+    } else {
+        let e = estimate_time(
+            &scene,
+            &volume,
+            &params,
+            &job.render,
+            kernel_choice(&scene, &params, true),
+        )?;
+        say(format!(
+            "ETA {:.1} s ({:.3e} samples/s on {} random voxels × {} spp, calibrated in {:.2} s)",
+            e.seconds, e.rate, e.cells, e.spp, e.calibration_seconds
+        ));
+        Some(e)
+    };
+    let (field, stats) = run_volume(&scene, &volume, &params, &job.render)?;
+    let (rel_mean, rel_p95) = relative_error_summary(&field);
+    say(format!(
+        "done in {:.2} s{}: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
+         {} pairs hit the bounce cap ({}), {} non-finite samples dropped",
+        stats.seconds,
+        eta.map(|e| format!(" (ETA was {:.1} s)", e.seconds))
+            .unwrap_or_default(),
+        stats.samples_per_second(),
+        stats.rays_per_second(),
+        rel_mean,
+        rel_p95,
+        stats.capped,
+        params.max_bounces,
+        stats.clamped
+    ));
+    write_volume_outputs(&field, &volume, &job.output, job.png)?;
+    say(format!("wrote {}", job.output.display()));
+    Ok(field)
+}
+
+/// Writes the `.vti` (see [`output::vti`]) and, when asked, PNG previews of the middle z-slice
+/// (voxel layer `nz / 2`) next to it: `<name>.png` (σ) and `<name>.grad.png` (its gradient).
+pub fn write_volume_outputs(
+    field: &Field,
+    volume: &Volume,
+    path: &Path,
+    png: bool,
+) -> anyhow::Result<()> {
+    output::vti::write_vti(path, field, volume.vtk_origin(), volume.spacing)?;
+    if png {
+        let (w, h) = (field.width, field.height);
+        let layer = &field.cells[(field.depth / 2) * w * h..][..w * h];
+        let vals: Vec<_> = layer.iter().map(|c| c.finalize()).collect();
+        let sigma: Vec<f64> = vals.iter().map(|v| v.sigma).collect();
+        let valid: Vec<bool> = vals.iter().map(|v| v.valid).collect();
         output::png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
         output::png::write_gradient_preview(
             &path.with_extension("grad.png"),

@@ -3,7 +3,8 @@
 //! Structures of Light Transport", Computer Graphics Forum 34(3), 2015 (sections 5 and 6).
 //!
 //! Data flows one way: [`scene`] (load) → [`accel`] (Embree) → [`domain`] (where samples start) →
-//! [`ftpd`] (one sample, moments) → [`render`] (parallel passes) → [`field`] → [`output`] (EXR, PNG).
+//! [`ftpd`] (one sample, moments) → [`render`] (parallel passes) → [`field`] → [`output`] (EXR, VTI,
+//! PNG).
 
 // `!(x > 0.0)` is how this crate rejects NaN along with non-positive values; keep that idiom.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

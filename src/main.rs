@@ -1,7 +1,8 @@
 //! The command line: parses arguments (clap) into a validated job, runs it, reports errors.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job, SliceArg};
+use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job, SliceArg, VolumeJob};
+use ftpd3d::domain::VolumeRes;
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
 use std::path::PathBuf;
@@ -17,6 +18,8 @@ const VERSION: &str = concat!(
 /// Finite-Time Path Deflection (FTPD) fields of 3D scenes, by path-space Monte Carlo through Embree.
 ///
 /// Example: ftpd3d --scene scenes/cornell_mirror.obj --slice z=0 --res 256 --spp 64
+///
+/// Volume: ftpd3d --scene scenes/cornell_mirror.obj --volume 64 --spp 32 (writes a .vti for ParaView)
 #[derive(Parser, Debug)]
 #[command(name = "ftpd3d", version = VERSION, args_conflicts_with_subcommands = true)]
 struct Cli {
@@ -58,6 +61,14 @@ struct RunArgs {
     /// separated by ';'); repeatable.
     #[arg(long, value_name = "SPEC")]
     plane: Vec<ftpd3d::domain::slice::PlaneSpec>,
+    /// A voxel grid instead of a slice, written as VTK ImageData (.vti): N voxels along the longest
+    /// side of the box (the others by aspect), or NX,NY,NZ.
+    #[arg(long, value_name = "N|NX,NY,NZ", value_parser = parse_volume,
+          conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland"])]
+    volume: Option<VolumeRes>,
+    /// The box a volume covers [default: the scene bounds, flat sides padded].
+    #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", allow_hyphen_values = true, value_parser = ftpd3d::domain::volume::parse_box)]
+    bbox: Option<[f64; 6]>,
     /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
     #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = app::parse_point_light)]
     point_light: Vec<(glam::DVec3, glam::DVec3)>,
@@ -114,10 +125,10 @@ struct RunArgs {
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Output EXR [default: out/<scene>_<slice>.exr].
+    /// Output EXR, or .vti for a volume [default: out/<scene>_<slice>.exr, out/<scene>_volume.vti].
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
-    /// Skip the PNG preview written next to the EXR.
+    /// Skip the PNG previews written next to the EXR (a volume's: its middle z-slice).
     #[arg(long)]
     no_png: bool,
     /// Flatland: confine every direction to the slice plane (2D light transport, as in the paper's
@@ -172,6 +183,10 @@ fn parse_size(s: &str) -> Result<(usize, usize), String> {
     Ok((p(w)?, p(h)?))
 }
 
+fn parse_volume(s: &str) -> Result<VolumeRes, String> {
+    s.parse()
+}
+
 fn parse_window(s: &str) -> Result<[f64; 4], String> {
     let v: Vec<f64> = s
         .split(',')
@@ -192,11 +207,31 @@ fn parse_window(s: &str) -> Result<[f64; 4], String> {
 }
 
 impl RunArgs {
-    fn job(&self) -> anyhow::Result<Job> {
-        let scene = self
-            .scene
+    fn scene(&self) -> anyhow::Result<PathBuf> {
+        self.scene
             .clone()
-            .ok_or_else(|| anyhow::anyhow!("--scene FILE is required (try --help)"))?;
+            .ok_or_else(|| anyhow::anyhow!("--scene FILE is required (try --help)"))
+    }
+
+    /// `out/<scene stem>_<suffix>` unless `-o` was given.
+    fn output_or(&self, scene: &std::path::Path, suffix: &str) -> PathBuf {
+        self.output.clone().unwrap_or_else(|| {
+            let stem = scene
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "scene".into());
+            PathBuf::from("out").join(format!("{stem}_{suffix}"))
+        })
+    }
+
+    fn job(&self) -> anyhow::Result<Job> {
+        if let Some(b) = self.bbox {
+            anyhow::bail!(
+                "--box {}: a box bounds a volume; add --volume N (slices take --window)",
+                b.map(|x| x.to_string()).join(",")
+            );
+        }
+        let scene = self.scene()?;
         let stem = scene
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -261,24 +296,8 @@ impl RunArgs {
             scene,
             domain,
             point_lights: self.point_light.clone(),
-            estimator: EstimatorArgs {
-                weighting: match weight {
-                    WeightArg::Radiance => Weighting::Radiance,
-                    WeightArg::Unweighted => Weighting::Unweighted,
-                    WeightArg::Importance => Weighting::Importance,
-                },
-                t0: self.t0,
-                t1: self.t1,
-                angle_deg: self.angle,
-                max_bounces: self.max_bounces,
-            },
-            render: RenderOptions {
-                spp: self.spp,
-                batches: self.batches,
-                seed: self.seed,
-                threads: self.threads,
-                progress: !self.quiet,
-            },
+            estimator: self.estimator(weight),
+            render: self.render(),
             output: self
                 .output
                 .clone()
@@ -288,9 +307,57 @@ impl RunArgs {
             flatland: self.flatland,
         })
     }
+
+    fn volume_job(&self, res: VolumeRes) -> anyhow::Result<VolumeJob> {
+        let scene = self.scene()?;
+        if matches!(self.weight, Some(WeightArg::Importance)) {
+            anyhow::bail!(
+                "--weight importance needs a camera; volumes take radiance or unweighted"
+            );
+        }
+        let output = self.output_or(&scene, "volume.vti");
+        Ok(VolumeJob {
+            scene,
+            point_lights: self.point_light.clone(),
+            res,
+            bbox: self.bbox,
+            estimator: self.estimator(self.weight.unwrap_or(WeightArg::Radiance)),
+            render: self.render(),
+            output,
+            png: !self.no_png,
+            quiet: self.quiet,
+        })
+    }
+
+    fn estimator(&self, weight: WeightArg) -> EstimatorArgs {
+        EstimatorArgs {
+            weighting: match weight {
+                WeightArg::Radiance => Weighting::Radiance,
+                WeightArg::Unweighted => Weighting::Unweighted,
+                WeightArg::Importance => Weighting::Importance,
+            },
+            t0: self.t0,
+            t1: self.t1,
+            angle_deg: self.angle,
+            max_bounces: self.max_bounces,
+        }
+    }
+
+    fn render(&self) -> RenderOptions {
+        RenderOptions {
+            spp: self.spp,
+            batches: self.batches,
+            seed: self.seed,
+            threads: self.threads,
+            progress: !self.quiet,
+        }
+    }
 }
 
 fn bench(args: &RunArgs) -> anyhow::Result<()> {
+    if args.volume.is_some() {
+        anyhow::bail!("bench runs on a slice: use --slice instead of --volume");
+    }
     use std::io::Write;
     let mut out = std::io::stdout().lock();
     let job = args.job()?;
@@ -372,6 +439,7 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     if a.camera.is_none() && a.eye.is_none() && a.slice.is_empty() {
         a.slice.push("z=0".into());
     }
+    a.bbox = None;
     let job = a.job()?;
     let mut scene = app::load_job_scene(&job)?;
     for w in &scene.report.warnings {
@@ -473,7 +541,13 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args),
         None if cli.run.explain => explain(&cli.run),
-        None => cli.run.job().and_then(|job| app::run_job(&job).map(|_| ())),
+        None => match cli.run.volume {
+            Some(res) => cli
+                .run
+                .volume_job(res)
+                .and_then(|job| app::run_volume_job(&job).map(|_| ())),
+            None => cli.run.job().and_then(|job| app::run_job(&job).map(|_| ())),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

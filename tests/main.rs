@@ -7,3 +7,4 @@ mod geometry;
 mod gltf;
 mod mis;
 mod valid;
+mod volume;

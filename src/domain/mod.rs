@@ -1,20 +1,23 @@
-//! Where samples start: planar slices, camera images (and volumes). Each domain is a grid of cells
-//! and knows how to draw one FTPD sample for a cell with any kernel.
+//! Where samples start: planar slices (axis-aligned or arbitrary), voxel volumes and camera images.
+//! Each domain is a grid of cells and knows how to draw one FTPD sample for a cell with any kernel.
 pub mod camera;
 pub mod slice;
+pub mod volume;
 pub use camera::CameraView;
 pub use slice::{Axis, Plane};
+pub use volume::{Volume, VolumeRes};
 
 use crate::ftpd::{self, Params, Sample};
 use crate::kernel::Kernel;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 
-/// A grid of cells over which FTPD is estimated.
+/// A grid of cells over which FTPD is estimated (see [`crate::app::run_domain_with`], which
+/// dispatches the kernel once for any domain).
 pub trait Domain: Sync {
     /// Grid size (width, height, depth); cells are numbered x fastest.
     fn dims(&self) -> (usize, usize, usize);
-    /// One sample for `cell` with kernel `K`.
+    /// One sample for `cell` with kernel `K`, drawn from the cell's stream `s`.
     fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample;
 }
 
@@ -29,6 +32,18 @@ impl Domain for Plane {
     }
 }
 
+impl Domain for Volume {
+    fn dims(&self) -> (usize, usize, usize) {
+        (self.nx, self.ny, self.nz)
+    }
+    #[inline]
+    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
+        let (a, b) = s.next_2d();
+        let x = self.point(cell, (a, b, s.next_f64()));
+        ftpd::sample_at_k::<K>(scene, x, p, s)
+    }
+}
+
 impl Domain for CameraView {
     fn dims(&self) -> (usize, usize, usize) {
         (self.width, self.height, 1)
@@ -37,5 +52,22 @@ impl Domain for CameraView {
     fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
         let d = self.direction(cell, s.next_2d());
         ftpd::sample_camera_k::<K>(scene, self.camera.eye, d, p, s)
+    }
+}
+
+/// Some cells of another domain, by index (cell `k` here is cell `cells[k]` there): the ETA
+/// calibration samples a few random voxels of a volume through it.
+pub struct Subset<'a, D> {
+    pub inner: &'a D,
+    pub cells: Vec<usize>,
+}
+
+impl<D: Domain> Domain for Subset<'_, D> {
+    fn dims(&self) -> (usize, usize, usize) {
+        (self.cells.len(), 1, 1)
+    }
+    #[inline]
+    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
+        self.inner.sample::<K>(scene, self.cells[cell], p, s)
     }
 }

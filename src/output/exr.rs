@@ -20,42 +20,11 @@
 
 use crate::field::Field;
 use crate::ftpd::moments::Moments;
+use crate::output::{EXACT, f32_of};
 use anyhow::{Context, bail};
 use exr::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
-
-/// The sums stored exactly, by name, with accessors.
-type Getter = fn(&Moments) -> f64;
-type Setter = fn(&mut Moments, f64);
-const EXACT: &[(&str, Getter, Setter)] = &[
-    ("sum.w", |m| m.s0, |m, v| m.s0 = v),
-    ("sum.wd", |m| m.s1, |m, v| m.s1 = v),
-    ("sum.wd2", |m| m.s2, |m, v| m.s2 = v),
-    ("sum.fluence.R", |m| m.fluence.x, |m, v| m.fluence.x = v),
-    ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
-    ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
-    ("batch.sigma", |m| m.batch_sigma, |m, v| m.batch_sigma = v),
-    (
-        "batch.sigma2",
-        |m| m.batch_sigma2,
-        |m, v| m.batch_sigma2 = v,
-    ),
-];
-
-/// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).
-fn f32_of(x: f64) -> f32 {
-    let y = x as f32;
-    if y.is_finite() {
-        y
-    } else if x > 0.0 {
-        f32::MAX
-    } else if x < 0.0 {
-        f32::MIN
-    } else {
-        0.0
-    }
-}
 
 /// Writes a 2D field (depth 1) with optional extra f32 channels (e.g. `grad.x`), each one value per
 /// cell in field order. Written to a temporary name, then renamed.

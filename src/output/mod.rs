@@ -1,9 +1,12 @@
-//! Writers: OpenEXR for 2D fields, PNG previews. Every file is written under a temporary name in the
-//! destination directory and renamed into place, so a failed run never leaves a truncated output.
+//! Writers: OpenEXR for 2D fields, VTK XML ImageData (`.vti`) for volumes, PNG previews. Every file
+//! is written under a temporary name in the destination directory and renamed into place, so a
+//! failed run never leaves a truncated output.
 
 pub mod exr;
 pub mod png;
+pub mod vti;
 
+use crate::ftpd::moments::Moments;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -38,5 +41,39 @@ pub fn write_atomically(
             let _ = std::fs::remove_file(&tmp);
             Err(e.context(format!("{}: writing failed", path.display())))
         }
+    }
+}
+
+/// The sums every output keeps exactly (EXR as hi/lo u32 pairs, VTI as Float64), by name, with
+/// accessors: with the sample and batch counts they are a cell's whole [`Moments`], so fields read
+/// back merge bit for bit.
+pub(crate) type Getter = fn(&Moments) -> f64;
+pub(crate) type Setter = fn(&mut Moments, f64);
+pub(crate) const EXACT: &[(&str, Getter, Setter)] = &[
+    ("sum.w", |m| m.s0, |m, v| m.s0 = v),
+    ("sum.wd", |m| m.s1, |m, v| m.s1 = v),
+    ("sum.wd2", |m| m.s2, |m, v| m.s2 = v),
+    ("sum.fluence.R", |m| m.fluence.x, |m, v| m.fluence.x = v),
+    ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
+    ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
+    ("batch.sigma", |m| m.batch_sigma, |m, v| m.batch_sigma = v),
+    (
+        "batch.sigma2",
+        |m| m.batch_sigma2,
+        |m, v| m.batch_sigma2 = v,
+    ),
+];
+
+/// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).
+pub fn f32_of(x: f64) -> f32 {
+    let y = x as f32;
+    if y.is_finite() {
+        y
+    } else if x > 0.0 {
+        f32::MAX
+    } else if x < 0.0 {
+        f32::MIN
+    } else {
+        0.0
     }
 }

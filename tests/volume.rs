@@ -1,0 +1,430 @@
+//! Volumes: the `.vti` as an independent VTK reader sees it, its exact header, agreement with a
+//! slice through the same points, and the memory check that refuses impossible grids.
+
+use crate::geometry::scene_path;
+use ftpd3d::app::{DomainArg, EstimatorArgs, Job, SliceArg, VolumeJob, run_job, run_volume_job};
+use ftpd3d::domain::VolumeRes;
+use ftpd3d::field::Field;
+use ftpd3d::ftpd::Weighting;
+use ftpd3d::render::RenderOptions;
+use std::path::{Path, PathBuf};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ftpd3d-volume-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> VolumeJob {
+    VolumeJob {
+        scene: scene_path("cornell_mirror.obj"),
+        point_lights: vec![],
+        res,
+        bbox,
+        estimator: EstimatorArgs {
+            weighting: Weighting::Radiance,
+            t0: None,
+            t1: None,
+            angle_deg: 2.0,
+            max_bounces: 32,
+        },
+        render: RenderOptions {
+            spp,
+            batches: 4,
+            seed: 7,
+            threads: 0,
+            progress: false,
+        },
+        output: out.to_path_buf(),
+        png: false,
+        quiet: true,
+    }
+}
+
+#[test]
+fn vti_read_by_vtkio_equals_the_field() {
+    use vtkio::model::{Attribute, DataSet, Extent, IOBuffer, Piece};
+    let dir = temp_dir("vtkio");
+    let out = dir.join("c.vti");
+    let field = run_volume_job(&volume_job(VolumeRes::Dims([6, 5, 4]), None, 8, &out)).unwrap();
+    let vtk = vtkio::Vtk::import(&out).expect("vtkio reads the file");
+    let DataSet::ImageData {
+        extent,
+        origin,
+        spacing,
+        pieces,
+        ..
+    } = vtk.data
+    else {
+        panic!("not ImageData");
+    };
+    assert_eq!(extent, Extent::Ranges([0..=5, 0..=4, 0..=3]));
+    // Cornell box: [-1,1] x [0,2] x [-1,1]; point data at voxel centres.
+    let sp = [2.0 / 6.0, 2.0 / 5.0, 2.0 / 4.0];
+    let or = [-1.0 + sp[0] / 2.0, sp[1] / 2.0, -1.0 + sp[2] / 2.0];
+    for a in 0..3 {
+        assert!((spacing[a] as f64 - sp[a]).abs() < 1e-6, "{spacing:?}");
+        assert!((origin[a] as f64 - or[a]).abs() < 1e-6, "{origin:?}");
+    }
+    let Piece::Inline(piece) = &pieces[0] else {
+        panic!("piece not inline")
+    };
+    let arrays: Vec<_> = piece
+        .data
+        .point
+        .iter()
+        .map(|a| match a {
+            Attribute::DataArray(d) => (d.name.clone(), d.elem.clone(), d.data.clone()),
+            Attribute::Field { .. } => panic!("field attribute"),
+        })
+        .collect();
+    let names: Vec<&str> = arrays.iter().map(|a| a.0.as_str()).collect();
+    // vtkio drops arrays it cannot read, so the full list proves every one was readable.
+    assert_eq!(
+        names,
+        [
+            "ftpd",
+            "ftpd.stderr",
+            "ftpd.relerr",
+            "ftpd.mean",
+            "ftpd.m2",
+            "weight",
+            "fluence",
+            "grad.mag",
+            "valid",
+            "samples",
+            "batches",
+            "exact.sum.w",
+            "exact.sum.wd",
+            "exact.sum.wd2",
+            "exact.sum.fluence.R",
+            "exact.sum.fluence.G",
+            "exact.sum.fluence.B",
+            "exact.batch.sigma",
+            "exact.batch.sigma2",
+        ]
+    );
+    let get = |name: &str| &arrays.iter().find(|a| a.0 == name).unwrap().2;
+    let vals = field.values();
+    let n = vals.len();
+    assert_eq!(n, 120);
+    let IOBuffer::F32(sigma) = get("ftpd") else {
+        panic!()
+    };
+    let IOBuffer::F32(se) = get("ftpd.stderr") else {
+        panic!()
+    };
+    let IOBuffer::U8(valid) = get("valid") else {
+        panic!()
+    };
+    let IOBuffer::U32(samples) = get("samples") else {
+        panic!()
+    };
+    let IOBuffer::F32(fluence) = get("fluence") else {
+        panic!()
+    };
+    let IOBuffer::F64(s0) = get("exact.sum.w") else {
+        panic!()
+    };
+    let IOBuffer::F64(s2) = get("exact.sum.wd2") else {
+        panic!()
+    };
+    let IOBuffer::F32(grad) = get("grad.mag") else {
+        panic!()
+    };
+    assert_eq!(fluence.len(), 3 * n);
+    let spacing64 = glam::DVec3::new(sp[0], sp[1], sp[2]);
+    let want_grad = ftpd3d::output::vti::gradient_magnitude(&vals, [6, 5, 4], spacing64);
+    for i in 0..n {
+        assert_eq!(sigma[i], vals[i].sigma as f32, "voxel {i}");
+        assert_eq!(se[i], vals[i].stderr as f32);
+        assert_eq!(valid[i], vals[i].valid as u8);
+        assert_eq!(samples[i] as u64, field.cells[i].n);
+        assert_eq!(s0[i].to_bits(), field.cells[i].s0.to_bits());
+        assert_eq!(s2[i].to_bits(), field.cells[i].s2.to_bits());
+        let f = field.cells[i].fluence();
+        assert_eq!(
+            &fluence[3 * i..3 * i + 3],
+            &[f.x as f32, f.y as f32, f.z as f32]
+        );
+        assert!(grad[i].is_finite());
+        assert!((grad[i] - want_grad[i]).abs() <= 1e-6 * want_grad[i].abs());
+    }
+    assert!(valid.iter().filter(|&&v| v == 1).count() > n / 2);
+    assert!(
+        fluence.iter().any(|&f| f > 0.0),
+        "radiance weighting has fluence"
+    );
+
+    // Our own reader gives the field back exactly: volumes merge like EXR fields.
+    let back = ftpd3d::output::vti::read_vti(&out).unwrap();
+    assert_eq!(back.field, field);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn vti_header_of_a_2x2x2_volume_is_exactly_this() {
+    let dir = temp_dir("golden");
+    let out = dir.join("g.vti");
+    let mut field = Field::new(2, 2, 2);
+    field.meta.insert("scene".into(), "a--b.obj".into());
+    field.meta.insert("weighting".into(), "unweighted".into());
+    ftpd3d::output::vti::write_vti(
+        &out,
+        &field,
+        glam::DVec3::splat(0.25),
+        glam::DVec3::new(0.5, 0.5, 1.5),
+    )
+    .unwrap();
+    let bytes = std::fs::read(&out).unwrap();
+    let text = String::from_utf8(bytes).unwrap();
+    let appended = text.find("<AppendedData").unwrap();
+    let header = &text[..appended + text[appended..].find('_').unwrap() + 1];
+    // Offsets count base64 characters: a Float32 array of 8 values is 8 + 32 bytes = 56 chars,
+    // 3 components 8 + 96 bytes = 140, UInt8 24, UInt32 56, Float64 96.
+    let expected = r#"<?xml version="1.0"?>
+<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" header_type="UInt64">
+  <!-- ftpd3d scene=a-%2Db.obj -->
+  <!-- ftpd3d weighting=unweighted -->
+  <ImageData WholeExtent="0 1 0 1 0 1" Origin="0.25 0.25 0.25" Spacing="0.5 0.5 1.5">
+    <Piece Extent="0 1 0 1 0 1">
+      <PointData Scalars="ftpd">
+        <DataArray type="Float32" Name="ftpd" format="appended" offset="0"></DataArray>
+        <DataArray type="Float32" Name="ftpd.stderr" format="appended" offset="56"></DataArray>
+        <DataArray type="Float32" Name="ftpd.relerr" format="appended" offset="112"></DataArray>
+        <DataArray type="Float32" Name="ftpd.mean" format="appended" offset="168"></DataArray>
+        <DataArray type="Float32" Name="ftpd.m2" format="appended" offset="224"></DataArray>
+        <DataArray type="Float32" Name="weight" format="appended" offset="280"></DataArray>
+        <DataArray type="Float32" Name="fluence" NumberOfComponents="3" format="appended" offset="336"></DataArray>
+        <DataArray type="Float32" Name="grad.mag" format="appended" offset="476"></DataArray>
+        <DataArray type="UInt8" Name="valid" format="appended" offset="532"></DataArray>
+        <DataArray type="UInt32" Name="samples" format="appended" offset="556"></DataArray>
+        <DataArray type="UInt32" Name="batches" format="appended" offset="612"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w" format="appended" offset="668"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd" format="appended" offset="764"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd2" format="appended" offset="860"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.fluence.R" format="appended" offset="956"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.fluence.G" format="appended" offset="1052"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.fluence.B" format="appended" offset="1148"></DataArray>
+        <DataArray type="Float64" Name="exact.batch.sigma" format="appended" offset="1244"></DataArray>
+        <DataArray type="Float64" Name="exact.batch.sigma2" format="appended" offset="1340"></DataArray>
+      </PointData>
+    </Piece>
+  </ImageData>
+  <AppendedData encoding="base64">
+   _"#;
+    assert_eq!(header, expected);
+    // The appended block holds exactly the announced characters, then closes the document.
+    let tail = &text[header.len()..];
+    assert_eq!(tail.find('\n'), Some(1340 + 96));
+    assert_eq!(&tail[1340 + 96..], "\n  </AppendedData>\n</VTKFile>\n");
+    // An empty voxel: byte count 32 (UInt64 LE) then 8 zero floats.
+    assert_eq!(
+        &tail[..56],
+        "IAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA=="
+    );
+    let back = ftpd3d::output::vti::read_vti(&out).unwrap();
+    assert_eq!(back.field, field);
+    assert_eq!(back.origin, glam::DVec3::splat(0.25));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A volume one voxel thick around z = c samples the same points (up to the z jitter) as a slice
+/// z = c over the same x-y window at the same resolution, so both estimate the same σ per cell.
+///
+/// Unweighted: the test is about where the points lie, and with radiance weighting the batch
+/// standard error itself is too small in a few percent of cells (rare bright paths that most
+/// 16-sample batches miss), so two independent slices disagree by more than 4 standard errors in
+/// about 5% of cells too.
+#[test]
+fn a_thin_volume_agrees_with_the_slice_through_it() {
+    let dir = temp_dir("slice");
+    let (c, eps, n, spp) = (-0.4, 1e-4, 24, 256);
+    let mut vjob = volume_job(
+        VolumeRes::Dims([n, n, 1]),
+        Some([-1.0, 0.0, c - eps, 1.0, 2.0, c + eps]),
+        spp,
+        &dir.join("v.vti"),
+    );
+    vjob.render.batches = 16;
+    vjob.estimator.weighting = Weighting::Unweighted;
+    let vol = run_volume_job(&vjob).unwrap();
+    let sjob = Job {
+        scene: vjob.scene.clone(),
+        domain: DomainArg::Slice {
+            slices: vec![SliceArg::Axis(format!("z={c}"))],
+            window: Some([-1.0, 0.0, 1.0, 2.0]),
+            res: n,
+        },
+        point_lights: vec![],
+        flatland: false,
+        estimator: vjob.estimator.clone(),
+        // Another seed: independent estimates, so their difference is pure noise.
+        render: RenderOptions {
+            seed: 8,
+            ..vjob.render.clone()
+        },
+        output: dir.join("s.exr"),
+        png: false,
+        quiet: true,
+    };
+    let slice = run_job(&sjob).unwrap().remove(0);
+    assert_eq!((slice.width, slice.height, slice.depth), (n, n, 1));
+    assert_eq!((vol.width, vol.height, vol.depth), (n, n, 1));
+    let (a, b) = (vol.values(), slice.values());
+    let same_validity = a.iter().zip(&b).filter(|(x, y)| x.valid == y.valid).count();
+    assert!(
+        same_validity as f64 >= 0.99 * (n * n) as f64,
+        "{same_validity}"
+    );
+    let (mut within, mut cells, mut diff, mut var) = (0usize, 0usize, 0.0, 0.0);
+    for (x, y) in a.iter().zip(&b).filter(|(x, y)| x.valid && y.valid) {
+        let se2 = x.stderr * x.stderr + y.stderr * y.stderr;
+        cells += 1;
+        within += ((x.sigma - y.sigma).abs() < 4.0 * se2.sqrt()) as usize;
+        diff += x.sigma - y.sigma;
+        var += se2;
+    }
+    assert!(cells > (n * n) / 2, "{cells} valid cells");
+    let frac = within as f64 / cells as f64;
+    assert!(
+        frac >= 0.97,
+        "only {within} of {cells} cells agree within 4 standard errors"
+    );
+    // The mean difference over all cells, against its own standard error.
+    let (mean, se) = (diff / cells as f64, var.sqrt() / cells as f64);
+    assert!(
+        mean.abs() < 4.0 * se,
+        "mean σ difference {mean:e} vs its standard error {se:e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn ftpd3d_bin(args: &[&str]) -> (bool, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .args(args)
+        .output()
+        .expect("binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn impossible_grids_are_refused_before_allocating() {
+    let dir = temp_dir("memory");
+    let cornell = scene_path("cornell_mirror.obj");
+    let out = dir.join("x.vti");
+    let (cornell, out_s) = (cornell.to_str().unwrap(), out.to_str().unwrap());
+    for (spec, fit) in [
+        ("100000", "--volume "),
+        ("100000,100000,100000", "--volume "),
+    ] {
+        let (ok, err) = ftpd3d_bin(&["--scene", cornell, "--volume", spec, "-o", out_s]);
+        assert!(!ok);
+        assert!(
+            err.contains(&format!("--volume {spec}: "))
+                && err.contains("of memory")
+                && err.contains("available")
+                && err.contains(fit)
+                && err.contains("would fit"),
+            "{err}"
+        );
+        assert!(
+            !err.contains("panicked") && !err.contains("memory allocation"),
+            "{err}"
+        );
+    }
+    assert!(!out.exists(), "nothing written");
+    // The suggested grid is the largest that fits: one more voxel along the side does not.
+    let size = glam::DVec3::new(2.0, 2.0, 2.0);
+    let avail = 23_000_000_000u64;
+    let e = ftpd3d::app::check_volume_memory(VolumeRes::Longest(2000), size, avail, true)
+        .unwrap_err()
+        .to_string();
+    let per = ftpd3d::output::vti::bytes_per_voxel() as f64;
+    let m = (avail as f64 / per).cbrt().floor() as usize;
+    assert!(e.contains(&format!("--volume {m} would fit")), "{e}");
+    assert!(
+        e.starts_with("--volume 2000: 2000x2000x2000 = 8.0e9 voxels need "),
+        "{e}"
+    );
+    assert!(ftpd3d::app::check_volume_memory(VolumeRes::Longest(m), size, avail, true).is_ok());
+    assert!(
+        ftpd3d::app::check_volume_memory(VolumeRes::Longest(m + 1), size, avail, true).is_err()
+    );
+    let e =
+        ftpd3d::app::check_volume_memory(VolumeRes::Dims([4000, 2000, 1000]), size, avail, true)
+            .unwrap_err()
+            .to_string();
+    let fit = e.rsplit("--volume ").next().unwrap();
+    let dims: Vec<usize> = fit
+        .trim_end_matches(" would fit")
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!(
+        ftpd3d::app::volume_bytes([dims[0], dims[1], dims[2]]) <= avail as u128,
+        "{e}"
+    );
+    assert!(dims[0] > dims[1] && dims[1] > dims[2], "same shape: {e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn volume_flags_are_checked_naming_the_flag() {
+    let cornell = scene_path("cornell_mirror.obj");
+    let cornell = cornell.to_str().unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["--volume", "4", "--slice", "z=0"], "--slice"),
+        (&["--volume", "4", "--res", "8"], "--res"),
+        (&["--volume", "0"], "at least 1 voxel"),
+        (&["--volume", "4,4"], "NX,NY,NZ"),
+        (
+            &["--box", "0,0,0,1,1,1", "--slice", "z=0"],
+            "--box 0,0,0,1,1,1: a box bounds a volume; add --volume",
+        ),
+        (
+            &["--volume", "4", "--box", "-1,0,0,1,0,1"],
+            "--box -1,0,0,1,0,1: needs",
+        ),
+        (&["--volume", "4", "--box", "1,2,3"], "expected 6"),
+        (&["--volume", "4", "-o", "/tmp/x.exr"], "name the file .vti"),
+    ];
+    for (args, msg) in cases {
+        let mut all = vec!["--scene", cornell, "--quiet"];
+        all.extend_from_slice(args);
+        let (ok, err) = ftpd3d_bin(&all);
+        assert!(!ok, "{args:?} should fail");
+        assert!(err.contains(msg), "{args:?}: expected '{msg}' in: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn a_volume_run_writes_vti_and_middle_slice_previews() {
+    let dir = temp_dir("cli");
+    let out = dir.join("v.vti");
+    let cornell = scene_path("cornell_mirror.obj");
+    let (ok, err) = ftpd3d_bin(&[
+        "--scene",
+        cornell.to_str().unwrap(),
+        "--volume",
+        "10",
+        "--spp",
+        "4",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("ETA") && err.contains("volume 10x10x10"),
+        "{err}"
+    );
+    assert!(out.is_file() && dir.join("v.png").is_file() && dir.join("v.grad.png").is_file());
+    let back = ftpd3d::output::vti::read_vti(&out).unwrap();
+    assert_eq!(back.field.meta.get("volume.dims").unwrap(), "10,10,10");
+    assert_eq!(back.field.total_samples(), 4000);
+    std::fs::remove_dir_all(&dir).ok();
+}
