@@ -2,7 +2,7 @@
 //! `main.rs` parses arguments into a [`Job`]; everything here returns errors, never panics.
 
 use crate::domain::slice::SliceSpec;
-use crate::domain::{CameraView, Domain, Plane};
+use crate::domain::{CameraView, Domain, Plane, Stripe, Tile};
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
@@ -110,6 +110,8 @@ pub struct Job {
     pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
     pub estimator: EstimatorArgs,
     pub render: RenderOptions,
+    /// Compute only this stripe of the grid (`--tile i/N`); `None`: the whole grid.
+    pub tile: Option<Tile>,
     pub output: PathBuf,
     pub png: bool,
     pub quiet: bool,
@@ -348,6 +350,25 @@ pub fn run_domain_with<D: Domain>(
     Ok((field, stats))
 }
 
+/// [`run_domain_with`] over one tile of the domain's grid (see [`crate::domain::tile`]), or the
+/// whole grid when `tile` is `None`.
+pub fn run_domain_tile<D: Domain>(
+    scene: &Scene,
+    domain: &D,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+    tile: Option<Tile>,
+) -> anyhow::Result<(Field, RunStats)> {
+    let Some(tile) = tile else {
+        return run_domain_with(scene, domain, params, opts, kernel);
+    };
+    let stripe = Stripe::new(domain, tile);
+    let (mut field, mut stats) = run_domain_with(scene, &stripe, params, opts, kernel)?;
+    tile.finish(&mut field, &mut stats, opts.spp);
+    Ok((field, stats))
+}
+
 /// [`run_plane`] with a given kernel (which must cover the scene's features).
 pub fn run_plane_with(
     scene: &Scene,
@@ -356,7 +377,19 @@ pub fn run_plane_with(
     opts: &RenderOptions,
     kernel: KernelChoice,
 ) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain_with(scene, plane, params, opts, kernel)?;
+    run_plane_tile(scene, plane, params, opts, kernel, None)
+}
+
+/// [`run_plane_with`] over one tile of the plane's grid (`None`: the whole grid).
+pub fn run_plane_tile(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+    tile: Option<Tile>,
+) -> anyhow::Result<(Field, RunStats)> {
+    let (mut field, stats) = run_domain_tile(scene, plane, params, opts, kernel, tile)?;
     describe_run(&mut field, scene, params, opts, "slice");
     let m = &mut field.meta;
     m.insert("plane".into(), plane.label.clone());
@@ -466,6 +499,20 @@ pub fn run_job(job: &Job) -> anyhow::Result<Field> {
     }
     check_writable(&job.output)?;
     let t_load = Instant::now();
+    let tile_note = |height: usize| match job.tile {
+        Some(t) if t.rows(height).is_empty() => {
+            eprintln!(
+                "warning: --tile {t}: the grid has {height} rows, fewer than {} tiles; this tile is empty",
+                t.count
+            );
+            String::new()
+        }
+        Some(t) => {
+            let r = t.rows(height);
+            format!(", tile {t} (rows {}..{})", r.start, r.end)
+        }
+        None => String::new(),
+    };
     let scene = load_job_scene(job)?;
     let params = job.estimator.resolve(&scene)?;
     let say = |s: String| {
@@ -487,7 +534,8 @@ pub fn run_job(job: &Job) -> anyhow::Result<Field> {
     ));
     let describe = |what: String, w: usize, h: usize| {
         format!(
-            "{what} → {w}x{h} cells, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            "{what} → {w}x{h} cells{}, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            tile_note(h),
             job.render.spp,
             job.render.batches,
             params.weighting,
@@ -505,7 +553,8 @@ pub fn run_job(job: &Job) -> anyhow::Result<Field> {
                 plane.width,
                 plane.height,
             ));
-            run_plane(&scene, &plane, &params, &job.render)?
+            let kernel = kernel_choice(&scene, &params, true);
+            run_plane_tile(&scene, &plane, &params, &job.render, kernel, job.tile)?
         }
         DomainArg::Camera { camera, size } => {
             let view = resolve_camera(camera, &scene, *size)?;
@@ -514,9 +563,19 @@ pub fn run_job(job: &Job) -> anyhow::Result<Field> {
                 view.width,
                 view.height,
             ));
-            run_camera(&scene, &view, &params, &job.render)?
+            run_camera_tile(&scene, &view, &params, &job.render, job.tile)?
         }
     };
+    let mut field = field;
+    if !job.point_lights.is_empty() {
+        // Part of the scene: merging refuses fields computed with other lights.
+        let lights: Vec<String> = job
+            .point_lights
+            .iter()
+            .map(|(p, i)| format!("{}:{}", fmt_vec(*p), fmt_vec(*i)))
+            .collect();
+        field.meta.insert("point_lights".into(), lights.join(";"));
+    }
     let (rel_mean, rel_p95) = relative_error_summary(&field);
     say(format!(
         "done in {:.2} s: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
@@ -542,12 +601,24 @@ pub fn run_camera(
     params: &Params,
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain_with(
+    run_camera_tile(scene, view, params, opts, None)
+}
+
+/// [`run_camera`] over one tile (stripe of image rows; `None`: the whole image).
+pub fn run_camera_tile(
+    scene: &Scene,
+    view: &CameraView,
+    params: &Params,
+    opts: &RenderOptions,
+    tile: Option<Tile>,
+) -> anyhow::Result<(Field, RunStats)> {
+    let (mut field, stats) = run_domain_tile(
         scene,
         view,
         params,
         opts,
         kernel_choice(scene, params, true),
+        tile,
     )?;
     describe_run(&mut field, scene, params, opts, "camera");
     let c = &view.camera;

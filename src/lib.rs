@@ -15,6 +15,7 @@ pub mod field;
 pub mod ftpd;
 pub mod kernel;
 pub mod math;
+pub mod merge;
 pub mod output;
 pub mod render;
 pub mod rng;

@@ -2,6 +2,7 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job};
+use ftpd3d::domain::Tile;
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
 use std::path::PathBuf;
@@ -26,10 +27,32 @@ struct Cli {
     run: RunArgs,
 }
 
+// Parsed once per process: the size difference between variants does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Kernel rays/s against raw Embree rays/s on the same scene, rays and threads.
     Bench(RunArgs),
+    /// Add fields of the same run computed with other seeds or over other tiles, exactly.
+    ///
+    /// Example: ftpd3d merge part_*.exr -o all.exr
+    Merge(MergeArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+struct MergeArgs {
+    /// EXR fields written by ftpd3d (or by an earlier merge), added in the order given.
+    #[arg(required = true, value_name = "FILE.exr")]
+    inputs: Vec<PathBuf>,
+    /// Output EXR (PNG previews are written next to it).
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    /// Skip the PNG previews.
+    #[arg(long)]
+    no_png: bool,
+    /// No summary (errors and warnings still go to stderr).
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -106,7 +129,11 @@ struct RunArgs {
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Output EXR [default: out/<scene>_<slice>.exr].
+    /// Compute only stripe I of N (grid rows, from the bottom; from 0), with the same per-cell
+    /// random streams as a full run; `merge` the N files afterwards.
+    #[arg(long, value_name = "I/N")]
+    tile: Option<Tile>,
+    /// Output EXR [default: out/<scene>_<slice>.exr, with _tile<I>of<N> for a tile].
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
     /// Skip the PNG preview written next to the EXR.
@@ -215,6 +242,10 @@ impl RunArgs {
                 )
             }
         };
+        let default_out = match self.tile {
+            Some(t) => default_out.replace(".exr", &format!("{}.exr", t.suffix())),
+            None => default_out,
+        };
         let weight = self.weight.unwrap_or(default_weight);
         let camera_run = matches!(domain, DomainArg::Camera { .. });
         if camera_run != matches!(weight, WeightArg::Importance) {
@@ -246,6 +277,7 @@ impl RunArgs {
                 threads: self.threads,
                 progress: !self.quiet,
             },
+            tile: self.tile,
             output: self
                 .output
                 .clone()
@@ -368,10 +400,36 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn merge(args: &MergeArgs) -> anyhow::Result<()> {
+    let merged = ftpd3d::merge::merge_files(&args.inputs, &args.output, !args.no_png)?;
+    for w in &merged.warnings {
+        eprintln!("warning: {w}");
+    }
+    if !args.quiet {
+        let m = &merged.field.meta;
+        let get = |k: &str| m.get(k).map_or("?", String::as_str);
+        let (rel_mean, rel_p95) = app::relative_error_summary(&merged.field);
+        eprintln!(
+            "merged {} files: {}x{} cells, seeds {}, parts {}, {} spp; relative error mean {:.3}, p95 {:.3}",
+            args.inputs.len(),
+            merged.field.width,
+            merged.field.height,
+            get("seeds"),
+            get("parts"),
+            get("spp"),
+            rel_mean,
+            rel_p95
+        );
+        eprintln!("wrote {}", args.output.display());
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args),
+        Some(Command::Merge(args)) => merge(args),
         None if cli.run.explain => explain(&cli.run),
         None => cli.run.job().and_then(|job| app::run_job(&job).map(|_| ())),
     };

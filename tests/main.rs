@@ -4,5 +4,6 @@ mod cli;
 mod ftpd;
 mod geometry;
 mod gltf;
+mod merge;
 mod mis;
 mod valid;

@@ -2,8 +2,10 @@
 //! and knows how to draw one FTPD sample for a cell with any kernel.
 pub mod camera;
 pub mod slice;
+pub mod tile;
 pub use camera::CameraView;
 pub use slice::{Axis, Plane};
+pub use tile::{Stripe, Tile};
 
 use crate::ftpd::{self, Params, Sample};
 use crate::kernel::Kernel;
