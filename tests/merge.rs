@@ -1,5 +1,5 @@
 //! Split runs and `ftpd3d merge`: seeds add their moments exactly, tiles reassemble the full run
-//! bit for bit, mismatched or repeated parts are refused.
+//! bit for bit, mismatched or repeated parts are refused, and the Slurm examples work without Slurm.
 
 use crate::geometry::scene_path;
 use ftpd3d::field::Field;
@@ -417,5 +417,93 @@ fn tile_values_are_checked_and_named() {
             .iter()
             .all(|c| c.n == 0)
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A stand-in for `sbatch`: runs an array job's tasks one after the other (and any other job
+/// at once), prints a job id, records its arguments.
+const FAKE_SBATCH: &str = r#"#!/bin/bash
+set -euo pipefail
+echo "$*" >> sbatch.log
+array=""
+script=""
+for a in "$@"; do
+    case "$a" in
+        --array=*) array=${a#--array=} ;;
+        --*) ;;
+        *) script=$a ;;
+    esac
+done
+if [ -z "$array" ]; then
+    array=$(sed -n 's/^#SBATCH --array=//p' "$script")
+fi
+if [ -n "$array" ]; then
+    for ((i = ${array%-*}; i <= ${array#*-}; i++)); do
+        SLURM_ARRAY_TASK_ID=$i bash "$script" >&2
+    done
+else
+    bash "$script" >&2
+fi
+echo "4242;cluster"
+"#;
+
+#[test]
+fn slurm_examples_split_run_and_merge_without_slurm() {
+    let dir = temp_dir("slurm");
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    std::fs::write(bin.join("sbatch"), FAKE_SBATCH).unwrap();
+    let status = Command::new("chmod")
+        .arg("+x")
+        .arg(bin.join("sbatch"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/slurm");
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let scene = cornell();
+    for mode in ["tiles", "seeds"] {
+        let work = dir.join(mode);
+        std::fs::create_dir_all(&work).unwrap();
+        let out = Command::new("bash")
+            .arg(examples.join("submit.sh"))
+            .arg(mode)
+            .current_dir(&work)
+            .env("PATH", &path)
+            .env("FTPD3D", env!("CARGO_BIN_EXE_ftpd3d"))
+            .env("SCENE", &scene)
+            .env("SLICE", "z=0")
+            .env("RES", "12")
+            .env("SPP", "4")
+            .env("PARTS", "3")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{mode}: {err}");
+        let log = std::fs::read_to_string(work.join("sbatch.log")).unwrap();
+        assert!(log.contains("--array=0-2"), "{log}");
+        assert!(log.contains("--dependency=afterok:4242"), "{log}");
+        let all = read_exr(&work.join("all.exr")).unwrap();
+        if mode == "tiles" {
+            // The same as one full run of 4 samples per cell.
+            let (ok, err) = ftpd3d_in(
+                &work,
+                &[
+                    "--scene", &scene, "--slice", "z=0", "--res", "12", "--spp", "4", "--no-png",
+                    "--quiet", "-o", "full.exr",
+                ],
+            );
+            assert!(ok, "{err}");
+            let full = read_exr(&work.join("full.exr")).unwrap();
+            assert_same_cells(&all, &full, "Slurm tiles merged");
+        } else {
+            assert_eq!(all.meta.get("seeds").map(String::as_str), Some("1,2,3"));
+            assert!(all.cells.iter().all(|c| c.n == 12));
+        }
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
