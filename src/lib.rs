@@ -9,6 +9,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod analysis;
 pub mod app;
 pub mod domain;
 pub mod field;

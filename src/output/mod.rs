@@ -2,6 +2,7 @@
 //! destination directory and renamed into place, so a failed run never leaves a truncated output.
 
 pub mod exr;
+pub mod plot;
 pub mod png;
 
 use anyhow::Context;
