@@ -17,6 +17,8 @@
 //! with σ_ref > 0). The mean of the run's own estimated standard error (batches) is reported too,
 //! to show whether it tracks the measured error.
 //!
+//! Before each curve, one untimed warm-up run of the first level's size absorbs one-time costs.
+//!
 //! The fit is ordinary least squares of ln(RMSE) against ln(wall seconds) (and against ln(spp)),
 //! with the slope's standard error. Monte Carlo converges as t^−½ once the time is proportional
 //! to the samples; fixed costs per run make small runs look cheaper than they are.
@@ -244,9 +246,23 @@ pub fn measure(
     job: &ConvergeJob,
     mut say: impl FnMut(&str),
 ) -> anyhow::Result<(Vec<Curve>, Vec<Field>)> {
+    let Some(&first) = levels.first() else {
+        bail!("converge: no sample counts to run");
+    };
     let mut curves = Vec::new();
     let mut tops = Vec::new();
     for p in params {
+        // Untimed warm-up with the first level's size: the first run of a process pays one-time
+        // costs (thread start-up, first touches of the scene's memory) that are no part of the
+        // cost per sample.
+        let warm = RenderOptions {
+            spp: first,
+            batches: 1,
+            seed: job.seed.wrapping_sub(1),
+            threads: job.threads,
+            progress: false,
+        };
+        app::run_plane(scene, plane, p, &warm)?;
         let mut fields = Vec::new();
         let mut runs = Vec::new();
         for (k, &spp) in levels.iter().enumerate() {
