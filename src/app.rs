@@ -4,7 +4,7 @@
 
 use crate::domain::slice::SliceSpec;
 use crate::domain::volume::Volume;
-use crate::domain::{CameraView, Domain, Plane, Subset, VolumeRes};
+use crate::domain::{CameraView, Domain, Plane, Stripe, Subset, Tile, VolumeRes};
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
@@ -210,6 +210,8 @@ pub struct Job {
     pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
     pub estimator: EstimatorArgs,
     pub render: RenderOptions,
+    /// Compute only this stripe of the grid (`--tile i/N`); `None`: the whole grid.
+    pub tile: Option<Tile>,
     pub output: PathBuf,
     pub png: bool,
     pub quiet: bool,
@@ -452,6 +454,25 @@ pub fn run_domain_with<D: Domain>(
     Ok((field, stats))
 }
 
+/// [`run_domain_with`] over one tile of the domain's grid (see [`crate::domain::tile`]), or the
+/// whole grid when `tile` is `None`.
+pub fn run_domain_tile<D: Domain>(
+    scene: &Scene,
+    domain: &D,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+    tile: Option<Tile>,
+) -> anyhow::Result<(Field, RunStats)> {
+    let Some(tile) = tile else {
+        return run_domain_with(scene, domain, params, opts, kernel);
+    };
+    let stripe = Stripe::new(domain, tile);
+    let (mut field, mut stats) = run_domain_with(scene, &stripe, params, opts, kernel)?;
+    tile.finish(&mut field, &mut stats, opts.spp);
+    Ok((field, stats))
+}
+
 /// [`run_plane`] with a given kernel (which must cover the scene's features).
 pub fn run_plane_with(
     scene: &Scene,
@@ -460,8 +481,20 @@ pub fn run_plane_with(
     opts: &RenderOptions,
     kernel: KernelChoice,
 ) -> anyhow::Result<(Field, RunStats)> {
+    run_plane_tile(scene, plane, params, opts, kernel, None)
+}
+
+/// [`run_plane_with`] over one tile of the plane's grid (`None`: the whole grid).
+pub fn run_plane_tile(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+    tile: Option<Tile>,
+) -> anyhow::Result<(Field, RunStats)> {
     check_flatland(scene, plane, params, kernel)?;
-    let (mut field, stats) = run_domain_with(scene, plane, params, opts, kernel)?;
+    let (mut field, stats) = run_domain_tile(scene, plane, params, opts, kernel, tile)?;
     describe_run(&mut field, scene, params, opts, "slice");
     let m = &mut field.meta;
     m.insert("plane".into(), plane.label.clone());
@@ -624,6 +657,20 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
         bail!("--flatland works on slices (the plane confines the directions), not camera images");
     }
     let t_load = Instant::now();
+    let tile_note = |height: usize| match job.tile {
+        Some(t) if t.rows(height).is_empty() => {
+            eprintln!(
+                "warning: --tile {t}: the grid has {height} rows, fewer than {} tiles; this tile is empty",
+                t.count
+            );
+            String::new()
+        }
+        Some(t) => {
+            let r = t.rows(height);
+            format!(", tile {t} (rows {}..{})", r.start, r.end)
+        }
+        None => String::new(),
+    };
     let mut scene = load_job_scene(job)?;
     let say = |s: String| {
         if !job.quiet {
@@ -644,7 +691,8 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
     ));
     let describe = |what: String, w: usize, h: usize, params: &Params| {
         format!(
-            "{what} → {w}x{h} cells, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            "{what} → {w}x{h} cells{}, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            tile_note(h),
             job.render.spp,
             job.render.batches,
             params.weighting,
@@ -707,12 +755,15 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
                     job.estimator.resolve(&scene)?
                 };
                 say(describe(
-                    format!("slice {}", plane.label),
+                    format!("slice {}{}", plane.label, tile_note(plane.height)),
                     plane.width,
                     plane.height,
                     &params,
                 ));
-                let (field, stats) = run_plane(&scene, plane, &params, &job.render)?;
+                let kernel = kernel_choice(&scene, &params, true);
+                let (mut field, stats) =
+                    run_plane_tile(&scene, plane, &params, &job.render, kernel, job.tile)?;
+                annotate_point_lights(&mut field, job);
                 report(&field, &stats, &params);
                 write_outputs(&field, out, job.png)?;
                 say(format!("wrote {}", out.display()));
@@ -724,17 +775,32 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
             let params = job.estimator.resolve(&scene)?;
             let view = resolve_camera(camera, &scene, *size)?;
             say(describe(
-                format!("camera '{}'", view.camera.name),
+                format!("camera '{}'{}", view.camera.name, tile_note(view.height)),
                 view.width,
                 view.height,
                 &params,
             ));
-            let (field, stats) = run_camera(&scene, &view, &params, &job.render)?;
+            let (mut field, stats) =
+                run_camera_tile(&scene, &view, &params, &job.render, job.tile)?;
+            annotate_point_lights(&mut field, job);
             report(&field, &stats, &params);
             write_outputs(&field, &job.output, job.png)?;
             say(format!("wrote {}", job.output.display()));
             Ok(vec![field])
         }
+    }
+}
+
+/// Records the command-line point lights in the field's metadata: they are part of the scene, and
+/// merging refuses fields computed with other lights.
+fn annotate_point_lights(field: &mut Field, job: &Job) {
+    if !job.point_lights.is_empty() {
+        let lights: Vec<String> = job
+            .point_lights
+            .iter()
+            .map(|(p, i)| format!("{}:{}", fmt_vec(*p), fmt_vec(*i)))
+            .collect();
+        field.meta.insert("point_lights".into(), lights.join(";"));
     }
 }
 
@@ -745,12 +811,24 @@ pub fn run_camera(
     params: &Params,
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain_with(
+    run_camera_tile(scene, view, params, opts, None)
+}
+
+/// [`run_camera`] over one tile (stripe of image rows; `None`: the whole image).
+pub fn run_camera_tile(
+    scene: &Scene,
+    view: &CameraView,
+    params: &Params,
+    opts: &RenderOptions,
+    tile: Option<Tile>,
+) -> anyhow::Result<(Field, RunStats)> {
+    let (mut field, stats) = run_domain_tile(
         scene,
         view,
         params,
         opts,
         kernel_choice(scene, params, true),
+        tile,
     )?;
     describe_run(&mut field, scene, params, opts, "camera");
     let c = &view.camera;

@@ -10,12 +10,14 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod analysis;
 pub mod app;
 pub mod domain;
 pub mod field;
 pub mod ftpd;
 pub mod kernel;
 pub mod math;
+pub mod merge;
 pub mod output;
 pub mod render;
 pub mod rng;

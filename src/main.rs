@@ -1,8 +1,9 @@
 //! The command line: parses arguments (clap) into a validated job, runs it, reports errors.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use ftpd3d::analysis::converge::{self, ConvergeJob};
 use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job, SliceArg, VolumeJob};
-use ftpd3d::domain::VolumeRes;
+use ftpd3d::domain::{Tile, VolumeRes};
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
 use std::path::PathBuf;
@@ -29,10 +30,96 @@ struct Cli {
     run: RunArgs,
 }
 
+// Parsed once per process: the size difference between variants does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Kernel rays/s against raw Embree rays/s on the same scene, rays and threads.
     Bench(RunArgs),
+    /// Add fields of the same run computed with other seeds or over other tiles, exactly.
+    ///
+    /// Example: ftpd3d merge part_*.exr -o all.exr
+    Merge(MergeArgs),
+    /// Error against time at doubling sample counts, as CSV and a log-log plot.
+    ///
+    /// Example: ftpd3d converge --scene scenes/cornell_mirror.obj --slice z=0 --out-dir out/conv
+    Converge(ConvergeArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+struct MergeArgs {
+    /// EXR fields written by ftpd3d (or by an earlier merge), added in the order given.
+    #[arg(required = true, value_name = "FILE.exr")]
+    inputs: Vec<PathBuf>,
+    /// Output EXR (PNG previews are written next to it).
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    /// Skip the PNG previews.
+    #[arg(long)]
+    no_png: bool,
+    /// No summary (errors and warnings still go to stderr).
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+struct ConvergeArgs {
+    /// Scene file: .obj (with its .mtl), .gltf or .glb, or a sidecar .toml naming one.
+    #[arg(long, value_name = "FILE", required = true)]
+    scene: PathBuf,
+    /// Axis-aligned slice plane, e.g. z=0, or a slice named in the scene file.
+    #[arg(long, value_name = "AXIS=VALUE|NAME", required = true)]
+    slice: String,
+    /// Directory for converge.csv, converge_fit.csv, converge.png and the top runs' EXRs.
+    #[arg(long, value_name = "DIR", required = true)]
+    out_dir: PathBuf,
+    /// Reference field (EXR of the same slice and parameters, many samples); without it, each
+    /// weighting's highest-spp run is the reference.
+    #[arg(long, value_name = "REF.exr")]
+    reference: Option<PathBuf>,
+    /// Part of the plane to cover, u0,v0,u1,v1.
+    #[arg(long, value_name = "U0,V0,U1,V1", value_parser = parse_window)]
+    window: Option<[f64; 4]>,
+    /// Cells along the longer side [default: the reference's, else 64].
+    #[arg(long)]
+    res: Option<usize>,
+    /// Samples per cell of the first run; each further run doubles them.
+    #[arg(long, default_value_t = 4)]
+    start_spp: u32,
+    /// Largest samples per cell.
+    #[arg(long, default_value_t = 256)]
+    max_spp: u32,
+    /// Weighting of a single curve [default: the reference's; else radiance and unweighted when
+    /// the scene has lights, unweighted otherwise].
+    #[arg(long = "weight", value_enum)]
+    weight: Option<WeightArg>,
+    /// Independent batches per run (for the estimated standard error; at most the run's spp).
+    #[arg(long, default_value_t = 8)]
+    batches: u32,
+    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b; repeatable.
+    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = app::parse_point_light)]
+    point_light: Vec<(glam::DVec3, glam::DVec3)>,
+    /// Shortest run length T [default: 0.1 × scene diagonal].
+    #[arg(long, allow_negative_numbers = true)]
+    t0: Option<f64>,
+    /// Longest run length T [default: 0.5 × scene diagonal].
+    #[arg(long, allow_negative_numbers = true)]
+    t1: Option<f64>,
+    /// Perturbation cone half-angle, degrees.
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    angle: f64,
+    /// Cap on scattering events per walk and per radiance path.
+    #[arg(long, default_value_t = 32)]
+    max_bounces: u32,
+    /// Seed of the first run; run k uses seed + k (every run independent).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// No per-run lines or summary.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -64,7 +151,7 @@ struct RunArgs {
     /// A voxel grid instead of a slice, written as VTK ImageData (.vti): N voxels along the longest
     /// side of the box (the others by aspect), or NX,NY,NZ.
     #[arg(long, value_name = "N|NX,NY,NZ", value_parser = parse_volume,
-          conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland"])]
+          conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland", "tile"])]
     volume: Option<VolumeRes>,
     /// The box a volume covers [default: the scene bounds, flat sides padded].
     #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", allow_hyphen_values = true, value_parser = ftpd3d::domain::volume::parse_box)]
@@ -125,7 +212,12 @@ struct RunArgs {
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Output EXR, or .vti for a volume [default: out/<scene>_<slice>.exr, out/<scene>_volume.vti].
+    /// Compute only stripe I of N (grid rows, from the bottom; from 0), with the same per-cell
+    /// random streams as a full run; `merge` the N files afterwards.
+    #[arg(long, value_name = "I/N")]
+    tile: Option<Tile>,
+    /// Output EXR, or .vti for a volume [default: out/<scene>_<slice>.exr, with _tile<I>of<N> for a
+    /// tile; out/<scene>_volume.vti].
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
     /// Skip the PNG previews written next to the EXR (a volume's: its middle z-slice).
@@ -283,6 +375,10 @@ impl RunArgs {
                 )
             }
         };
+        let default_out = match self.tile {
+            Some(t) => default_out.replace(".exr", &format!("{}.exr", t.suffix())),
+            None => default_out,
+        };
         let weight = self.weight.unwrap_or(default_weight);
         let camera_run = matches!(domain, DomainArg::Camera { .. });
         if camera_run != matches!(weight, WeightArg::Importance) {
@@ -298,6 +394,7 @@ impl RunArgs {
             point_lights: self.point_light.clone(),
             estimator: self.estimator(weight),
             render: self.render(),
+            tile: self.tile,
             output: self
                 .output
                 .clone()
@@ -536,10 +633,88 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn merge(args: &MergeArgs) -> anyhow::Result<()> {
+    let merged = ftpd3d::merge::merge_files(&args.inputs, &args.output, !args.no_png)?;
+    for w in &merged.warnings {
+        eprintln!("warning: {w}");
+    }
+    if !args.quiet {
+        let m = &merged.field.meta;
+        let get = |k: &str| m.get(k).map_or("?", String::as_str);
+        let (rel_mean, rel_p95) = app::relative_error_summary(&merged.field);
+        eprintln!(
+            "merged {} files: {}x{} cells, seeds {}, parts {}, {} spp; relative error mean {:.3}, p95 {:.3}",
+            args.inputs.len(),
+            merged.field.width,
+            merged.field.height,
+            get("seeds"),
+            get("parts"),
+            get("spp"),
+            rel_mean,
+            rel_p95
+        );
+        eprintln!("wrote {}", args.output.display());
+    }
+    Ok(())
+}
+
+fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
+    let weighting = args.weight.map(|w| match w {
+        WeightArg::Radiance => Weighting::Radiance,
+        WeightArg::Unweighted => Weighting::Unweighted,
+        WeightArg::Importance => Weighting::Importance,
+    });
+    let job = ConvergeJob {
+        scene: args.scene.clone(),
+        point_lights: args.point_light.clone(),
+        slice: args.slice.clone(),
+        window: args.window,
+        res: args.res,
+        reference: args.reference.clone(),
+        out_dir: args.out_dir.clone(),
+        weighting,
+        estimator: EstimatorArgs {
+            weighting: weighting.unwrap_or(Weighting::Unweighted),
+            t0: args.t0,
+            t1: args.t1,
+            angle_deg: args.angle,
+            max_bounces: args.max_bounces,
+        },
+        start_spp: args.start_spp,
+        max_spp: args.max_spp,
+        batches: args.batches,
+        seed: args.seed,
+        threads: args.threads,
+        quiet: args.quiet,
+    };
+    let report = converge::run_converge(&job)?;
+    if !args.quiet {
+        for c in &report.curves {
+            let f = |v: Option<f64>| v.map_or("n/a".to_string(), |x| format!("{x:.3}"));
+            println!(
+                "{:<10} slope vs time {} ± {}, vs spp {} ± {}; time per doubling {}",
+                c.weighting.to_string(),
+                f(c.fit_time.map(|f| f.slope)),
+                f(c.fit_time.and_then(|f| f.slope_se)),
+                f(c.fit_spp.map(|f| f.slope)),
+                f(c.fit_spp.and_then(|f| f.slope_se)),
+                f(c.time_per_doubling)
+            );
+        }
+        println!(
+            "wrote {}/converge.csv, converge_fit.csv, converge.png",
+            args.out_dir.display()
+        );
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args),
+        Some(Command::Merge(args)) => merge(args),
+        Some(Command::Converge(args)) => converge(args),
         None if cli.run.explain => explain(&cli.run),
         None => match cli.run.volume {
             Some(res) => cli

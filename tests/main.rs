@@ -1,10 +1,12 @@
 //! One integration-test binary (as ripgrep does): each capability is a module.
 mod bsdf;
 mod cli;
+mod converge;
 mod flat;
 mod ftpd;
 mod geometry;
 mod gltf;
+mod merge;
 mod mis;
 mod valid;
 mod volume;

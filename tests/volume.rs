@@ -258,6 +258,7 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
         },
         point_lights: vec![],
         flatland: false,
+        tile: None,
         estimator: vjob.estimator.clone(),
         // Another seed: independent estimates, so their difference is pure noise.
         render: RenderOptions {

@@ -2,9 +2,11 @@
 //! Each domain is a grid of cells and knows how to draw one FTPD sample for a cell with any kernel.
 pub mod camera;
 pub mod slice;
+pub mod tile;
 pub mod volume;
 pub use camera::CameraView;
 pub use slice::{Axis, Plane};
+pub use tile::{Stripe, Tile};
 pub use volume::{Volume, VolumeRes};
 
 use crate::ftpd::{self, Params, Sample};

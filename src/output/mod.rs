@@ -3,6 +3,7 @@
 //! failed run never leaves a truncated output.
 
 pub mod exr;
+pub mod plot;
 pub mod png;
 pub mod vti;
 

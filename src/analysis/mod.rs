@@ -1,0 +1,2 @@
+//! Reports computed from fields and runs: convergence of error against time.
+pub mod converge;

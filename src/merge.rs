@@ -1,0 +1,409 @@
+//! Merging partial runs (`ftpd3d merge`): other seeds, other tiles, other machines. A field is sums,
+//! so merging adds them cell by cell in f64 ([`Moments::merge`]), in the order the files are given;
+//! σ, its standard error, the gradient and the previews are then computed afresh from the sums.
+//!
+//! What may differ between the inputs, and what may not:
+//! - The run must be the same: scene, domain (plane or camera and their geometry), resolution,
+//!   weighting, t0, t1, angle, bounce cap, feature set and extra point lights ([`MUST_MATCH`]).
+//!   A mismatch is refused with the file and key named.
+//! - Seeds and tiles may differ. What a field holds is recorded as *parts*: a seed and the rows of
+//!   the grid it sampled (`seed@r0-r1`, rows from the bottom). A fresh run is one part (its seed,
+//!   all rows or its tile's rows); a merged file lists its parts in the `parts` attribute. Two parts
+//!   with the same seed over overlapping rows are refused: a cell's random streams are keyed by
+//!   (seed, batch, cell), so the same seed would count the same samples twice.
+//!
+//! Tiles are full-size grids with only their stripe filled ([`crate::domain::tile`]); adding the
+//! empty cells is exact (x + 0 = x), so merging all tiles of one seed reproduces the full run bit
+//! for bit.
+
+use crate::domain::Tile;
+use crate::field::Field;
+use anyhow::{Context, bail};
+use std::collections::{BTreeMap, BTreeSet};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Metadata keys that describe the run itself: merged fields must agree on every one (absent on
+/// both counts as agreeing).
+pub const MUST_MATCH: &[&str] = &[
+    "scene",
+    "domain",
+    "plane",
+    "plane.origin",
+    "plane.u",
+    "plane.v",
+    "plane.size",
+    "camera",
+    "camera.eye",
+    "camera.forward",
+    "camera.up",
+    "camera.fov_y_deg",
+    "weighting",
+    "t0",
+    "t1",
+    "angle_deg",
+    "max_bounces",
+    "features",
+    "point_lights",
+];
+
+/// Keys the merge writes itself rather than carrying over.
+const REWRITTEN: &[&str] = &[
+    "seed", "seeds", "tile", "parts", "spp", "batches", "merged", "tool",
+];
+
+/// One seed over a range of grid rows.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Part {
+    pub seed: u64,
+    pub rows: Range<usize>,
+}
+
+/// Checks that `b` (read from `b_name`) describes the same run as `a` (from `a_name`): grid size
+/// and every key of [`MUST_MATCH`]. The message names the file and the key, e.g.
+/// `b.exr: t1 = 2e0 differs from a.exr's 1.5e0`.
+pub fn check_same_run(a_name: &str, a: &Field, b_name: &str, b: &Field) -> anyhow::Result<()> {
+    if (a.width, a.height, a.depth) != (b.width, b.height, b.depth) {
+        bail!(
+            "{b_name}: resolution {}x{} differs from {a_name}'s {}x{}",
+            b.width,
+            b.height,
+            a.width,
+            a.height
+        );
+    }
+    for key in MUST_MATCH {
+        match (a.meta.get(*key), b.meta.get(*key)) {
+            (Some(x), Some(y)) if x != y => {
+                bail!("{b_name}: {key} = {y} differs from {a_name}'s {x}")
+            }
+            (Some(x), None) => bail!("{b_name}: has no {key}, while {a_name} has {key} = {x}"),
+            (None, Some(y)) => bail!("{b_name}: {key} = {y}, while {a_name} has no {key}"),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// The parts of a field: its `parts` attribute, or else its `seed` over its `tile`'s rows (all
+/// rows without a tile).
+pub fn parts_of(name: &str, f: &Field) -> anyhow::Result<Vec<Part>> {
+    if let Some(p) = f.meta.get("parts") {
+        return p
+            .split(';')
+            .filter(|s| !s.trim().is_empty())
+            .map(|s| parse_part(s).with_context(|| format!("{name}: parts = {p}")))
+            .collect();
+    }
+    let seed = f
+        .meta
+        .get("seed")
+        .with_context(|| format!("{name}: no seed attribute (not a field written by ftpd3d?)"))?;
+    let seed = seed
+        .parse::<u64>()
+        .map_err(|_| anyhow::anyhow!("{name}: seed = {seed} is not a whole number"))?;
+    let rows = match f.meta.get("tile") {
+        Some(t) => t
+            .parse::<Tile>()
+            .map_err(|e| anyhow::anyhow!("{name}: tile {e}"))?
+            .rows(f.height),
+        None => 0..f.height,
+    };
+    Ok(vec![Part { seed, rows }])
+}
+
+fn parse_part(s: &str) -> anyhow::Result<Part> {
+    let bad = || anyhow::anyhow!("'{s}' is not SEED@ROW0-ROW1");
+    let (seed, rows) = s.trim().split_once('@').ok_or_else(bad)?;
+    let (r0, r1) = rows.split_once('-').ok_or_else(bad)?;
+    let n = |t: &str| t.trim().parse::<usize>().map_err(|_| bad());
+    Ok(Part {
+        seed: seed.trim().parse().map_err(|_| bad())?,
+        rows: n(r0)?..n(r1)?,
+    })
+}
+
+/// Sorted, with adjacent or overlapping row ranges of one seed joined.
+fn coalesce(mut parts: Vec<Part>) -> Vec<Part> {
+    parts.retain(|p| !p.rows.is_empty());
+    parts.sort_by_key(|p| (p.seed, p.rows.start, p.rows.end));
+    let mut out: Vec<Part> = Vec::new();
+    for p in parts {
+        match out.last_mut() {
+            Some(q) if q.seed == p.seed && p.rows.start <= q.rows.end => {
+                q.rows.end = q.rows.end.max(p.rows.end)
+            }
+            _ => out.push(p),
+        }
+    }
+    out
+}
+
+fn fmt_parts(parts: &[Part]) -> String {
+    parts
+        .iter()
+        .map(|p| format!("{}@{}-{}", p.seed, p.rows.start, p.rows.end))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// The result of [`merge_fields`]: the summed field and what the user should know.
+#[derive(Debug)]
+pub struct Merged {
+    pub field: Field,
+    pub warnings: Vec<String>,
+}
+
+/// Merges named fields: checks them ([`check_same_run`], parts), adds their sums in the given order
+/// (the first field's sums, plus the second's, ...) and writes the merged metadata: `parts`,
+/// `seeds` (the distinct seeds merged), `seed` (when there is one), `tile` (only while the rows
+/// are not all covered), `spp` (from the sample counts: `N`, or `MIN-MAX` when cells differ),
+/// `batches` (per row, summed over the inputs covering it), `merged` (the input names).
+pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
+    let Some((first_name, first)) = inputs.first() else {
+        bail!("merge: no input fields");
+    };
+    let mut warnings = Vec::new();
+    let mut all_parts: Vec<(Part, usize)> = Vec::new();
+    for (k, (name, f)) in inputs.iter().enumerate() {
+        if f.cells.len() != f.width * f.height * f.depth {
+            bail!(
+                "{name}: {} cells for a {}x{} grid",
+                f.cells.len(),
+                f.width,
+                f.height
+            );
+        }
+        check_same_run(first_name, first, name, f)?;
+        let parts = parts_of(name, f)?;
+        // Cells outside the rows the file claims must be empty, or its metadata lies.
+        let mut covered = vec![false; f.height];
+        for p in &parts {
+            if p.rows.end > f.height {
+                bail!(
+                    "{name}: part {}@{}-{} lies outside its {} rows",
+                    p.seed,
+                    p.rows.start,
+                    p.rows.end,
+                    f.height
+                );
+            }
+            covered[p.rows.clone()].iter_mut().for_each(|c| *c = true);
+        }
+        if let Some(k) =
+            (0..f.cells.len()).find(|&k| f.cells[k].n > 0 && !covered[(k / f.width) % f.height])
+        {
+            bail!(
+                "{name}: cell {k} (row {}) holds samples outside the rows its seed/tile/parts \
+                 attributes name: its header does not describe its contents",
+                (k / f.width) % f.height
+            );
+        }
+        for p in parts {
+            if let Some((q, j)) = all_parts.iter().find(|(q, _)| {
+                q.seed == p.seed && q.rows.start.max(p.rows.start) < q.rows.end.min(p.rows.end)
+            }) {
+                let other = &inputs[*j].0;
+                if q.rows == (0..f.height) && p.rows == (0..f.height) {
+                    bail!(
+                        "{name}: seed {} is also the seed of {other}: the same seed repeats the \
+                         same random streams, so merging would count the same samples twice \
+                         (run the extra part with another --seed)",
+                        p.seed
+                    );
+                }
+                bail!(
+                    "{name}: seed {} over rows {}-{} overlaps rows {}-{} of {other} with the same \
+                     seed: the same seed repeats the same random streams, so merging would count \
+                     the same samples twice (run the extra part with another --seed)",
+                    p.seed,
+                    p.rows.start,
+                    p.rows.end,
+                    q.rows.start,
+                    q.rows.end
+                );
+            }
+            all_parts.push((p, k));
+        }
+    }
+
+    // Batches per cell decide what the standard error means: say so when they differ in size.
+    let batch_size = |f: &Field| -> Option<(u64, u64)> {
+        let spp = f.meta.get("spp")?.parse::<u64>().ok()?;
+        let b = f.meta.get("batches")?.parse::<u64>().ok()?;
+        Some((spp, b.clamp(1, spp.max(1))))
+    };
+    let sizes: BTreeSet<(u64, u64)> = inputs.iter().filter_map(|(_, f)| batch_size(f)).collect();
+    if sizes.len() > 1 {
+        warnings.push(format!(
+            "the inputs use different samples per batch ({}): the standard error treats every \
+             batch alike, so it is only approximate",
+            sizes
+                .iter()
+                .map(|(s, b)| format!("{s} spp in {b} batches"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+
+    let mut it = inputs.iter();
+    let (_, head) = it.next().expect("not empty");
+    let mut field = head.clone();
+    for (_, f) in it {
+        for (c, o) in field.cells.iter_mut().zip(&f.cells) {
+            c.merge(o);
+        }
+    }
+
+    // Metadata: the run's description from the first file; other keys kept when all agree.
+    let mut meta: BTreeMap<String, String> = BTreeMap::new();
+    let keys: BTreeSet<&String> = inputs.iter().flat_map(|(_, f)| f.meta.keys()).collect();
+    for key in keys {
+        if REWRITTEN.contains(&key.as_str()) {
+            continue;
+        }
+        let values: BTreeSet<&str> = inputs
+            .iter()
+            .filter_map(|(_, f)| f.meta.get(key).map(String::as_str))
+            .collect();
+        meta.insert(
+            key.clone(),
+            values.into_iter().collect::<Vec<_>>().join("; "),
+        );
+    }
+    let tools: BTreeSet<&str> = inputs
+        .iter()
+        .filter_map(|(_, f)| f.meta.get("tool").map(String::as_str))
+        .collect();
+    if tools.len() > 1 {
+        warnings.push(format!(
+            "the inputs were written by different versions ({})",
+            tools.iter().copied().collect::<Vec<_>>().join(", ")
+        ));
+    }
+    meta.insert(
+        "tool".into(),
+        format!("ftpd3d {}", env!("CARGO_PKG_VERSION")),
+    );
+    let parts = coalesce(all_parts.iter().map(|(p, _)| p.clone()).collect());
+    let seeds: BTreeSet<u64> = parts.iter().map(|p| p.seed).collect();
+    meta.insert(
+        "seeds".into(),
+        seeds
+            .iter()
+            .map(u64::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    if seeds.len() == 1 {
+        meta.insert("seed".into(), seeds.iter().next().expect("one").to_string());
+    }
+    meta.insert("parts".into(), fmt_parts(&parts));
+    let h = field.height;
+    let mut covered = vec![false; h];
+    for p in &parts {
+        covered[p.rows.clone()].iter_mut().for_each(|c| *c = true);
+    }
+    if covered.iter().any(|c| !c) {
+        let tiles: BTreeSet<&str> = inputs
+            .iter()
+            .filter_map(|(_, f)| f.meta.get("tile").map(String::as_str))
+            .flat_map(|t| t.split(','))
+            .collect();
+        meta.insert(
+            "tile".into(),
+            tiles.into_iter().collect::<Vec<_>>().join(","),
+        );
+        warnings.push(format!(
+            "the merged field covers {} of {h} rows: merge the missing tiles too for a full grid",
+            covered.iter().filter(|c| **c).count()
+        ));
+    }
+    let counts: BTreeSet<u64> = field.cells.iter().map(|c| c.n).filter(|&n| n > 0).collect();
+    if let (Some(lo), Some(hi)) = (counts.first(), counts.last()) {
+        meta.insert(
+            "spp".into(),
+            if lo == hi {
+                lo.to_string()
+            } else {
+                format!("{lo}-{hi}")
+            },
+        );
+    }
+    // Batches per row: every input adds its batch count to the rows it covers.
+    let mut row_batches = vec![Some(0u64); h];
+    for (name, f) in &inputs {
+        let b = f.meta.get("batches").and_then(|b| b.parse::<u64>().ok());
+        for p in parts_of(name, f)? {
+            for r in p.rows {
+                row_batches[r] = match (row_batches[r], b) {
+                    (Some(x), Some(y)) => Some(x + y),
+                    _ => None,
+                };
+            }
+        }
+    }
+    let per_row: BTreeSet<Option<u64>> = (0..h)
+        .filter(|&r| covered[r])
+        .map(|r| row_batches[r])
+        .collect();
+    if !per_row.contains(&None) {
+        let v: Vec<u64> = per_row.into_iter().flatten().collect();
+        if let (Some(lo), Some(hi)) = (v.first(), v.last()) {
+            meta.insert(
+                "batches".into(),
+                if lo == hi {
+                    lo.to_string()
+                } else {
+                    format!("{lo}-{hi}")
+                },
+            );
+        }
+    }
+    meta.insert(
+        "merged".into(),
+        inputs
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .collect::<Vec<_>>()
+            .join(";"),
+    );
+    field.meta = meta;
+    Ok(Merged { field, warnings })
+}
+
+/// Reads EXR fields, merges them ([`merge_fields`]) and writes the result with fresh σ, standard
+/// error, gradient and (when `png`) previews. Input names in messages are the paths as given.
+pub fn merge_files(inputs: &[PathBuf], output: &Path, png: bool) -> anyhow::Result<Merged> {
+    if inputs.is_empty() {
+        bail!("merge: give the EXR files to merge");
+    }
+    crate::app::check_writable(output)?;
+    let fields = inputs
+        .iter()
+        .map(|p| {
+            if !p.exists() {
+                bail!("{}: no such file", p.display());
+            }
+            Ok((p.display().to_string(), crate::output::exr::read_exr(p)?))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let merged = merge_fields(fields)?;
+    crate::app::write_outputs(&merged.field, output, png)?;
+    Ok(merged)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parts_coalesce_and_print() {
+        let p = |seed, a, b| Part { seed, rows: a..b };
+        let c = coalesce(vec![p(2, 0, 4), p(1, 5, 9), p(1, 0, 5), p(1, 9, 9)]);
+        assert_eq!(c, vec![p(1, 0, 9), p(2, 0, 4)]);
+        assert_eq!(fmt_parts(&c), "1@0-9;2@0-4");
+        assert_eq!(parse_part(" 7@3-8").unwrap(), p(7, 3, 8));
+        assert!(parse_part("7:3-8").is_err());
+    }
+}

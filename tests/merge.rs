@@ -1,0 +1,509 @@
+//! Split runs and `ftpd3d merge`: seeds add their moments exactly, tiles reassemble the full run
+//! bit for bit, mismatched or repeated parts are refused, and the Slurm examples work without Slurm.
+
+use crate::geometry::scene_path;
+use ftpd3d::field::Field;
+use ftpd3d::ftpd::moments::Moments;
+use ftpd3d::output::exr::{read_channel, read_exr, write_exr};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A fresh, empty directory for one test.
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ftpd3d-merge-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs ftpd3d in `dir`; (success, stderr).
+fn ftpd3d_in(dir: &Path, args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn cornell() -> String {
+    scene_path("cornell_mirror.obj")
+        .to_str()
+        .unwrap()
+        .to_string()
+}
+
+/// A small slice of the Cornell box, radiance-weighted (fluence sums too), plus `extra` flags.
+fn run(dir: &Path, extra: &[&str]) {
+    let scene = cornell();
+    let mut args = vec![
+        "--scene",
+        scene.as_str(),
+        "--slice",
+        "z=0",
+        "--res",
+        "12",
+        "--spp",
+        "8",
+        "--batches",
+        "4",
+        "--quiet",
+        "--no-png",
+    ];
+    args.extend_from_slice(extra);
+    let (ok, err) = ftpd3d_in(dir, &args);
+    assert!(ok, "{extra:?}: {err}");
+}
+
+/// Every sum of a cell, as bits: equal bits, equal cells, -0 and NaN included.
+fn bits(m: &Moments) -> [u64; 10] {
+    [
+        m.s0.to_bits(),
+        m.s1.to_bits(),
+        m.s2.to_bits(),
+        m.n,
+        m.fluence.x.to_bits(),
+        m.fluence.y.to_bits(),
+        m.fluence.z.to_bits(),
+        m.batches,
+        m.batch_sigma.to_bits(),
+        m.batch_sigma2.to_bits(),
+    ]
+}
+
+fn assert_same_cells(a: &Field, b: &Field, what: &str) {
+    assert_eq!((a.width, a.height), (b.width, b.height), "{what}");
+    for (k, (x, y)) in a.cells.iter().zip(&b.cells).enumerate() {
+        assert_eq!(bits(x), bits(y), "{what}: cell {k}: {x:?} vs {y:?}");
+    }
+}
+
+fn f32_bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+#[test]
+fn merging_two_seeds_adds_their_moments_exactly() {
+    let dir = temp_dir("seeds");
+    run(&dir, &["--seed", "1", "-o", "a.exr"]);
+    run(&dir, &["--seed", "2", "-o", "b.exr"]);
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "b.exr", "-o", "ab.exr"]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("merged 2 files") && err.contains("seeds 1,2"),
+        "{err}"
+    );
+    assert!(dir.join("ab.png").is_file() && dir.join("ab.grad.png").is_file());
+
+    let (a, b) = (
+        read_exr(&dir.join("a.exr")).unwrap(),
+        read_exr(&dir.join("b.exr")).unwrap(),
+    );
+    let merged = read_exr(&dir.join("ab.exr")).unwrap();
+    // The same sums added in memory, in the same order.
+    let mut sum = a.clone();
+    for (c, o) in sum.cells.iter_mut().zip(&b.cells) {
+        c.merge(o);
+    }
+    assert_same_cells(&merged, &sum, "merge(a, b) against a + b in memory");
+    assert!(merged.cells.iter().all(|c| c.n == 16));
+    assert!(a.cells.iter().zip(&merged.cells).any(|(x, y)| x.s0 != y.s0));
+    // σ and its standard error are re-finalised from the summed moments.
+    let (_, _, sigma) = read_channel(&dir.join("ab.exr"), "ftpd").unwrap();
+    let (_, _, stderr) = read_channel(&dir.join("ab.exr"), "ftpd.stderr").unwrap();
+    let expect: Vec<_> = sum.values();
+    assert_eq!(
+        f32_bits(&sigma),
+        f32_bits(&expect.iter().map(|v| v.sigma as f32).collect::<Vec<_>>())
+    );
+    assert_eq!(
+        f32_bits(&stderr),
+        f32_bits(&expect.iter().map(|v| v.stderr as f32).collect::<Vec<_>>())
+    );
+    // 8 batches of 2 samples each now: the standard error shrinks on the whole.
+    let mean = |f: &Field| f.values().iter().map(|v| v.stderr).sum::<f64>();
+    assert!(
+        mean(&merged) < mean(&a),
+        "more batches, smaller standard error"
+    );
+    let m = &merged.meta;
+    assert_eq!(m.get("seeds").map(String::as_str), Some("1,2"));
+    assert_eq!(m.get("seed"), None, "two seeds: no single seed");
+    assert_eq!(m.get("parts").map(String::as_str), Some("1@0-12;2@0-12"));
+    assert_eq!(m.get("spp").map(String::as_str), Some("16"));
+    assert_eq!(m.get("batches").map(String::as_str), Some("8"));
+    assert_eq!(m.get("merged").map(String::as_str), Some("a.exr;b.exr"));
+    assert_eq!(m.get("weighting"), a.meta.get("weighting"));
+    assert_eq!(m.get("t1"), a.meta.get("t1"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn three_tiles_merge_into_the_full_run_bit_for_bit() {
+    let dir = temp_dir("tiles");
+    let scene = cornell();
+    let common = [
+        "--scene",
+        scene.as_str(),
+        "--slice",
+        "z=0",
+        "--res",
+        "16",
+        "--spp",
+        "6",
+        "--batches",
+        "3",
+        "--quiet",
+        "--no-png",
+    ];
+    // Tiles on one thread, under their default names; the full run on all threads.
+    for i in 0..3 {
+        let tile = format!("{i}/3");
+        let mut args = common.to_vec();
+        args.extend(["--tile", tile.as_str(), "--threads", "1"]);
+        let (ok, err) = ftpd3d_in(&dir, &args);
+        assert!(ok, "{err}");
+    }
+    let mut args = common.to_vec();
+    args.extend(["-o", "full.exr"]);
+    let (ok, err) = ftpd3d_in(&dir, &args);
+    assert!(ok, "{err}");
+    let full = read_exr(&dir.join("full.exr")).unwrap();
+    assert_eq!((full.width, full.height), (16, 16));
+
+    let names: Vec<String> = (0..3)
+        .map(|i| format!("out/cornell_mirror_z0_tile{i}of3.exr"))
+        .collect();
+    // 16 rows in 3 stripes: 0..5, 5..10, 10..16 (row 0 at the bottom).
+    for (i, rows) in [(0, 0..5), (1, 5..10), (2, 10..16)] {
+        let t = read_exr(&dir.join(&names[i])).unwrap();
+        assert_eq!(
+            t.meta.get("tile").map(String::as_str),
+            Some(&*format!("{i}/3"))
+        );
+        for (k, (c, f)) in t.cells.iter().zip(&full.cells).enumerate() {
+            if rows.contains(&(k / 16)) {
+                assert_eq!(
+                    bits(c),
+                    bits(f),
+                    "tile {i}, cell {k}: the full run's streams"
+                );
+            } else {
+                assert_eq!(
+                    bits(c),
+                    bits(&Moments::default()),
+                    "tile {i}, cell {k}: empty"
+                );
+            }
+        }
+    }
+
+    let mut args = vec!["merge"];
+    args.extend(names.iter().map(String::as_str));
+    args.extend(["-o", "merged.exr"]);
+    let (ok, err) = ftpd3d_in(&dir, &args);
+    assert!(ok, "{err}");
+    let merged = read_exr(&dir.join("merged.exr")).unwrap();
+    assert_same_cells(&merged, &full, "3 tiles merged against the full run");
+    for ch in [
+        "ftpd",
+        "ftpd.stderr",
+        "samples",
+        "valid",
+        "fluence.G",
+        "grad.x",
+    ] {
+        let (_, _, m) = read_channel(&dir.join("merged.exr"), ch).unwrap();
+        let (_, _, f) = read_channel(&dir.join("full.exr"), ch).unwrap();
+        assert_eq!(f32_bits(&m), f32_bits(&f), "channel {ch}");
+    }
+    let m = &merged.meta;
+    assert_eq!(m.get("seed").map(String::as_str), Some("1"));
+    assert_eq!(m.get("parts").map(String::as_str), Some("1@0-16"));
+    assert_eq!(m.get("tile"), None, "all rows covered: no longer a tile");
+    assert_eq!(m.get("spp").map(String::as_str), Some("6"));
+    assert_eq!(m.get("batches").map(String::as_str), Some("3"));
+
+    // Two of three tiles: a partial field, said so, that still merges with the third.
+    let (ok, err) = ftpd3d_in(
+        &dir,
+        &[
+            "merge",
+            &names[0],
+            &names[2],
+            "-o",
+            "partial.exr",
+            "--no-png",
+        ],
+    );
+    assert!(ok && err.contains("covers 11 of 16 rows"), "{err}");
+    let partial = read_exr(&dir.join("partial.exr")).unwrap();
+    assert_eq!(
+        partial.meta.get("tile").map(String::as_str),
+        Some("0/3,2/3")
+    );
+    let (ok, err) = ftpd3d_in(
+        &dir,
+        &[
+            "merge",
+            "partial.exr",
+            &names[1],
+            "-o",
+            "again.exr",
+            "--no-png",
+        ],
+    );
+    assert!(ok, "{err}");
+    assert_same_cells(
+        &read_exr(&dir.join("again.exr")).unwrap(),
+        &full,
+        "in two steps",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn mismatched_runs_are_refused_naming_the_file_and_the_key() {
+    let dir = temp_dir("mismatch");
+    run(&dir, &["--t1", "1.5", "-o", "a.exr"]);
+    run(&dir, &["--t1", "2", "--seed", "2", "-o", "b.exr"]);
+    let scene = cornell();
+    let (ok, err) = ftpd3d_in(
+        &dir,
+        &[
+            "--scene", &scene, "--slice", "z=0", "--res", "10", "--spp", "2", "--t1", "1.5",
+            "--seed", "3", "--quiet", "--no-png", "-o", "c.exr",
+        ],
+    );
+    assert!(ok, "{err}");
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "b.exr", "-o", "x.exr"]);
+    assert!(!ok);
+    assert!(
+        err.contains("b.exr: t1 = 2e0 differs from a.exr's 1.5e0"),
+        "{err}"
+    );
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "c.exr", "-o", "x.exr"]);
+    assert!(!ok);
+    assert!(
+        err.contains("c.exr: resolution 10x10 differs from a.exr's 12x12"),
+        "{err}"
+    );
+    // Other keys of the run, edited into copies of a.exr with another seed.
+    let a = read_exr(&dir.join("a.exr")).unwrap();
+    for (key, value, msg) in [
+        (
+            "weighting",
+            Some("unweighted"),
+            "d.exr: weighting = unweighted differs from a.exr's radiance",
+        ),
+        (
+            "plane",
+            Some("z=0.5"),
+            "d.exr: plane = z=0.5 differs from a.exr's z=0",
+        ),
+        (
+            "angle_deg",
+            Some("3"),
+            "d.exr: angle_deg = 3 differs from a.exr's 2",
+        ),
+        (
+            "max_bounces",
+            None,
+            "d.exr: has no max_bounces, while a.exr has max_bounces = 32",
+        ),
+        (
+            "scene",
+            Some("other.obj"),
+            "d.exr: scene = other.obj differs",
+        ),
+    ] {
+        let mut d = a.clone();
+        d.meta.insert("seed".into(), "9".into());
+        match value {
+            Some(v) => d.meta.insert(key.into(), v.into()),
+            None => d.meta.remove(key),
+        };
+        write_exr(&dir.join("d.exr"), &d, &[]).unwrap();
+        let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "d.exr", "-o", "x.exr"]);
+        assert!(!ok && err.contains(msg), "{key}: {err}");
+    }
+    // A file whose cells contradict its header.
+    let mut e = a.clone();
+    e.meta.insert("seed".into(), "9".into());
+    e.meta.insert("tile".into(), "0/2".into());
+    write_exr(&dir.join("e.exr"), &e, &[]).unwrap();
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "e.exr", "-o", "x.exr"]);
+    assert!(
+        !ok && err.contains("e.exr: cell") && err.contains("holds samples"),
+        "{err}"
+    );
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "nope.exr", "-o", "x.exr"]);
+    assert!(!ok && err.contains("nope.exr: no such file"), "{err}");
+    assert!(!dir.join("x.exr").exists(), "nothing written on refusal");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_same_seed_twice_is_refused() {
+    let dir = temp_dir("sameseed");
+    run(&dir, &["-o", "a.exr"]);
+    std::fs::copy(dir.join("a.exr"), dir.join("copy.exr")).unwrap();
+    for files in [["a.exr", "a.exr"], ["a.exr", "copy.exr"]] {
+        let (ok, err) = ftpd3d_in(&dir, &["merge", files[0], files[1], "-o", "x.exr"]);
+        assert!(!ok);
+        assert!(
+            err.contains(&format!("{}: seed 1 is also the seed of a.exr", files[1]))
+                && err.contains("same random streams"),
+            "{err}"
+        );
+    }
+    // A tile of the same seed overlaps the full run's rows; one of another seed does not.
+    run(&dir, &["--tile", "1/2", "-o", "t1.exr"]);
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "t1.exr", "-o", "x.exr"]);
+    assert!(
+        !ok && err.contains("t1.exr: seed 1 over rows 6-12 overlaps rows 0-12 of a.exr"),
+        "{err}"
+    );
+    run(&dir, &["--tile", "1/2", "--seed", "2", "-o", "t2.exr"]);
+    let (ok, err) = ftpd3d_in(
+        &dir,
+        &["merge", "a.exr", "t2.exr", "-o", "x.exr", "--no-png"],
+    );
+    assert!(ok, "{err}");
+    let x = read_exr(&dir.join("x.exr")).unwrap();
+    assert_eq!(x.meta.get("spp").map(String::as_str), Some("8-16"));
+    assert_eq!(x.meta.get("batches").map(String::as_str), Some("4-8"));
+    assert!(x.cells[..6 * 12].iter().all(|c| c.n == 8));
+    assert!(x.cells[6 * 12..].iter().all(|c| c.n == 16));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn tile_values_are_checked_and_named() {
+    let dir = temp_dir("tileflag");
+    let scene = cornell();
+    for (tile, msg) in [
+        ("3/3", "numbered 0 to 2"),
+        ("0/0", "at least 1"),
+        ("1", "expected I/N"),
+    ] {
+        let (ok, err) = ftpd3d_in(
+            &dir,
+            &[
+                "--scene", &scene, "--slice", "z=0", "--tile", tile, "-o", "x.exr",
+            ],
+        );
+        assert!(
+            !ok && err.contains("--tile") && err.contains(msg),
+            "{tile}: {err}"
+        );
+    }
+    // More tiles than rows: the empty ones are valid (empty) files, with a warning.
+    let (ok, err) = ftpd3d_in(
+        &dir,
+        &[
+            "--scene", &scene, "--slice", "z=0", "--res", "2", "--spp", "2", "--tile", "0/4",
+            "--no-png", "-o", "e.exr",
+        ],
+    );
+    assert!(ok && err.contains("this tile is empty"), "{err}");
+    assert!(
+        read_exr(&dir.join("e.exr"))
+            .unwrap()
+            .cells
+            .iter()
+            .all(|c| c.n == 0)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A stand-in for `sbatch`: runs an array job's tasks one after the other (and any other job
+/// at once), prints a job id, records its arguments.
+const FAKE_SBATCH: &str = r#"#!/bin/bash
+set -euo pipefail
+echo "$*" >> sbatch.log
+array=""
+script=""
+for a in "$@"; do
+    case "$a" in
+        --array=*) array=${a#--array=} ;;
+        --*) ;;
+        *) script=$a ;;
+    esac
+done
+if [ -z "$array" ]; then
+    array=$(sed -n 's/^#SBATCH --array=//p' "$script")
+fi
+if [ -n "$array" ]; then
+    for ((i = ${array%-*}; i <= ${array#*-}; i++)); do
+        SLURM_ARRAY_TASK_ID=$i bash "$script" >&2
+    done
+else
+    bash "$script" >&2
+fi
+echo "4242;cluster"
+"#;
+
+#[test]
+fn slurm_examples_split_run_and_merge_without_slurm() {
+    let dir = temp_dir("slurm");
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    std::fs::write(bin.join("sbatch"), FAKE_SBATCH).unwrap();
+    let status = Command::new("chmod")
+        .arg("+x")
+        .arg(bin.join("sbatch"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/slurm");
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let scene = cornell();
+    for mode in ["tiles", "seeds"] {
+        let work = dir.join(mode);
+        std::fs::create_dir_all(&work).unwrap();
+        let out = Command::new("bash")
+            .arg(examples.join("submit.sh"))
+            .arg(mode)
+            .current_dir(&work)
+            .env("PATH", &path)
+            .env("FTPD3D", env!("CARGO_BIN_EXE_ftpd3d"))
+            .env("SCENE", &scene)
+            .env("SLICE", "z=0")
+            .env("RES", "12")
+            .env("SPP", "4")
+            .env("PARTS", "3")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{mode}: {err}");
+        let log = std::fs::read_to_string(work.join("sbatch.log")).unwrap();
+        assert!(log.contains("--array=0-2"), "{log}");
+        assert!(log.contains("--dependency=afterok:4242"), "{log}");
+        let all = read_exr(&work.join("all.exr")).unwrap();
+        if mode == "tiles" {
+            // The same as one full run of 4 samples per cell.
+            let (ok, err) = ftpd3d_in(
+                &work,
+                &[
+                    "--scene", &scene, "--slice", "z=0", "--res", "12", "--spp", "4", "--no-png",
+                    "--quiet", "-o", "full.exr",
+                ],
+            );
+            assert!(ok, "{err}");
+            let full = read_exr(&work.join("full.exr")).unwrap();
+            assert_same_cells(&all, &full, "Slurm tiles merged");
+        } else {
+            assert_eq!(all.meta.get("seeds").map(String::as_str), Some("1,2,3"));
+            assert!(all.cells.iter().all(|c| c.n == 12));
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
