@@ -368,16 +368,20 @@ pub fn error_stats(cells: &[Moments]) -> ErrorStats {
 /// budget. Cells without an estimate (no defined σ yet, or fewer than two batches) get the uniform
 /// share, one unit. Shares are rounded by cumulative rounding, so the total is the budget.
 ///
-/// Why the estimate stays unbiased: the allocation of pass p is a function of the sums after
-/// passes < p only, never of pass p's samples, and pass p's samples come from the stream keyed
+/// What this does to the estimate. The allocation of pass p is a function of the sums after passes
+/// < p only, never of pass p's samples, and pass p's samples come from the stream keyed
 /// (seed, p, cell) whatever the allocation; the allocation only decides how many of them are
 /// drawn. Each sample added is therefore, given the past, an independent draw from the cell's
-/// sampling distribution, and the cell's sums stay plain sums of such draws: E[Σc] = E[n]·E[c] and
-/// likewise for ΣcΔ and ΣcΔ² (Wald's identity), and σ is consistent. As in uniform runs, σ is a
-/// ratio of sums and carries the ratio estimator's O(1/n) bias; the dependence of n on earlier
-/// samples adds a term of the same order, which vanishes as the samples grow. Each unit is a batch
-/// of the same size as a uniform pass's, so the batch statistics (standard error) keep equal-sized,
-/// independent batches.
+/// sampling distribution, and the cell's sums stay plain sums of such draws: E[Σc] = E[n]·E[c], and
+/// likewise for ΣcΔ and ΣcΔ² (Wald's identity), so sums still merge and resume exactly, and every
+/// normalised quantity (σ, S0/n, fluence) converges to the same limit as in a uniform run. What
+/// is not exact at finite n is the normalisation: n depends on the earlier samples' values (a cell
+/// whose first passes looked noisy, e.g. because of one large contribution, gets more samples,
+/// which dilute that contribution), so S/n is not an unbiased mean, and σ, a nonlinear function of
+/// ratios of sums, is biased at finite n in any run. Both biases shrink as the samples grow; the
+/// driver tests compare the mean of σ over a slice with that of a uniform run of four times the
+/// samples. Each unit is a batch of the same size as a uniform pass's, so the batch statistics
+/// (standard error) keep equal-sized, independent batches.
 pub fn allocate(cells: &[Moments], unit: u32, budget: u64, max_share: u32) -> Vec<u32> {
     let unit = unit.max(1) as f64;
     let kmax = max_share.max(1) as f64;
@@ -518,16 +522,22 @@ struct Counters {
     samples: AtomicU64,
 }
 
+/// One pass to run: its index, per-cell sizes, the cells that already completed it (resumed
+/// runs) and the stop flag checked between chunks.
+struct PassJob<'a> {
+    seed: u64,
+    pass: u32,
+    sizes: PassSizes<'a>,
+    done: Option<&'a [bool]>,
+    stop: Option<&'a AtomicBool>,
+}
+
 /// Runs one pass over the cells not yet `done`; returns per chunk whether it ran (false: skipped
 /// after a stop request).
 fn run_pass<K>(
     pool: &rayon::ThreadPool,
     field: &mut Field,
-    seed: u64,
-    pass: u32,
-    sizes: &PassSizes,
-    done: Option<&[bool]>,
-    stop: Option<&AtomicBool>,
+    job: &PassJob,
     counters: &Counters,
     bar: &ProgressBar,
     kernel: &K,
@@ -535,6 +545,13 @@ fn run_pass<K>(
 where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
+    let PassJob {
+        seed,
+        pass,
+        ref sizes,
+        done,
+        stop,
+    } = *job;
     pool.install(|| {
         field
             .cells
@@ -691,18 +708,14 @@ where
         };
         let before = counters.samples.load(Relaxed);
         let done_before = progress.inflight.as_ref().map(|f| f.done.clone());
-        let ran = run_pass(
-            pool,
-            field,
-            opts.seed,
+        let job = PassJob {
+            seed: opts.seed,
             pass,
-            &sizes,
-            done_before.as_deref(),
-            hooks.stop,
-            &counters,
-            &bar,
-            &kernel,
-        );
+            sizes,
+            done: done_before.as_deref(),
+            stop: hooks.stop,
+        };
+        let ran = run_pass(pool, field, &job, &counters, &bar, &kernel);
         taken += counters.samples.load(Relaxed) - before;
         if ran.iter().all(|&r| r) {
             progress.passes += 1;
