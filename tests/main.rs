@@ -1,6 +1,7 @@
 //! One integration-test binary (as ripgrep does): each capability is a module.
 mod bsdf;
 mod cli;
+mod driver;
 mod ftpd;
 mod geometry;
 mod gltf;
