@@ -926,7 +926,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<RunOutcome> {
         budget_text.push(format!("target error {e}"));
     }
     say(format!(
-        "{name} → {w}x{h} cells, budget {}, passes of {}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+        "{name} → {w}x{h} cells, budget {}, passes: {}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
         budget_text.join(" or "),
         Schedule::of(opts).key(),
         match opts.adaptive {
@@ -1024,13 +1024,19 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
     } else {
         String::new()
     };
+    let total = field.total_samples();
+    let earlier = if total > stats.samples {
+        format!(" ({total} in the field with the resumed ones)")
+    } else {
+        String::new()
+    };
     format!(
-        "stopped after {} passes ({}): {} samples in {:.2} s, {:.3e} samples/s, {:.3e} rays/s; \
-         relative error mean {:.4}, p95 {:.4}{unestimated}; {} pairs hit the bounce cap ({}), \
-         {} non-finite samples dropped",
+        "stopped after {} passes ({}): {} samples in {:.2} s{earlier}, {:.3e} samples/s, \
+         {:.3e} rays/s; relative error mean {:.4}, p95 {:.4}{unestimated}; {} pairs hit the \
+         bounce cap ({}), {} non-finite samples dropped",
         stats.passes,
         stats.stop,
-        field.total_samples(),
+        stats.samples,
         stats.seconds,
         stats.samples_per_second(),
         stats.rays_per_second(),
