@@ -9,13 +9,16 @@ use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
 use crate::output;
-use crate::render::{self, RenderOptions, RunStats};
+use crate::render::{
+    self, ErrorStats, Hooks, InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason,
+};
 use crate::rng::Sampler;
 use crate::scene::{self, Scene};
 use crate::transport::flat::Flatland;
 use anyhow::{Context, bail};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Estimator settings as the user gave them; `None` means "relative to the scene" (see [`resolve`]).
 #[derive(Clone, Debug)]
@@ -217,6 +220,13 @@ pub struct Job {
     pub quiet: bool,
     /// Confine every direction to the slice plane (2D light transport in an extruded scene).
     pub flatland: bool,
+    /// Write the field so far (marked partial) to `output` at the first pass boundary after each
+    /// such interval.
+    pub checkpoint_every: Option<Duration>,
+    /// Continue the run saved in this file (a partial or finished field of the same job).
+    pub resume: Option<PathBuf>,
+    /// The command line that started the job, without any `--resume`, for the resume hint.
+    pub command: Option<String>,
 }
 
 /// Largest accepted `--res`.
@@ -377,8 +387,33 @@ pub fn describe_run(
     );
     m.insert("max_bounces".into(), params.max_bounces.to_string());
     m.insert("seed".into(), opts.seed.to_string());
-    m.insert("spp".into(), opts.spp.to_string());
+    m.insert(
+        "spp".into(),
+        if opts.budget.cap_spp {
+            opts.spp.to_string()
+        } else {
+            "none".into()
+        },
+    );
     m.insert("batches".into(), opts.batches.to_string());
+    m.insert("schedule".into(), Schedule::of(opts).key());
+    m.insert(
+        "adaptive".into(),
+        match opts.adaptive {
+            Some(a) => format!("max {}x", a.max_share),
+            None => "off".into(),
+        },
+    );
+    m.insert(
+        "budget.time".into(),
+        opts.budget.time.map_or_else(|| "none".into(), fmt_duration),
+    );
+    m.insert(
+        "budget.target_error".into(),
+        opts.budget
+            .target_error
+            .map_or_else(|| "none".into(), |t| t.to_string()),
+    );
     m.insert("features".into(), scene.features.to_string());
     m.insert("flatland".into(), params.flat.is_some().to_string());
 }
@@ -418,40 +453,98 @@ pub fn run_domain_with<D: Domain>(
     opts: &RenderOptions,
     kernel: KernelChoice,
 ) -> anyhow::Result<(Field, RunStats)> {
-    struct DomainRun<'a, D> {
+    let (w, h, d) = domain.dims();
+    let mut field = Field::new(w, h, d);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()?;
+    let stats = run_domain_progressive(
+        &pool,
+        scene,
+        domain,
+        params,
+        opts,
+        kernel,
+        &mut field,
+        &mut Progress::default(),
+        Hooks::default(),
+    )?;
+    field.meta.insert("kernel".into(), kernel.to_string());
+    Ok((field, stats))
+}
+
+/// Runs passes over `field` (new, or resumed at `progress`) with the given kernel until a budget of
+/// `opts` is reached or `hooks.stop` is set; see [`render::run_progressive`].
+#[allow(clippy::too_many_arguments)]
+pub fn run_domain_progressive<D: Domain>(
+    pool: &rayon::ThreadPool,
+    scene: &Scene,
+    domain: &D,
+    params: &Params,
+    opts: &RenderOptions,
+    kernel: KernelChoice,
+    field: &mut Field,
+    progress: &mut Progress,
+    hooks: Hooks,
+) -> anyhow::Result<RunStats> {
+    let dims = domain.dims();
+    if (field.width, field.height, field.depth) != dims {
+        bail!(
+            "the field is {}x{}x{} cells, the domain {}x{}x{}",
+            field.width,
+            field.height,
+            field.depth,
+            dims.0,
+            dims.1,
+            dims.2
+        );
+    }
+    struct DomainRun<'a, 'h, D> {
+        pool: &'a rayon::ThreadPool,
         scene: &'a Scene,
         domain: &'a D,
         params: &'a Params,
         opts: &'a RenderOptions,
+        field: &'a mut Field,
+        progress: &'a mut Progress,
+        hooks: Hooks<'h>,
     }
-    impl<D: Domain> WithKernel for DomainRun<'_, D> {
-        type Output = anyhow::Result<(Field, RunStats)>;
+    impl<D: Domain> WithKernel for DomainRun<'_, '_, D> {
+        type Output = anyhow::Result<RunStats>;
         fn run<K: Kernel>(self) -> Self::Output {
             let DomainRun {
+                pool,
                 scene,
                 domain,
                 params,
                 opts,
+                field,
+                progress,
+                hooks,
             } = self;
-            let (w, h, d) = domain.dims();
-            let mut field = Field::new(w, h, d);
-            let stats = render::run(&mut field, opts, |cell, s: &mut Sampler| {
-                domain.sample::<K>(scene, cell, params, s)
-            })?;
-            Ok((field, stats))
+            render::run_progressive(
+                pool,
+                field,
+                opts,
+                progress,
+                hooks,
+                |cell, s: &mut Sampler| domain.sample::<K>(scene, cell, params, s),
+            )
         }
     }
-    let (mut field, stats) = kernel::dispatch(
+    kernel::dispatch(
         kernel,
         DomainRun {
+            pool,
             scene,
             domain,
             params,
             opts,
+            field,
+            progress,
+            hooks,
         },
-    )?;
-    field.meta.insert("kernel".into(), kernel.to_string());
-    Ok((field, stats))
+    )
 }
 
 /// [`run_domain_with`] over one tile of the domain's grid (see [`crate::domain::tile`]), or the
@@ -496,15 +589,7 @@ pub fn run_plane_tile(
     check_flatland(scene, plane, params, kernel)?;
     let (mut field, stats) = run_domain_tile(scene, plane, params, opts, kernel, tile)?;
     describe_run(&mut field, scene, params, opts, "slice");
-    let m = &mut field.meta;
-    m.insert("plane".into(), plane.label.clone());
-    m.insert("plane.origin".into(), fmt_vec(plane.origin));
-    m.insert("plane.u".into(), fmt_vec(plane.u_axis));
-    m.insert("plane.v".into(), fmt_vec(plane.v_axis));
-    m.insert(
-        "plane.size".into(),
-        format!("{},{}", plane.size.0, plane.size.1),
-    );
+    field.meta.extend(plane_meta(plane));
     Ok((field, stats))
 }
 
@@ -544,29 +629,44 @@ fn check_flatland(
     }
 }
 
+/// The metadata that places a slice.
+pub fn plane_meta(plane: &Plane) -> Vec<(String, String)> {
+    vec![
+        ("plane".into(), plane.label.clone()),
+        ("plane.origin".into(), fmt_vec(plane.origin)),
+        ("plane.u".into(), fmt_vec(plane.u_axis)),
+        ("plane.v".into(), fmt_vec(plane.v_axis)),
+        (
+            "plane.size".into(),
+            format!("{},{}", plane.size.0, plane.size.1),
+        ),
+    ]
+}
+
+/// The metadata that places a camera image.
+pub fn camera_meta(view: &CameraView) -> Vec<(String, String)> {
+    let c = &view.camera;
+    vec![
+        ("camera".into(), c.name.clone()),
+        ("camera.eye".into(), fmt_vec(c.eye)),
+        ("camera.forward".into(), fmt_vec(c.forward)),
+        ("camera.up".into(), fmt_vec(c.up)),
+        (
+            "camera.fov_y_deg".into(),
+            format!("{}", c.fov_y.to_degrees()),
+        ),
+    ]
+}
+
 fn fmt_vec(v: glam::DVec3) -> String {
     format!("{},{},{}", v.x, v.y, v.z)
 }
 
-/// Mean and 95th percentile of the relative standard error over valid cells with σ > 0.
+/// Mean and 95th percentile of the relative standard error over valid cells with σ > 0 (see
+/// [`render::error_stats`] for the definitions).
 pub fn relative_error_summary(field: &Field) -> (f64, f64) {
-    // Cell by cell, not through `Field::values`: a volume's memory budget has no room for a
-    // second copy of every cell.
-    let mut rel: Vec<f64> = field
-        .cells
-        .iter()
-        .map(|c| c.finalize())
-        .filter(|v| v.valid && v.sigma > 0.0)
-        .map(|v| v.stderr / v.sigma)
-        .filter(|r| r.is_finite())
-        .collect();
-    if rel.is_empty() {
-        return (0.0, 0.0);
-    }
-    rel.sort_by(f64::total_cmp);
-    let mean = rel.iter().sum::<f64>() / rel.len() as f64;
-    let p95 = rel[((rel.len() as f64 * 0.95) as usize).min(rel.len() - 1)];
-    (mean, p95)
+    let e = render::error_stats(&field.cells);
+    (e.mean, e.p95)
 }
 
 /// Loads the job's scene and adds its command-line point lights.
@@ -633,97 +733,346 @@ pub fn resolve_camera(
     CameraView::new(camera, size.0, size.1)
 }
 
-/// Runs a job end to end: load, estimate, write EXR (and PNG) per plane or camera, print a summary
-/// on stderr. Every output location is checked before any work.
-pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
-    if job.render.spp == 0 {
+/// What [`run_job`] did.
+#[derive(Clone, Debug)]
+pub struct RunOutcome {
+    pub field: Field,
+    pub stats: RunStats,
+    pub error: ErrorStats,
+    pub progress: Progress,
+}
+
+/// Parses a duration such as `90s`, `10m`, `1h30m`, `2.5h`, `1d`, `500ms`; a bare number is
+/// seconds.
+pub fn parse_duration(s: &str) -> Result<Duration, String> {
+    let t = s.trim();
+    if t.is_empty() {
+        return Err("empty duration; expected e.g. 90s, 10m or 1h30m".into());
+    }
+    if let Ok(x) = t.parse::<f64>() {
+        return Duration::try_from_secs_f64(x)
+            .map_err(|_| format!("'{s}': a duration must be finite and ≥ 0"));
+    }
+    let mut total = 0.0f64;
+    let mut rest = t;
+    while !rest.is_empty() {
+        let num_len = rest
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(rest.len());
+        if num_len == 0 {
+            return Err(format!(
+                "'{s}': expected a number before '{rest}' (e.g. 90s, 10m, 1h30m)"
+            ));
+        }
+        let x: f64 = rest[..num_len]
+            .parse()
+            .map_err(|_| format!("'{s}': '{}' is not a number", &rest[..num_len]))?;
+        rest = rest[num_len..].trim_start();
+        let unit_len = rest
+            .find(|c: char| !c.is_ascii_alphabetic())
+            .unwrap_or(rest.len());
+        let unit = match &rest[..unit_len] {
+            "ms" => 1e-3,
+            "s" | "sec" | "secs" => 1.0,
+            "m" | "min" | "mins" => 60.0,
+            "h" | "hr" | "hrs" => 3600.0,
+            "d" => 86400.0,
+            "" => {
+                return Err(format!(
+                    "'{s}': a unit must follow '{x}' (ms, s, m, h or d)"
+                ));
+            }
+            u => return Err(format!("'{s}': unknown unit '{u}' (ms, s, m, h or d)")),
+        };
+        total += x * unit;
+        rest = rest[unit_len..].trim_start();
+    }
+    Duration::try_from_secs_f64(total).map_err(|_| format!("'{s}': duration out of range"))
+}
+
+/// `1h02m03s`, `4m05s`, `12.3s`: a duration as [`parse_duration`] reads it back.
+pub fn fmt_duration(d: Duration) -> String {
+    let secs = d.as_secs_f64();
+    if secs < 60.0 {
+        return format!("{}s", (secs * 1000.0).round() / 1000.0);
+    }
+    let s = d.as_secs();
+    let (h, m, sec) = (s / 3600, s / 60 % 60, s % 60);
+    if h > 0 {
+        format!("{h}h{m:02}m{sec:02}s")
+    } else {
+        format!("{m}m{sec:02}s")
+    }
+}
+
+/// Keys of a field's metadata that must agree for a run to resume from it: where the samples are,
+/// what they estimate, and which random streams and pass sizes produced them. Budgets (spp cap,
+/// time, target error) may change between invocations.
+pub const RESUME_KEYS: &[&str] = &[
+    "scene",
+    "domain",
+    "plane",
+    "plane.origin",
+    "plane.u",
+    "plane.v",
+    "plane.size",
+    "camera",
+    "camera.eye",
+    "camera.forward",
+    "camera.up",
+    "camera.fov_y_deg",
+    "weighting",
+    "t0",
+    "t1",
+    "angle_deg",
+    "max_bounces",
+    "seed",
+    "schedule",
+    "adaptive",
+    "features",
+    "kernel",
+];
+
+/// Checks that the field read from `path` was made by the run described by `meta` on a grid of
+/// `dims`; the error names the first key that differs.
+pub fn check_resume(
+    path: &Path,
+    file: &Field,
+    meta: &BTreeMap<String, String>,
+    dims: (usize, usize, usize),
+) -> anyhow::Result<()> {
+    let have = (file.width, file.height, file.depth);
+    if have != dims {
+        bail!(
+            "--resume {}: grid size differs: the file has {}x{} cells, this run {}x{} \
+             (give the --res/--window/--size the run was started with)",
+            path.display(),
+            have.0,
+            have.1,
+            dims.0,
+            dims.1
+        );
+    }
+    if !file.meta.contains_key("schedule") {
+        bail!(
+            "--resume {}: not a field this version of ftpd3d can resume (no 'schedule' key)",
+            path.display()
+        );
+    }
+    for key in RESUME_KEYS {
+        let (a, b) = (file.meta.get(*key), meta.get(*key));
+        if a != b {
+            let show = |v: Option<&String>| v.map_or_else(|| "(none)".to_string(), Clone::clone);
+            bail!(
+                "--resume {}: {key} differs: the file has {}, this run {}; a run resumes only with \
+                 the scene, domain, parameters, seed and pass schedule it was started with",
+                path.display(),
+                show(a),
+                show(b)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Records where a run stands in the field's metadata: `partial`, `passes`, `samples`, `elapsed`
+/// (compute seconds so far), `remaining.samples` and `remaining.time` (what is left of the budgets),
+/// `pass.inflight`, and `stop` (why it stopped, when it has).
+pub fn mark_progress(
+    field: &mut Field,
+    progress: &Progress,
+    opts: &RenderOptions,
+    partial: bool,
+    stop: Option<StopReason>,
+) {
+    let samples = field.total_samples();
+    let cells = field.cells.len() as u64;
+    let m = &mut field.meta;
+    m.insert("partial".into(), partial.to_string());
+    m.insert("passes".into(), progress.passes.to_string());
+    m.insert("samples".into(), samples.to_string());
+    m.insert("elapsed".into(), progress.elapsed.to_string());
+    m.insert(
+        "remaining.samples".into(),
+        if opts.budget.cap_spp {
+            (cells * opts.spp as u64)
+                .saturating_sub(samples)
+                .to_string()
+        } else {
+            "unbounded".into()
+        },
+    );
+    m.insert(
+        "remaining.time".into(),
+        opts.budget.time.map_or_else(
+            || "none".into(),
+            |t| fmt_duration(t.saturating_sub(Duration::from_secs_f64(progress.elapsed))),
+        ),
+    );
+    m.insert(
+        "pass.inflight".into(),
+        progress.inflight.is_some().to_string(),
+    );
+    match stop {
+        Some(s) => m.insert("stop".into(), s.to_string()),
+        None => m.remove("stop"),
+    };
+}
+
+/// Writes a field with its progress: for a pass interrupted part-way, the channels `pass.done`
+/// (1 where the cell completed it) and, for adaptive passes, `pass.units` (the pass's allocation).
+pub fn write_progress(
+    field: &Field,
+    progress: &Progress,
+    path: &Path,
+    png: bool,
+) -> anyhow::Result<()> {
+    let mut extra = Vec::new();
+    if let Some(f) = &progress.inflight {
+        extra.push((
+            "pass.done",
+            f.done.iter().map(|&d| if d { 1.0 } else { 0.0 }).collect(),
+        ));
+        if let Some(u) = &f.units {
+            extra.push(("pass.units", u.iter().map(|&x| x as f64).collect()));
+        }
+    }
+    write_outputs_with(field, path, png, extra)
+}
+
+/// Reads a field to resume from, with where its run stands (see [`mark_progress`]).
+pub fn read_progress(path: &Path) -> anyhow::Result<(Field, Progress)> {
+    let field =
+        output::exr::read_exr(path).with_context(|| format!("--resume {}", path.display()))?;
+    let num = |key: &str| -> anyhow::Result<&str> {
+        field.meta.get(key).map(String::as_str).with_context(|| {
+            format!(
+                "--resume {}: no '{key}' in the file (not written by a progressive run?)",
+                path.display()
+            )
+        })
+    };
+    let passes: u32 = num("passes")?
+        .parse()
+        .with_context(|| format!("--resume {}: 'passes' is not a number", path.display()))?;
+    let elapsed: f64 = num("elapsed")?
+        .parse()
+        .with_context(|| format!("--resume {}: 'elapsed' is not a number", path.display()))?;
+    let inflight = if field.meta.get("pass.inflight").is_some_and(|v| v == "true") {
+        let (_, _, done) = output::exr::read_channel(path, "pass.done")?;
+        let units = if field.meta.get("adaptive").is_some_and(|a| a != "off") && passes >= 2 {
+            let (_, _, u) = output::exr::read_channel(path, "pass.units")?;
+            Some(u.iter().map(|&x| x as u32).collect())
+        } else {
+            None
+        };
+        Some(InFlight {
+            done: done.iter().map(|&d| d != 0.0).collect(),
+            units,
+        })
+    } else {
+        None
+    };
+    Ok((
+        field,
+        Progress {
+            passes,
+            inflight,
+            elapsed,
+        },
+    ))
+}
+
+/// The domain of a job, resolved against its scene.
+enum JobDomain {
+    Plane(Plane),
+    Camera(CameraView),
+}
+
+/// Runs a job end to end: load the scene once, resolve every plane (or the camera) and check every
+/// output before any work, then run each domain in progressive passes (resuming a saved run if
+/// asked), checkpoint, write EXR (and PNG) and print a summary on stderr. A run stopped by
+/// [`render::INTERRUPT`] writes what it has, marked partial, and says how to resume.
+pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
+    let opts = &job.render;
+    if opts.budget.cap_spp && opts.spp == 0 {
         bail!("--spp 0: at least one sample per cell is needed");
+    }
+    if opts.pass_spp == Some(0) {
+        bail!("--pass-spp 0: a pass needs at least one sample per cell");
+    }
+    if let Some(t) = opts.budget.target_error
+        && !(t > 0.0 && t.is_finite())
+    {
+        bail!("--target-error {t}: must be a finite relative error > 0 (e.g. 0.05)");
+    }
+    if opts.budget.time.is_some_and(|t| t.is_zero()) {
+        bail!("--time 0: the time budget must be positive");
+    }
+    if job.checkpoint_every.is_some_and(|t| t.is_zero()) {
+        bail!("--checkpoint-every 0: the interval must be positive");
+    }
+    if opts.adaptive.is_some_and(|a| a.max_share == 0) {
+        bail!("--adaptive-cap 0: a cell must be allowed at least the uniform share");
     }
     match &job.domain {
         DomainArg::Slice { res, .. } if *res == 0 || *res > MAX_RES => {
             bail!("--res {res}: must be between 1 and {MAX_RES}")
+        }
+        DomainArg::Slice { slices, .. }
+            if slices.len() > 1 && (job.resume.is_some() || job.checkpoint_every.is_some()) =>
+        {
+            bail!(
+                "--resume and --checkpoint-every work on one output; this job has {} slices \
+                 (run them one by one)",
+                slices.len()
+            )
         }
         DomainArg::Camera { size: (w, h), .. }
             if *w == 0 || *h == 0 || *w > MAX_RES || *h > MAX_RES =>
         {
             bail!("--size {w},{h}: each side must be between 1 and {MAX_RES}")
         }
+        DomainArg::Camera { .. } if job.flatland => {
+            bail!(
+                "--flatland works on slices (the plane confines the directions), not camera images"
+            )
+        }
         _ => {}
+    }
+    if let Some(r) = &job.resume
+        && !r.is_file()
+    {
+        bail!("--resume {}: no such file", r.display());
     }
     if matches!(job.domain, DomainArg::Camera { .. }) {
         check_writable(&job.output)?;
     }
-    if job.flatland && matches!(job.domain, DomainArg::Camera { .. }) {
-        bail!("--flatland works on slices (the plane confines the directions), not camera images");
-    }
     let t_load = Instant::now();
-    let tile_note = |height: usize| match job.tile {
-        Some(t) if t.rows(height).is_empty() => {
-            eprintln!(
-                "warning: --tile {t}: the grid has {height} rows, fewer than {} tiles; this tile is empty",
-                t.count
-            );
-            String::new()
-        }
-        Some(t) => {
-            let r = t.rows(height);
-            format!(", tile {t} (rows {}..{})", r.start, r.end)
-        }
-        None => String::new(),
-    };
     let mut scene = load_job_scene(job)?;
-    let say = |s: String| {
-        if !job.quiet {
-            eprintln!("{s}");
-        }
-    };
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
-    say(format!(
-        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s)",
-        job.scene.display(),
-        scene.triangles.len(),
-        scene.report.degenerate_dropped,
-        scene.lights.lights.len(),
-        scene.features,
-        t_load.elapsed().as_secs_f64()
-    ));
-    let describe = |what: String, w: usize, h: usize, params: &Params| {
+    say(
+        job,
         format!(
-            "{what} → {w}x{h} cells{}, {} spp in {} batches, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
-            tile_note(h),
-            job.render.spp,
-            job.render.batches,
-            params.weighting,
-            params.t0,
-            params.t1,
-            job.estimator.angle_deg
-        )
-    };
-    let report = |field: &Field, stats: &RunStats, params: &Params| {
-        let (rel_mean, rel_p95) = relative_error_summary(field);
-        say(format!(
-            "done in {:.2} s: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
-             {} pairs hit the bounce cap ({}), {} non-finite samples dropped",
-            stats.seconds,
-            stats.samples_per_second(),
-            stats.rays_per_second(),
-            rel_mean,
-            rel_p95,
-            stats.capped,
-            params.max_bounces,
-            stats.clamped
-        ));
-    };
+            "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s)",
+            job.scene.display(),
+            scene.triangles.len(),
+            scene.report.degenerate_dropped,
+            scene.lights.lights.len(),
+            scene.features,
+            t_load.elapsed().as_secs_f64()
+        ),
+    );
+    // Every plane and output is resolved and checked before the first one runs.
+    let mut domains = Vec::new();
     match &job.domain {
         DomainArg::Slice {
             slices,
             window,
             res,
         } => {
-            // Every plane and output is resolved and checked before the first plane runs.
-            let mut planes = Vec::with_capacity(slices.len());
             for (k, arg) in slices.iter().enumerate() {
                 let plane = match arg {
                     SliceArg::Axis(a) => {
@@ -733,62 +1082,48 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<Field>> {
                 };
                 let out = slice_output(&job.output, arg, k, slices.len());
                 check_writable(&out)?;
-                planes.push((plane, out));
+                domains.push((JobDomain::Plane(plane), out));
             }
             if !job.flatland {
                 job.estimator.resolve(&scene)?;
             }
-            let mut fields = Vec::with_capacity(planes.len());
-            for (plane, out) in &planes {
-                let params = if job.flatland {
-                    let params = prepare_flatland(&mut scene, plane, &job.estimator)?;
-                    if let Some(f) = &scene.flat {
-                        say(format!(
+        }
+        DomainArg::Camera { camera, size } => {
+            domains.push((
+                JobDomain::Camera(resolve_camera(camera, &scene, *size)?),
+                job.output.clone(),
+            ));
+        }
+    }
+    let mut outcomes = Vec::with_capacity(domains.len());
+    for (domain, out) in &domains {
+        let params = match domain {
+            JobDomain::Plane(plane) if job.flatland => {
+                let params = prepare_flatland(&mut scene, plane, &job.estimator)?;
+                if let Some(f) = &scene.flat {
+                    say(
+                        job,
+                        format!(
                             "flatland in {}: {} light cross-sections, 2D power {:.4}",
                             plane.label,
                             f.lights.lights.len(),
                             f.lights.total_power()
-                        ));
-                    }
-                    params
-                } else {
-                    job.estimator.resolve(&scene)?
-                };
-                say(describe(
-                    format!("slice {}{}", plane.label, tile_note(plane.height)),
-                    plane.width,
-                    plane.height,
-                    &params,
-                ));
-                let kernel = kernel_choice(&scene, &params, true);
-                let (mut field, stats) =
-                    run_plane_tile(&scene, plane, &params, &job.render, kernel, job.tile)?;
-                annotate_point_lights(&mut field, job);
-                report(&field, &stats, &params);
-                write_outputs(&field, out, job.png)?;
-                say(format!("wrote {}", out.display()));
-                fields.push(field);
+                        ),
+                    );
+                }
+                params
             }
-            Ok(fields)
-        }
-        DomainArg::Camera { camera, size } => {
-            let params = job.estimator.resolve(&scene)?;
-            let view = resolve_camera(camera, &scene, *size)?;
-            say(describe(
-                format!("camera '{}'{}", view.camera.name, tile_note(view.height)),
-                view.width,
-                view.height,
-                &params,
-            ));
-            let (mut field, stats) =
-                run_camera_tile(&scene, &view, &params, &job.render, job.tile)?;
-            annotate_point_lights(&mut field, job);
-            report(&field, &stats, &params);
-            write_outputs(&field, &job.output, job.png)?;
-            say(format!("wrote {}", job.output.display()));
-            Ok(vec![field])
+            _ => job.estimator.resolve(&scene)?,
+        };
+        let outcome = run_domain_job(job, &scene, domain, &params, out)?;
+        let interrupted = !outcome.stats.stop.is_complete()
+            && render::INTERRUPT.load(std::sync::atomic::Ordering::Relaxed);
+        outcomes.push(outcome);
+        if interrupted {
+            break;
         }
     }
+    Ok(outcomes)
 }
 
 /// Records the command-line point lights in the field's metadata: they are part of the scene, and
@@ -801,6 +1136,242 @@ fn annotate_point_lights(field: &mut Field, job: &Job) {
             .map(|(p, i)| format!("{}:{}", fmt_vec(*p), fmt_vec(*i)))
             .collect();
         field.meta.insert("point_lights".into(), lights.join(";"));
+    }
+}
+
+fn say(job: &Job, s: String) {
+    if !job.quiet {
+        eprintln!("{s}");
+    }
+}
+
+/// One domain of a job: progressive passes, checkpoints, resume, tile, summary, outputs.
+fn run_domain_job(
+    job: &Job,
+    scene: &Scene,
+    domain: &JobDomain,
+    params: &Params,
+    output: &Path,
+) -> anyhow::Result<RunOutcome> {
+    let opts = &job.render;
+    let (name, kind) = match domain {
+        JobDomain::Plane(p) => (format!("slice {}", p.label), "slice"),
+        JobDomain::Camera(v) => (format!("camera '{}'", v.camera.name), "camera"),
+    };
+    let (w, h, d) = match domain {
+        JobDomain::Plane(p) => p.dims(),
+        JobDomain::Camera(v) => v.dims(),
+    };
+    let kernel = kernel_choice(scene, params, true);
+    if let JobDomain::Plane(p) = domain {
+        check_flatland(scene, p, params, kernel)?;
+    }
+    let mut fresh = Field::new(w, h, d);
+    describe_run(&mut fresh, scene, params, opts, kind);
+    fresh.meta.extend(match domain {
+        JobDomain::Plane(p) => plane_meta(p),
+        JobDomain::Camera(v) => camera_meta(v),
+    });
+    fresh.meta.insert("kernel".into(), kernel.to_string());
+    annotate_point_lights(&mut fresh, job);
+    if let Some(t) = job.tile {
+        fresh.meta.insert("tile".into(), t.to_string());
+    }
+    let (mut field, mut progress) = match &job.resume {
+        None => (fresh, Progress::default()),
+        Some(path) => {
+            let (mut f, p) = read_progress(path)?;
+            check_resume(path, &f, &fresh.meta, (w, h, d))?;
+            f.meta = fresh.meta;
+            say(
+                job,
+                format!(
+                    "resuming {}: {} passes done, {} samples, {:.1} s of compute so far{}",
+                    path.display(),
+                    p.passes,
+                    f.total_samples(),
+                    p.elapsed,
+                    if p.inflight.is_some() {
+                        "; finishing the interrupted pass first"
+                    } else {
+                        ""
+                    }
+                ),
+            );
+            (f, p)
+        }
+    };
+    let mut budget_text = Vec::new();
+    if opts.budget.cap_spp {
+        budget_text.push(format!("{} spp", opts.spp));
+    }
+    if let Some(t) = opts.budget.time {
+        budget_text.push(format!("time {}", fmt_duration(t)));
+    }
+    if let Some(e) = opts.budget.target_error {
+        budget_text.push(format!("target error {e}"));
+    }
+    let tile_note = match job.tile {
+        Some(t) if t.rows(h).is_empty() => {
+            eprintln!(
+                "warning: --tile {t}: the grid has {h} rows, fewer than {} tiles; this tile is empty",
+                t.count
+            );
+            String::new()
+        }
+        Some(t) => {
+            let r = t.rows(h);
+            format!(", tile {t} (rows {}..{})", r.start, r.end)
+        }
+        None => String::new(),
+    };
+    say(
+        job,
+        format!(
+            "{name} → {w}x{h} cells{tile_note}, budget {}, passes: {}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            budget_text.join(" or "),
+            Schedule::of(opts).key(),
+            match opts.adaptive {
+                Some(a) => format!(", adaptive (at most {}x the uniform share)", a.max_share),
+                None => String::new(),
+            },
+            params.weighting,
+            params.t0,
+            params.t1,
+            job.estimator.angle_deg
+        ),
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()?;
+    let mut last_checkpoint = Instant::now();
+    let mut checkpoint = |f: &mut Field, p: &Progress, _: &RunStats| -> anyhow::Result<()> {
+        let Some(every) = job.checkpoint_every else {
+            return Ok(());
+        };
+        if last_checkpoint.elapsed() < every {
+            return Ok(());
+        }
+        mark_progress(f, p, opts, true, None);
+        write_progress(f, p, output, false)?;
+        last_checkpoint = Instant::now();
+        say(
+            job,
+            format!(
+                "checkpoint: {} passes written to {}",
+                p.passes,
+                output.display()
+            ),
+        );
+        Ok(())
+    };
+    let hooks = Hooks {
+        stop: Some(&render::INTERRUPT),
+        after_pass: Some(&mut checkpoint),
+    };
+    let run =
+        |field: &mut Field, progress: &mut Progress, hooks: Hooks| -> anyhow::Result<RunStats> {
+            match (domain, job.tile) {
+                (JobDomain::Plane(p), None) => run_domain_progressive(
+                    &pool, scene, p, params, opts, kernel, field, progress, hooks,
+                ),
+                (JobDomain::Plane(p), Some(t)) => {
+                    let stripe = Stripe::new(p, t);
+                    run_domain_progressive(
+                        &pool, scene, &stripe, params, opts, kernel, field, progress, hooks,
+                    )
+                }
+                (JobDomain::Camera(v), None) => run_domain_progressive(
+                    &pool, scene, v, params, opts, kernel, field, progress, hooks,
+                ),
+                (JobDomain::Camera(v), Some(t)) => {
+                    let stripe = Stripe::new(v, t);
+                    run_domain_progressive(
+                        &pool, scene, &stripe, params, opts, kernel, field, progress, hooks,
+                    )
+                }
+            }
+        };
+    let mut stats = run(&mut field, &mut progress, hooks)?;
+    if let Some(t) = job.tile {
+        // Cells outside the stripe were given empty samples: clear them.
+        let samples = stats.samples;
+        t.finish(&mut field, &mut stats, opts.spp);
+        stats.samples = samples.min(field.total_samples());
+    }
+    let error = render::error_stats(&field.cells);
+    let partial = !stats.stop.is_complete();
+    mark_progress(&mut field, &progress, opts, partial, Some(stats.stop));
+    say(job, summary(&field, &stats, &error, params));
+    write_progress(&field, &progress, output, job.png)?;
+    say(
+        job,
+        format!(
+            "wrote {}{}",
+            output.display(),
+            if partial { " (partial)" } else { "" }
+        ),
+    );
+    if partial {
+        eprintln!(
+            "to resume: {} --resume {}",
+            job.command
+                .as_deref()
+                .unwrap_or("ftpd3d <the same arguments>"),
+            shell_quote(&output.display().to_string())
+        );
+    }
+    Ok(RunOutcome {
+        field,
+        stats,
+        error,
+        progress,
+    })
+}
+
+/// The run summary: time, rates, passes, why the run stopped, the error, and what was clamped.
+pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Params) -> String {
+    let unestimated = if error.unestimated > 0 {
+        format!(
+            " ({} of {} cells with σ > 0 have no estimate yet)",
+            error.unestimated, error.cells
+        )
+    } else {
+        String::new()
+    };
+    let total = field.total_samples();
+    let earlier = if total > stats.samples {
+        format!(" ({total} in the field with the resumed ones)")
+    } else {
+        String::new()
+    };
+    format!(
+        "stopped after {} passes ({}): {} samples in {:.2} s{earlier}, {:.3e} samples/s, \
+         {:.3e} rays/s; relative error mean {:.4}, p95 {:.4}{unestimated}; {} pairs hit the \
+         bounce cap ({}), {} non-finite samples dropped",
+        stats.passes,
+        stats.stop,
+        stats.samples,
+        stats.seconds,
+        stats.samples_per_second(),
+        stats.rays_per_second(),
+        error.mean,
+        error.p95,
+        stats.capped,
+        params.max_bounces,
+        stats.clamped
+    )
+}
+
+/// `s` quoted for a POSIX shell when it needs it.
+pub fn shell_quote(s: &str) -> String {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
     }
 }
 
@@ -831,16 +1402,7 @@ pub fn run_camera_tile(
         tile,
     )?;
     describe_run(&mut field, scene, params, opts, "camera");
-    let c = &view.camera;
-    let m = &mut field.meta;
-    m.insert("camera".into(), c.name.clone());
-    m.insert("camera.eye".into(), fmt_vec(c.eye));
-    m.insert("camera.forward".into(), fmt_vec(c.forward));
-    m.insert("camera.up".into(), fmt_vec(c.up));
-    m.insert(
-        "camera.fov_y_deg".into(),
-        format!("{}", c.fov_y.to_degrees()),
-    );
+    field.meta.extend(camera_meta(view));
     Ok((field, stats))
 }
 
@@ -848,11 +1410,23 @@ pub fn run_camera_tile(
 /// PNG previews next to it: `<name>.png` (σ, equalised CIELAB map) and `<name>.grad.png` (gradient
 /// direction as hue, magnitude as lightness).
 pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()> {
+    write_outputs_with(field, path, png, Vec::new())
+}
+
+/// [`write_outputs`] with extra f32 channels (one value per cell, field order).
+pub fn write_outputs_with(
+    field: &Field,
+    path: &Path,
+    png: bool,
+    mut extra: Vec<(&str, Vec<f64>)>,
+) -> anyhow::Result<()> {
     let sigma = field.sigma();
     let valid = field.valid();
     let (w, h) = (field.width, field.height);
     let (gx, gy) = output::png::sobel(&sigma, &valid, w, h);
-    output::exr::write_exr(path, field, &[("grad.x", gx), ("grad.y", gy)])?;
+    extra.insert(0, ("grad.x", gx));
+    extra.insert(1, ("grad.y", gy));
+    output::exr::write_exr(path, field, &extra)?;
     if png {
         output::png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
         output::png::write_gradient_preview(

@@ -5,9 +5,11 @@ use ftpd3d::analysis::converge::{self, ConvergeJob};
 use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job, SliceArg, VolumeJob};
 use ftpd3d::domain::{Tile, VolumeRes};
 use ftpd3d::ftpd::Weighting;
-use ftpd3d::render::RenderOptions;
+use ftpd3d::render::{Adaptive, Budget, RenderOptions, StopReason};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Duration;
 
 const VERSION: &str = concat!(
     env!("CARGO_PKG_VERSION"),
@@ -151,7 +153,7 @@ struct RunArgs {
     /// A voxel grid instead of a slice, written as VTK ImageData (.vti): N voxels along the longest
     /// side of the box (the others by aspect), or NX,NY,NZ.
     #[arg(long, value_name = "N|NX,NY,NZ", value_parser = parse_volume,
-          conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland", "tile"])]
+          conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland", "tile", "time", "target_error", "adaptive", "resume", "checkpoint_every", "pass_spp"])]
     volume: Option<VolumeRes>,
     /// The box a volume covers [default: the scene bounds, flat sides padded].
     #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", allow_hyphen_values = true, value_parser = ftpd3d::domain::volume::parse_box)]
@@ -165,12 +167,36 @@ struct RunArgs {
     /// Cells along the longer side of the slice.
     #[arg(long, default_value_t = 256)]
     res: usize,
-    /// Samples (deflection pairs) per cell.
-    #[arg(long, default_value_t = 64)]
-    spp: u32,
-    /// Independent batches for the standard error (at most --spp).
+    /// Samples (deflection pairs) per cell [default: 64, or no cap when --time or --target-error
+    /// is given]. With --adaptive: the mean over cells.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Independent batches (passes) --spp is split into when no --pass-spp is given (at most --spp).
     #[arg(long, default_value_t = 8)]
     batches: u32,
+    /// Time budget of the whole run, e.g. 90s, 10m, 1h30m: no pass starts that would end after it.
+    #[arg(long, value_name = "DURATION", value_parser = app::parse_duration)]
+    time: Option<Duration>,
+    /// Stop when 95 % of the cells with σ > 0 have a relative standard error ≤ this (e.g. 0.05).
+    #[arg(long, value_name = "REL")]
+    target_error: Option<f64>,
+    /// Samples per cell added by each pass (one batch) [default: spp/batches, or 8 without --spp].
+    #[arg(long, value_name = "N")]
+    pass_spp: Option<u32>,
+    /// From the third pass on, give the samples of a pass to the cells with the largest error.
+    #[arg(long)]
+    adaptive: bool,
+    /// With --adaptive: at most this many times the uniform share per cell and pass.
+    #[arg(long, value_name = "K", default_value_t = 4, requires = "adaptive")]
+    adaptive_cap: u32,
+    /// Write the field so far (marked partial, resumable) to the output every DURATION, at pass
+    /// boundaries.
+    #[arg(long, value_name = "DURATION", value_parser = app::parse_duration)]
+    checkpoint_every: Option<Duration>,
+    /// Continue the run saved in FILE (a partial or checkpointed output of the same command);
+    /// writes to FILE unless -o says otherwise.
+    #[arg(long, value_name = "FILE")]
+    resume: Option<PathBuf>,
     /// Direction weighting.
     /// [default: radiance for slices, importance for camera images]
     #[arg(long = "weight", value_enum)]
@@ -398,10 +424,14 @@ impl RunArgs {
             output: self
                 .output
                 .clone()
+                .or_else(|| self.resume.clone())
                 .unwrap_or_else(|| PathBuf::from("out").join(default_out)),
             png: !self.no_png,
             quiet: self.quiet,
             flatland: self.flatland,
+            checkpoint_every: self.checkpoint_every,
+            resume: self.resume.clone(),
+            command: Some(command_without_resume()),
         })
     }
 
@@ -442,11 +472,21 @@ impl RunArgs {
 
     fn render(&self) -> RenderOptions {
         RenderOptions {
-            spp: self.spp,
+            spp: self.spp.unwrap_or(64),
             batches: self.batches,
             seed: self.seed,
             threads: self.threads,
             progress: !self.quiet,
+            budget: Budget {
+                cap_spp: self.spp.is_some() || (self.time.is_none() && self.target_error.is_none()),
+                time: self.time,
+                target_error: self.target_error,
+                max_passes: None,
+            },
+            pass_spp: self.pass_spp,
+            adaptive: self.adaptive.then_some(Adaptive {
+                max_share: self.adaptive_cap,
+            }),
         }
     }
 }
@@ -709,23 +749,73 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// This process's command line without `--resume FILE`, quoted for a shell.
+fn command_without_resume() -> String {
+    let mut out = Vec::new();
+    let mut args = std::env::args();
+    if let Some(a0) = args.next() {
+        out.push(app::shell_quote(&a0));
+    }
+    while let Some(a) = args.next() {
+        if a == "--resume" {
+            args.next();
+        } else if !a.starts_with("--resume=") {
+            out.push(app::shell_quote(&a));
+        }
+    }
+    out.join(" ")
+}
+
+/// Exit status of a run stopped by SIGINT/SIGTERM/SIGHUP after writing its partial result
+/// (128 + SIGINT, as shells report an interrupted command).
+const EXIT_INTERRUPTED: u8 = 130;
+
+/// First SIGINT/SIGTERM/SIGHUP: ask the driver to stop after the chunks in flight (the run then
+/// writes its partial result). Second: remove the temporary files being written and exit at once.
+fn install_signal_handler() {
+    static SIGNALS: AtomicU32 = AtomicU32::new(0);
+    let r = ctrlc::set_handler(|| {
+        if SIGNALS.fetch_add(1, Ordering::SeqCst) == 0 {
+            ftpd3d::render::INTERRUPT.store(true, Ordering::SeqCst);
+            eprintln!(
+                "\nstopping after the cells in flight, then writing the partial result \
+                 (signal again to quit at once without writing)"
+            );
+        } else {
+            ftpd3d::output::remove_temporaries();
+            eprintln!("\nquit without writing");
+            std::process::exit(EXIT_INTERRUPTED as i32);
+        }
+    });
+    if let Err(e) = r {
+        eprintln!("warning: no signal handler ({e}): an interrupted run will not save its work");
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
-        Some(Command::Bench(args)) => bench(args),
-        Some(Command::Merge(args)) => merge(args),
-        Some(Command::Converge(args)) => converge(args),
-        None if cli.run.explain => explain(&cli.run),
+        Some(Command::Bench(args)) => bench(args).map(|()| None),
+        Some(Command::Merge(args)) => merge(args).map(|()| None),
+        Some(Command::Converge(args)) => converge(args).map(|()| None),
+        None if cli.run.explain => explain(&cli.run).map(|()| None),
         None => match cli.run.volume {
             Some(res) => cli
                 .run
                 .volume_job(res)
-                .and_then(|job| app::run_volume_job(&job).map(|_| ())),
-            None => cli.run.job().and_then(|job| app::run_job(&job).map(|_| ())),
+                .and_then(|job| app::run_volume_job(&job).map(|_| None)),
+            None => cli.run.job().and_then(|job| {
+                install_signal_handler();
+                app::run_job(&job).map(|o| o.last().map(|o| o.stats.stop))
+            }),
         },
     };
+    let result = result.map(|stop| match stop {
+        Some(StopReason::Interrupted) => ExitCode::from(EXIT_INTERRUPTED),
+        _ => ExitCode::SUCCESS,
+    });
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         // A closed pipe (`ftpd3d --explain | head`) is not an error of ours.
         Err(e)
             if e.downcast_ref::<std::io::Error>()

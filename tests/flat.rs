@@ -163,6 +163,7 @@ fn opts(spp: u32, seed: u64) -> RenderOptions {
         seed,
         threads: 0,
         progress: false,
+        ..Default::default()
     }
 }
 

@@ -43,6 +43,7 @@ fn opts(spp: u32, seed: u64, threads: usize) -> RenderOptions {
         seed,
         threads,
         progress: false,
+        ..Default::default()
     }
 }
 

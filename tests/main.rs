@@ -2,6 +2,7 @@
 mod bsdf;
 mod cli;
 mod converge;
+mod driver;
 mod flat;
 mod ftpd;
 mod geometry;

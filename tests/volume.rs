@@ -34,6 +34,7 @@ fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> V
             seed: 7,
             threads: 0,
             progress: false,
+            ..Default::default()
         },
         output: out.to_path_buf(),
         png: false,
@@ -259,6 +260,9 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
         point_lights: vec![],
         flatland: false,
         tile: None,
+        checkpoint_every: None,
+        resume: None,
+        command: None,
         estimator: vjob.estimator.clone(),
         // Another seed: independent estimates, so their difference is pure noise.
         render: RenderOptions {
@@ -269,7 +273,7 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
         png: false,
         quiet: true,
     };
-    let slice = run_job(&sjob).unwrap().remove(0);
+    let slice = run_job(&sjob).unwrap().remove(0).field;
     assert_eq!((slice.width, slice.height, slice.depth), (n, n, 1));
     assert_eq!((vol.width, vol.height, vol.depth), (n, n, 1));
     let (a, b) = (vol.values(), slice.values());

@@ -261,6 +261,7 @@ pub fn measure(
             seed: job.seed.wrapping_sub(1),
             threads: job.threads,
             progress: false,
+            ..Default::default()
         };
         app::run_plane(scene, plane, p, &warm)?;
         let mut fields = Vec::new();
@@ -272,6 +273,7 @@ pub fn measure(
                 seed: job.seed.wrapping_add(k as u64),
                 threads: job.threads,
                 progress: false,
+                ..Default::default()
             };
             let (field, stats) = app::run_plane(scene, plane, p, &opts)?;
             if let Some((name, r)) = reference {

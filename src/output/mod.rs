@@ -10,7 +10,21 @@ pub mod vti;
 use crate::ftpd::moments::Moments;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Temporary files being written now, so that a process quitting at once on a second signal can
+/// remove them ([`remove_temporaries`]).
+static IN_PROGRESS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Removes the temporary files of writes in progress (for a process about to exit mid-write).
+pub fn remove_temporaries() {
+    if let Ok(list) = IN_PROGRESS.lock() {
+        for p in list.iter() {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
 
 /// Temporary sibling name of `path` (same directory, so the rename is atomic), unique within and
 /// across processes.
@@ -31,7 +45,14 @@ pub fn write_atomically(
     write: impl FnOnce(&Path) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
     let tmp = temp_path(path);
-    match write(&tmp) {
+    if let Ok(mut list) = IN_PROGRESS.lock() {
+        list.push(tmp.clone());
+    }
+    let result = write(&tmp);
+    if let Ok(mut list) = IN_PROGRESS.lock() {
+        list.retain(|p| p != &tmp);
+    }
+    match result {
         Ok(()) => std::fs::rename(&tmp, path).with_context(|| {
             format!(
                 "{}: cannot move the finished file into place",

@@ -1,0 +1,611 @@
+//! The driver's budgets, resume and interruption: a time budget ends within one pass of it, a target
+//! error stops the run as soon as it is reached, a resumed run is bit-identical to an uninterrupted
+//! one (also from a pass interrupted part-way, also adaptive), adaptive sampling lowers the error at
+//! equal samples without moving the estimate, and SIGINT leaves a valid, resumable partial file.
+
+use crate::geometry::scene_path;
+use ftpd3d::app::{self, EstimatorArgs};
+use ftpd3d::domain::Plane;
+use ftpd3d::domain::slice::SliceSpec;
+use ftpd3d::field::Field;
+use ftpd3d::ftpd::{Params, Weighting};
+use ftpd3d::render::{
+    self, Adaptive, Budget, Hooks, Progress, RenderOptions, RunStats, StopReason,
+};
+use ftpd3d::scene::Scene;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+struct Setup {
+    scene: Scene,
+    plane: Plane,
+    params: Params,
+}
+
+/// The Cornell box with a mirror, slice z = 0 at `res` cells, radiance weighting, default
+/// parameters: a scene whose error varies strongly over the slice (mirror, light, shadows).
+fn cornell(res: usize) -> Setup {
+    let scene = app::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
+    let params = EstimatorArgs {
+        weighting: Weighting::Radiance,
+        t0: None,
+        t1: None,
+        angle_deg: 2.0,
+        max_bounces: 32,
+    }
+    .resolve(&scene)
+    .unwrap();
+    let spec: SliceSpec = "z=0".parse().unwrap();
+    let plane = Plane::axis_slice(&scene.bounds, spec, None, res).unwrap();
+    Setup {
+        scene,
+        plane,
+        params,
+    }
+}
+
+fn opts(seed: u64) -> RenderOptions {
+    RenderOptions {
+        seed,
+        threads: 2,
+        ..Default::default()
+    }
+}
+
+fn pool() -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap()
+}
+
+impl Setup {
+    /// A new field with the metadata `run_job` gives it (what a resume is checked against).
+    fn field(&self, o: &RenderOptions) -> Field {
+        let mut f = Field::new(self.plane.width, self.plane.height, 1);
+        app::describe_run(&mut f, &self.scene, &self.params, o, "slice");
+        f.meta.extend(app::plane_meta(&self.plane));
+        let k = app::kernel_choice(&self.scene, &self.params, true);
+        f.meta.insert("kernel".into(), k.to_string());
+        f
+    }
+
+    fn run(
+        &self,
+        field: &mut Field,
+        progress: &mut Progress,
+        o: &RenderOptions,
+        hooks: Hooks,
+    ) -> RunStats {
+        let k = app::kernel_choice(&self.scene, &self.params, true);
+        app::run_domain_progressive(
+            &pool(),
+            &self.scene,
+            &self.plane,
+            &self.params,
+            o,
+            k,
+            field,
+            progress,
+            hooks,
+        )
+        .unwrap()
+    }
+
+    fn fresh_run(&self, o: &RenderOptions) -> (Field, RunStats) {
+        let mut f = self.field(o);
+        let s = self.run(&mut f, &mut Progress::default(), o, Hooks::default());
+        (f, s)
+    }
+}
+
+fn assert_valid(field: &Field) {
+    for (i, v) in field.values().iter().enumerate() {
+        assert!(
+            v.sigma.is_finite() && v.stderr.is_finite() && v.mean.is_finite(),
+            "cell {i}: {v:?}"
+        );
+    }
+}
+
+/// Every sum of every cell, as bits.
+fn bits(field: &Field) -> Vec<[u64; 10]> {
+    field
+        .cells
+        .iter()
+        .map(|m| {
+            [
+                m.s0.to_bits(),
+                m.s1.to_bits(),
+                m.s2.to_bits(),
+                m.n,
+                m.fluence.x.to_bits(),
+                m.fluence.y.to_bits(),
+                m.fluence.z.to_bits(),
+                m.batches,
+                m.batch_sigma.to_bits(),
+                m.batch_sigma2.to_bits(),
+            ]
+        })
+        .collect()
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ftpd3d-driver-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn time_budget_ends_within_one_pass_of_it() {
+    let s = cornell(64);
+    let mut o = opts(1);
+    o.budget = Budget {
+        cap_spp: false,
+        time: Some(Duration::from_secs(2)),
+        ..Budget::default()
+    };
+    o.pass_spp = Some(4);
+    // Record when each pass ends, to know how long passes take in this very run.
+    let start = Instant::now();
+    let mut ends = vec![0.0];
+    let mut record = |_: &mut Field, _: &Progress, _: &RunStats| {
+        ends.push(start.elapsed().as_secs_f64());
+        Ok(())
+    };
+    let mut field = s.field(&o);
+    let mut progress = Progress::default();
+    let stats = s.run(
+        &mut field,
+        &mut progress,
+        &o,
+        Hooks {
+            stop: None,
+            after_pass: Some(&mut record),
+        },
+    );
+    let longest = ends.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    assert_eq!(stats.stop, StopReason::Time);
+    assert!(stats.passes >= 1);
+    // The driver stops when the time used plus the last pass would exceed the budget, so it ends
+    // before the budget by less than one pass, or after it by less than one pass when a pass
+    // took longer than the one before. 10 ms cover the offset between the two clocks.
+    assert!(
+        (stats.seconds - 2.0).abs() <= longest + 0.01,
+        "ended at {:.3} s; longest pass {longest:.3} s; passes {}",
+        stats.seconds,
+        stats.passes
+    );
+    assert_valid(&field);
+    let n0 = field.cells[0].n;
+    assert_eq!(n0, 4 * stats.passes as u64);
+    assert!(field.cells.iter().all(|c| c.n == n0), "passes are whole");
+    assert!(progress.inflight.is_none());
+}
+
+#[test]
+fn target_error_stops_as_soon_as_it_is_reached() {
+    let s = cornell(24);
+    let target = 0.1;
+    let mut o = opts(2);
+    o.budget = Budget {
+        cap_spp: false,
+        target_error: Some(target),
+        ..Budget::default()
+    };
+    o.pass_spp = Some(8);
+    let mut p95 = Vec::new();
+    let mut record = |f: &mut Field, _: &Progress, _: &RunStats| {
+        p95.push(render::error_stats(&f.cells).p95);
+        Ok(())
+    };
+    let mut field = s.field(&o);
+    let stats = s.run(
+        &mut field,
+        &mut Progress::default(),
+        &o,
+        Hooks {
+            stop: None,
+            after_pass: Some(&mut record),
+        },
+    );
+    assert_eq!(stats.stop, StopReason::TargetError);
+    let e = render::error_stats(&field.cells);
+    assert!(e.p95 <= target, "{e:?}");
+    assert_eq!(e.unestimated, 0);
+    assert!(e.cells > 100, "{e:?}");
+    // Not one pass later than needed: the pass before the last was still above the target.
+    assert_eq!(p95.len(), stats.passes as usize);
+    assert!(p95.len() >= 3, "{p95:?}");
+    assert!(p95[p95.len() - 2] > target, "{p95:?}");
+    assert_eq!(*p95.last().unwrap(), e.p95);
+    assert_valid(&field);
+}
+
+/// Runs the all-features kernel over the slice through [`render::run_progressive`]; with `trip`,
+/// sets `stop` from inside the kernel at its `trip`-th call (an interruption in mid-pass).
+fn drive<'a>(
+    s: &Setup,
+    field: &mut Field,
+    progress: &mut Progress,
+    o: &RenderOptions,
+    stop: Option<&'a AtomicBool>,
+    trip: Option<u64>,
+    after_pass: Option<&'a mut render::AfterPass<'a>>,
+) -> RunStats {
+    let calls = AtomicU64::new(0);
+    render::run_progressive(
+        &pool(),
+        field,
+        o,
+        progress,
+        Hooks { stop, after_pass },
+        |cell, smp: &mut ftpd3d::rng::Sampler| {
+            if let (Some(flag), Some(t)) = (stop, trip)
+                && calls.fetch_add(1, Ordering::Relaxed) + 1 == t
+            {
+                flag.store(true, Ordering::Relaxed);
+            }
+            let x = s.plane.point(cell, smp.next_2d());
+            ftpd3d::ftpd::sample_at(&s.scene, x, &s.params, smp)
+        },
+    )
+    .unwrap()
+}
+
+/// Runs `o` to completion, and again stopped after `stop_after` passes (or, with `mid_pass`, a
+/// quarter into pass `stop_after`), written to an EXR, read back and resumed; returns both fields
+/// and the resumed run's progress.
+fn interrupted_and_resumed(
+    s: &Setup,
+    o: &RenderOptions,
+    stop_after: u32,
+    mid_pass: bool,
+    dir: &std::path::Path,
+) -> (Field, Field, Progress) {
+    // Uninterrupted, recording the samples after each pass.
+    let mut whole = s.field(o);
+    let mut cumul = vec![0u64];
+    let mut record = |f: &mut Field, _: &Progress, _: &RunStats| {
+        cumul.push(f.total_samples());
+        Ok(())
+    };
+    let ws = drive(
+        s,
+        &mut whole,
+        &mut Progress::default(),
+        o,
+        None,
+        None,
+        Some(&mut record),
+    );
+    assert!(ws.stop.is_complete());
+    assert!(cumul.len() > stop_after as usize + 1, "{cumul:?}");
+    // Interrupted.
+    let mut field = s.field(o);
+    let mut progress = Progress::default();
+    let stop = AtomicBool::new(false);
+    let st = if mid_pass {
+        let p = stop_after as usize;
+        let trip = cumul[p] + (cumul[p + 1] - cumul[p]) / 4;
+        drive(
+            s,
+            &mut field,
+            &mut progress,
+            o,
+            Some(&stop),
+            Some(trip),
+            None,
+        )
+    } else {
+        let mut first = o.clone();
+        first.budget.max_passes = Some(stop_after);
+        drive(s, &mut field, &mut progress, &first, None, None, None)
+    };
+    assert_eq!(progress.passes, stop_after);
+    if mid_pass {
+        assert_eq!(st.stop, StopReason::Interrupted);
+        let f = progress.inflight.as_ref().expect("a pass cut part-way");
+        let done = f.done.iter().filter(|&&d| d).count();
+        assert!(
+            done > 0 && done < f.done.len(),
+            "{done} of {}",
+            f.done.len()
+        );
+    } else {
+        assert_eq!(st.stop, StopReason::PassLimit);
+    }
+    // Written, read back, resumed.
+    let path = dir.join("partial.exr");
+    app::mark_progress(&mut field, &progress, o, true, Some(st.stop));
+    app::write_progress(&field, &progress, &path, false).unwrap();
+    let fresh = s.field(o);
+    let (mut back, mut p) = app::read_progress(&path).unwrap();
+    app::check_resume(&path, &back, &fresh.meta, (field.width, field.height, 1)).unwrap();
+    assert_eq!(bits(&back), bits(&field), "the EXR keeps the sums exactly");
+    assert_eq!(p.passes, progress.passes);
+    assert_eq!(p.inflight, progress.inflight);
+    back.meta = fresh.meta;
+    let rs = drive(s, &mut back, &mut p, o, None, None, None);
+    assert!(rs.stop.is_complete());
+    assert_eq!(rs.passes, ws.passes);
+    (whole, back, p)
+}
+
+#[test]
+fn resumed_run_is_bit_identical_to_an_uninterrupted_one() {
+    let dir = temp_dir("resume");
+    let s = cornell(16);
+    // 32 spp split into 4 passes; stopped after 2.
+    let mut o = opts(3);
+    o.spp = 32;
+    o.batches = 4;
+    let (whole, resumed, p) = interrupted_and_resumed(&s, &o, 2, false, &dir);
+    assert_eq!(p.passes, 4);
+    assert_eq!(bits(&resumed), bits(&whole));
+    assert!(whole.cells.iter().all(|c| c.n == 32 && c.batches <= 4));
+    // Cut in the middle of pass 1 (chunks in flight finish, the rest of the pass is skipped).
+    let s = cornell(24);
+    let (whole, resumed, _) = interrupted_and_resumed(&s, &o, 1, true, &dir);
+    assert_eq!(bits(&resumed), bits(&whole));
+    // Adaptive, cut in the middle of pass 3, whose allocation depends on passes 0-2.
+    let mut a = opts(6);
+    a.spp = 48;
+    a.pass_spp = Some(8);
+    a.adaptive = Some(Adaptive::default());
+    let (whole, resumed, p) = interrupted_and_resumed(&s, &a, 3, true, &dir);
+    assert_eq!(bits(&resumed), bits(&whole));
+    assert!(p.passes >= 6);
+    let n: Vec<u64> = whole.cells.iter().map(|c| c.n).collect();
+    assert!(
+        n.iter().min() < n.iter().max(),
+        "adaptive passes are uneven"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn resume_refuses_another_seed_or_run_length_naming_the_key() {
+    let dir = temp_dir("refuse");
+    let s = cornell(8);
+    let mut o = opts(4);
+    o.spp = 8;
+    o.batches = 2;
+    o.budget.max_passes = Some(1);
+    let (mut field, _) = s.fresh_run(&o);
+    let progress = Progress {
+        passes: 1,
+        ..Progress::default()
+    };
+    let path = dir.join("part.exr");
+    app::mark_progress(&mut field, &progress, &o, true, None);
+    app::write_progress(&field, &progress, &path, false).unwrap();
+    let (back, _) = app::read_progress(&path).unwrap();
+    let dims = (field.width, field.height, 1);
+    app::check_resume(&path, &back, &s.field(&o).meta, dims).unwrap();
+    // Another seed.
+    let mut other = o.clone();
+    other.seed = 5;
+    let e = app::check_resume(&path, &back, &s.field(&other).meta, dims).unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("seed differs") && msg.contains("4") && msg.contains("5"),
+        "{msg}"
+    );
+    // Another t1.
+    let t1 = Setup {
+        params: Params {
+            t1: s.params.t1 * 0.5,
+            ..s.params
+        },
+        scene: app::load_scene(&scene_path("cornell_mirror.obj")).unwrap(),
+        plane: s.plane.clone(),
+    };
+    let e = app::check_resume(&path, &back, &t1.field(&o).meta, dims).unwrap_err();
+    assert!(format!("{e:#}").contains("t1 differs"), "{e:#}");
+    // Another schedule.
+    let mut sched = o.clone();
+    sched.pass_spp = Some(3);
+    let e = app::check_resume(&path, &back, &s.field(&sched).meta, dims).unwrap_err();
+    assert!(format!("{e:#}").contains("schedule differs"), "{e:#}");
+    // Through the command line.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .args([
+            "--scene",
+            scene_path("cornell_mirror.obj").to_str().unwrap(),
+            "--slice",
+            "z=0",
+            "--res",
+            "8",
+            "--spp",
+            "8",
+            "--batches",
+            "2",
+            "--seed",
+            "7",
+            "--quiet",
+            "--resume",
+            path.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("seed differs"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Error statistics of `fields`: the estimated p95 of each, and over cells the mean σ with its
+/// standard error (cells are independent).
+fn mean_sigma(field: &Field) -> (f64, f64) {
+    let v: Vec<_> = field.values().into_iter().filter(|v| v.valid).collect();
+    let n = v.len() as f64;
+    let mean = v.iter().map(|v| v.sigma).sum::<f64>() / n;
+    let se = v.iter().map(|v| v.stderr * v.stderr).sum::<f64>().sqrt() / n;
+    (mean, se)
+}
+
+#[test]
+fn adaptive_lowers_the_error_at_equal_samples_and_keeps_the_estimate() {
+    // Cornell box z = 0: the relative error varies a lot over the slice (mirror, light, corners).
+    let s = cornell(32);
+    let run = |seed: u64, spp: u32, adaptive: bool| {
+        let mut o = opts(seed);
+        o.spp = spp;
+        o.pass_spp = Some(8);
+        o.adaptive = adaptive.then(Adaptive::default);
+        let (f, st) = s.fresh_run(&o);
+        assert_eq!(st.stop, StopReason::Samples);
+        f
+    };
+    let seeds = [1, 2, 3, 4];
+    let uniform: Vec<Field> = seeds.iter().map(|&k| run(k, 192, false)).collect();
+    let adaptive: Vec<Field> = seeds.iter().map(|&k| run(k, 192, true)).collect();
+    let cells = uniform[0].cells.len() as u64;
+    for (u, a) in uniform.iter().zip(&adaptive) {
+        assert_eq!(u.total_samples(), 192 * cells);
+        // Adaptive spends the same budget, in whole units of 8 samples.
+        assert!(
+            a.total_samples().abs_diff(192 * cells) < 8,
+            "{}",
+            a.total_samples()
+        );
+        assert_valid(a);
+    }
+    let mean_sd = |x: &[f64]| {
+        let m = x.iter().sum::<f64>() / x.len() as f64;
+        let sd = (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt();
+        (m, sd)
+    };
+    // The 95th percentile of the relative error: lower for every seed, and the gap between the
+    // means exceeds three times the seed-to-seed spread of either method.
+    let p95 = |fs: &[Field]| -> Vec<f64> {
+        fs.iter()
+            .map(|f| render::error_stats(&f.cells).p95)
+            .collect()
+    };
+    let (pu, pa) = (p95(&uniform), p95(&adaptive));
+    let ((mu, su), (ma, sa)) = (mean_sd(&pu), mean_sd(&pa));
+    let worst_adaptive = pa.iter().copied().fold(0.0, f64::max);
+    let best_uniform = pu.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(
+        worst_adaptive < best_uniform && mu - ma > 3.0 * (su + sa),
+        "p95 relative error: uniform {pu:?}, adaptive {pa:?}"
+    );
+    // The estimate: the mean of σ over the cells agrees with that of uniform runs. σ is a
+    // nonlinear function of ratios of sums and is biased low at small sample counts in any run
+    // (here the mean over cells rises from 16.0 at 16 spp to 16.5 at 192 and 16.6 at 768); adaptive
+    // runs give their easy cells fewer samples and their hard cells more, so the fair reference is
+    // a uniform run with more samples (768 spp), where that bias is small. The tolerance is three
+    // standard errors of the difference of the means over the seeds, from their spread (the
+    // batch standard errors underestimate the error with batches of 8 samples; see README).
+    let sig = |fs: &[Field]| -> Vec<f64> { fs.iter().map(|f| mean_sigma(f).0).collect() };
+    let reference: Vec<Field> = seeds.iter().map(|&k| run(k, 768, false)).collect();
+    let ((mr, sr), (ma, sa)) = (mean_sd(&sig(&reference)), mean_sd(&sig(&adaptive)));
+    let se = ((sr * sr + sa * sa) / seeds.len() as f64).sqrt();
+    assert!(
+        (ma - mr).abs() < 3.0 * se,
+        "mean σ over cells: uniform 768 spp {mr:.4} (sd {sr:.4}), adaptive 192 spp {ma:.4} \
+         (sd {sa:.4}); difference {:.4}, 3 se = {:.4}",
+        ma - mr,
+        3.0 * se
+    );
+}
+
+/// Samples asked for by the SIGINT test: far more than it can take before the signal.
+const SIGINT_SPP: u64 = 1_000_000;
+
+#[test]
+fn sigint_writes_a_valid_resumable_partial_file() {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+    let dir = temp_dir("sigint");
+    let out = dir.join("run.exr");
+    let scene = scene_path("cornell_mirror.obj");
+    let base = [
+        "--scene",
+        scene.to_str().unwrap(),
+        "--slice",
+        "z=0",
+        "--res",
+        "48",
+        "--pass-spp",
+        "4",
+        "--threads",
+        "2",
+        "--no-png",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    let spp = SIGINT_SPP.to_string();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .args(base)
+        .args(["--spp", &spp])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait for the run to start (it prints its budget), then let it take some passes.
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut text = String::new();
+    while !text.contains("budget") {
+        let mut line = String::new();
+        assert!(
+            err.read_line(&mut line).unwrap() > 0,
+            "no start line: {text}"
+        );
+        text += &line;
+    }
+    std::thread::sleep(Duration::from_millis(1500));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let t = Instant::now();
+    let status = child.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    text += &rest;
+    assert!(t.elapsed() < Duration::from_secs(30), "slow to stop");
+    // Exit status 130 (documented): stopped by a signal, partial result written.
+    assert_eq!(status.code(), Some(130), "{text}");
+    assert!(
+        text.contains("interrupted") && text.contains("to resume:"),
+        "{text}"
+    );
+    assert!(text.contains("--resume"), "{text}");
+    let f = ftpd3d::output::exr::read_exr(&out).unwrap();
+    assert_eq!(f.meta["partial"], "true");
+    assert_eq!(f.meta["stop"], "interrupted");
+    let samples = f.total_samples();
+    assert!(
+        samples > 0 && samples < SIGINT_SPP * f.cells.len() as u64,
+        "{samples}"
+    );
+    assert_valid(&f);
+    // No temporary file left.
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
+    // The partial file resumes (finishing a pass cut part-way, if any), here up to a small cap.
+    let passes: u32 = f.meta["passes"].parse().unwrap();
+    let cap = ((passes + 2) * 4).to_string();
+    let r = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .args(base)
+        .args(["--spp", &cap, "--quiet", "--resume", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let msg = String::from_utf8_lossy(&r.stderr);
+    // A different --spp with --pass-spp is a different budget, not a different schedule.
+    assert!(r.status.success(), "{msg}");
+    let g = ftpd3d::output::exr::read_exr(&out).unwrap();
+    assert_eq!(g.meta["partial"], "false", "{:?}", g.meta);
+    assert_eq!(g.meta["pass.inflight"], "false");
+    assert_eq!(g.meta["passes"], (passes + 2).to_string());
+    assert!(g.cells.iter().all(|c| c.n == (passes as u64 + 2) * 4));
+    let _ = std::fs::remove_dir_all(&dir);
+}
