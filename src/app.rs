@@ -2,7 +2,7 @@
 //! `main.rs` parses arguments into a [`Job`]; everything here returns errors, never panics.
 
 use crate::domain::slice::SliceSpec;
-use crate::domain::{CameraView, Domain, Plane};
+use crate::domain::{CameraView, Domain, Plane, PlaneOnSurfaces};
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
@@ -388,7 +388,11 @@ pub fn run_plane_with(
     opts: &RenderOptions,
     kernel: KernelChoice,
 ) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain_with(scene, plane, params, opts, kernel)?;
+    let (mut field, stats) = if scene.surface_in_plane(plane.origin, plane.normal()) {
+        run_domain_with(scene, &PlaneOnSurfaces(plane), params, opts, kernel)?
+    } else {
+        run_domain_with(scene, plane, params, opts, kernel)?
+    };
     describe_run(&mut field, scene, params, opts, "slice");
     let m = &mut field.meta;
     m.insert("plane".into(), plane.label.clone());
@@ -477,6 +481,9 @@ pub fn resolve_camera(
             }
         }
     };
+    // An eye on a surface starts on its front side (once per run).
+    let mut camera = camera;
+    camera.eye = scene.off_surfaces(camera.eye);
     CameraView::new(camera, size.0, size.1)
 }
 
@@ -757,8 +764,14 @@ fn record_rays(
     let mut o = opts.clone();
     o.progress = false;
     let radiance = params.weighting == Weighting::Radiance;
+    let on_surfaces = scene.surface_in_plane(plane.origin, plane.normal());
     render::run_in(pool, &mut field, &o, |cell, s: &mut Sampler| {
         let x = plane.point(cell, s.next_2d());
+        let x = if on_surfaces {
+            scene.off_surfaces(x)
+        } else {
+            x
+        };
         if radiance {
             ftpd::sample_at_k::<Record<AllFeatures>>(scene, x, params, s)
         } else {

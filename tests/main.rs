@@ -5,4 +5,5 @@ mod ftpd;
 mod geometry;
 mod gltf;
 mod mis;
+mod stability;
 mod valid;

@@ -370,6 +370,97 @@ impl Scene {
     pub fn eps_at(&self, p: DVec3) -> f64 {
         F32_ERROR_ULPS * p.abs().max_element() + 1e-9 * self.extent()
     }
+
+    /// Where paths from a free point `x` (a sample point or a camera, not a surface hit) start:
+    /// `x` itself, unless it lies on a surface within the float error bound (a slice through a
+    /// wall, a point on an edge or a corner). There a ray query is ill-posed: a ray starting on a
+    /// triangle's plane may or may not hit it (Embree rejects t = 0), so walks would leak through
+    /// walls and radiance paths see through them. Such a point is moved to the front side of every
+    /// surface it lies on, twice the bound off it, where its neighbours in front of those surfaces
+    /// are: the field on a surface is the limit from its front side.
+    ///
+    /// This costs about one ray query (an Embree point query), so domains call it only where
+    /// points may lie on surfaces: single points ([`crate::ftpd::sample_at`]), camera eyes, and
+    /// planes that contain a surface ([`Scene::surface_in_plane`]); elsewhere a jittered point
+    /// lands within the bound of a surface with negligible probability.
+    #[inline]
+    pub fn off_surfaces(&self, x: DVec3) -> DVec3 {
+        let eps = self.eps_at(x);
+        let near = self.accel.triangles_near(x.as_vec3(), (2.0 * eps) as f32);
+        if near.prims().is_empty() {
+            return x;
+        }
+        // Embree's traversal order, made canonical so that the result never depends on it.
+        let mut prims = [0u32; crate::accel::MAX_NEAR];
+        let prims = &mut prims[..near.prims().len()];
+        prims.copy_from_slice(near.prims());
+        prims.sort_unstable();
+        let mut p = x;
+        for &i in prims.iter() {
+            let [a, b, c] =
+                self.triangles[i as usize].map(|v| self.positions[v as usize].as_dvec3());
+            let n = self.tri_normals[i as usize];
+            if (x - a).dot(n).abs() > eps
+                || (closest_point_on_triangle(x, a, b, c) - x).length() > eps
+            {
+                continue;
+            }
+            let s = (p - a).dot(n);
+            if s < 2.0 * eps {
+                p += n * (2.0 * eps - s);
+            }
+        }
+        p
+    }
+}
+
+impl Scene {
+    /// True when some triangle lies in the plane through `origin` with unit normal `normal` (all
+    /// three vertices within the float error bound of it): a slice through a wall, whose sample
+    /// points must start off the surface ([`Scene::off_surfaces`]).
+    pub fn surface_in_plane(&self, origin: DVec3, normal: DVec3) -> bool {
+        let normal = normal.normalize_or_zero();
+        normal != DVec3::ZERO
+            && self.triangles.iter().any(|t| {
+                t.iter().all(|&i| {
+                    let p = self.positions[i as usize].as_dvec3();
+                    (p - origin).dot(normal).abs() <= self.eps_at(p).max(self.eps_at(origin))
+                })
+            })
+    }
+}
+
+/// The point of triangle (a, b, c) closest to `p` (Ericson, Real-Time Collision Detection, 5.1.5).
+pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
 }
 
 impl Scene {
