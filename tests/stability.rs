@@ -11,7 +11,7 @@ use ftpd3d::app::{load_scene, run_plane};
 use ftpd3d::domain::Plane;
 use ftpd3d::ftpd::moments::{CellValue, Moments};
 use ftpd3d::ftpd::{Params, Weighting, sample_at};
-use ftpd3d::math::is_finite3;
+use ftpd3d::math::{Rgb, is_finite3};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::Scene;
@@ -219,4 +219,46 @@ fn stability_slices_on_walls_match_their_neighbours() {
             assert_agree(&format!("{slice} {weighting} cell {k}"), x, &y, 4.0);
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Long accumulations
+// ---------------------------------------------------------------------------------------------
+
+/// 10⁸ samples in one cell, alternating (c, Δ) = (0.1, 1) and (0.3, 1.001): a cell where Δ barely
+/// varies, so that σ's second term sqrt(m2 − m1²) comes from a difference of nearly equal moments.
+/// σ must keep its 6th significant digit against the closed form (m1, m2 and the variance
+/// c1 c2 (Δ1 − Δ2)² / (c1 + c2)² per pair, which involve no cancellation).
+#[test]
+fn stability_moments_over_1e8_samples_keep_six_digits() {
+    let (c1, d1, c2, d2) = (0.1, 1.0, 0.3, 1.001);
+    let pairs = 50_000_000u64;
+    let started = std::time::Instant::now();
+    let mut m = Moments::default();
+    for _ in 0..pairs {
+        m.add_sample(c1, d1, Rgb::ZERO);
+        m.add_sample(c2, d2, Rgb::ZERO);
+    }
+    let elapsed = started.elapsed();
+    let w = c1 + c2;
+    let m1 = (c1 * d1 + c2 * d2) / w;
+    let m2 = (c1 * d1 * d1 + c2 * d2 * d2) / w;
+    let var = c1 * c2 * (d1 - d2) * (d1 - d2) / (w * w);
+    let exact = m2.sqrt() + var.sqrt();
+    let v = m.finalize();
+    let rel = (v.sigma - exact).abs() / exact;
+    println!(
+        "10^8 samples in {elapsed:.2?}: σ {:.12} vs exact {exact:.12} (relative error {rel:.1e}); \
+         m1 {:.3e} m2 {:.3e} relative errors",
+        v.sigma,
+        (v.mean - m1).abs() / m1,
+        (v.m2 - m2).abs() / m2
+    );
+    assert_eq!(m.n, 2 * pairs);
+    assert_eq!(format!("{:.5e}", v.sigma), format!("{exact:.5e}"));
+    assert!(
+        rel < 5e-8,
+        "σ {} vs {exact}: relative error {rel:e}",
+        v.sigma
+    );
 }
