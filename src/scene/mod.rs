@@ -273,19 +273,37 @@ impl Scene {
         );
         let (u, v) = (raw.u as f64, raw.v as f64);
         let ng = self.tri_normals[i];
+        let mag = pa
+            .abs()
+            .max(pb.abs())
+            .max(pc.abs())
+            .max_element()
+            .max(o.abs().max_element());
+        let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
-        // f64 rounding, where that is well conditioned; Embree's f32 barycentrics otherwise (grazing
-        // rays), which keep the point on the triangle.
+        // f64 rounding. For grazing rays (|d·n| ≤ 1e-4) that point may lie far along the ray from
+        // Embree's (which traced the f32-rounded ray), so it is taken only when it lies on the
+        // triangle (within the error bound); else Embree's f32 barycentrics, which keep the point on
+        // the triangle but are off sideways by the f32 rounding of the ray's origin (enough to break
+        // the mirror isometry of pairs 10⁻⁶ rad apart).
         let dn = d.dot(ng);
         let t_plane = (pa - o).dot(ng) / dn;
         let t_raw = raw.t as f64;
-        let p = if dn.abs() > 1e-4
-            && t_plane.is_finite()
-            && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent())
-        {
+        let consistent =
+            t_plane.is_finite() && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent());
+        let p = if dn.abs() > 1e-4 && consistent {
             o + d * t_plane
         } else {
-            (1.0 - u - v) * pa + u * pb + v * pc
+            let q = o + d * t_plane;
+            if t_plane.is_finite()
+                && t_plane > 0.0
+                && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent()) + eps / dn.abs()
+                && (closest_point_on_triangle(q, pa, pb, pc) - q).length_squared() <= eps * eps
+            {
+                q
+            } else {
+                (1.0 - u - v) * pa + u * pb + v * pc
+            }
         };
         let ns = if !K::SHADING_NORMALS || self.normals.is_empty() {
             ng
@@ -301,13 +319,6 @@ impl Scene {
                 ng
             }
         };
-        let mag = pa
-            .abs()
-            .max(pb.abs())
-            .max(pc.abs())
-            .max_element()
-            .max(o.abs().max_element());
-        let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         Hit {
             t: raw.t as f64,
             p,
