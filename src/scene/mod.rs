@@ -110,6 +110,9 @@ pub struct Hit {
     pub material: u32,
     /// Half-width of the region around `p` that may hold the true surface (float error bound).
     pub eps: f64,
+    /// `p` lies within twice the error bound of an edge of its triangle, where other surfaces may
+    /// meet it (see [`Scene::spawn_origin_from`]).
+    pub near_edge: bool,
 }
 
 impl Hit {
@@ -323,6 +326,14 @@ impl Scene {
                 ng
             }
         };
+        // Distance from p to each edge (barycentric × the opposite altitude), squared, against
+        // (2 eps)², without square roots.
+        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
+        let (c2, lim) = (e0.cross(e1).length_squared(), 4.0 * eps * eps);
+        let w = 1.0 - u - v;
+        let near_edge = w * w * c2 <= lim * e2.length_squared()
+            || u * u * c2 <= lim * e1.length_squared()
+            || v * v * c2 <= lim * e0.length_squared();
         Hit {
             t: raw.t as f64,
             p,
@@ -331,8 +342,106 @@ impl Scene {
             ns,
             material: self.tri_material[i],
             eps: eps.max(1e-12),
+            near_edge,
         }
         .with_t_from(o, d)
+    }
+
+    /// Origin for a ray leaving `hit` along `dir` on a path that arrived from `from` (the origin of
+    /// the ray that hit, off every surface): [`Hit::spawn_origin`], and where the hit lies at an edge of its triangle, also off
+    /// the other surfaces that meet there (a room's corner, a box's edge), on the side where the
+    /// path is: the side it came from, or the other one for a path that went through the hit
+    /// surface. A path hitting the edge between two walls of a closed room otherwise started its
+    /// next ray within rounding of the other wall's plane, and could pass through it and leave the
+    /// room. Parallel surfaces (the hit surface's own neighbours) are left alone.
+    #[inline]
+    pub fn spawn_origin_from(&self, hit: &Hit, dir: DVec3, from: DVec3) -> DVec3 {
+        let o = hit.spawn_origin(dir);
+        if hit.near_edge {
+            self.spawn_near_edge(hit, dir, from, o)
+        } else {
+            o
+        }
+    }
+
+    #[cold]
+    fn spawn_near_edge(&self, hit: &Hit, dir: DVec3, from: DVec3, o: DVec3) -> DVec3 {
+        let eps = hit.eps;
+        let (prims, len) = self.triangles_near_sorted(hit.p, 3.0 * eps);
+        let through = (dir.dot(hit.ng) >= 0.0) != ((from - hit.p).dot(hit.ng) >= 0.0);
+        self.move_off(
+            o,
+            hit.p,
+            eps,
+            &prims[..len],
+            // `o` is off the hit surface on `dir`'s side: it stays there.
+            Some((hit.p, hit.ng)),
+            // The hit triangle and those parallel to it (its own neighbours).
+            |i, n| i == hit.prim || n.dot(hit.ng).abs() > 1.0 - 1e-9,
+            // The side the path is on: where it came from, or the other for a path that went
+            // through the hit surface.
+            |a, n| {
+                let from_side = if (from - a).dot(n) >= 0.0 { 1.0 } else { -1.0 };
+                if through { -from_side } else { from_side }
+            },
+        )
+    }
+
+    /// Moves `start` off the triangles among `prims` that lie within `eps` of `at`, each to twice
+    /// `eps` on the side `side(a, n)` (±1 times the normal `n`; `a` a vertex) of it, without
+    /// crossing `keep` (a plane: point and normal) or the other triangles within 3 `eps` of `at`
+    /// (except those in the plane of a triangle it is moved off: a flat surface's other
+    /// triangles). Triangles for which `skip(index, normal)` holds are ignored.
+    #[allow(clippy::too_many_arguments)]
+    fn move_off(
+        &self,
+        start: DVec3,
+        at: DVec3,
+        eps: f64,
+        prims: &[u32],
+        keep: Option<(DVec3, DVec3)>,
+        skip: impl Fn(u32, DVec3) -> bool,
+        side: impl Fn(DVec3, DVec3) -> f64,
+    ) -> DVec3 {
+        const N: usize = crate::accel::MAX_NEAR;
+        let mut moves = OffSurfaces::new(start, eps);
+        if let Some((a, n)) = keep {
+            moves.keep_side(a, n);
+        }
+        let (mut on, mut near) = (
+            [(DVec3::ZERO, DVec3::ZERO); N],
+            [(DVec3::ZERO, DVec3::ZERO); N],
+        );
+        let (mut n_on, mut n_near) = (0, 0);
+        for &i in prims {
+            let n = self.tri_normals[i as usize];
+            if skip(i, n) {
+                continue;
+            }
+            let [a, b, c] =
+                self.triangles[i as usize].map(|v| self.positions[v as usize].as_dvec3());
+            let dist = (closest_point_on_triangle(at, a, b, c) - at).length();
+            if dist <= eps {
+                on[n_on] = (a, n);
+                n_on += 1;
+            } else if dist <= 3.0 * eps {
+                near[n_near] = (a, n);
+                n_near += 1;
+            }
+        }
+        let (on, near) = (&on[..n_on], &near[..n_near]);
+        for &(a, n) in near {
+            let coplanar = on
+                .iter()
+                .any(|(b, m)| n.dot(*m).abs() > 1.0 - 1e-9 && (a - *b).dot(*m).abs() <= eps);
+            if !coplanar {
+                moves.keep_side(a, n);
+            }
+        }
+        for &(a, n) in on {
+            moves.move_in_front_of(a, n * side(a, n));
+        }
+        moves.p
     }
 
     pub fn material(&self, hit: &Hit) -> &Material {
@@ -386,6 +495,21 @@ impl Scene {
         F32_ERROR_ULPS * p.abs().max_element() + 1e-9 * self.extent()
     }
 
+    /// The triangles an Embree point query finds within `radius` of `p` (by bounding box), in
+    /// index order, so that what is done with them never depends on Embree's traversal order.
+    fn triangles_near_sorted(
+        &self,
+        p: DVec3,
+        radius: f64,
+    ) -> ([u32; crate::accel::MAX_NEAR], usize) {
+        let near = self.accel.triangles_near(p.as_vec3(), radius as f32);
+        let mut prims = [0u32; crate::accel::MAX_NEAR];
+        let len = near.prims().len();
+        prims[..len].copy_from_slice(near.prims());
+        prims[..len].sort_unstable();
+        (prims, len)
+    }
+
     /// Where paths from a free point `x` (a sample point or a camera, not a surface hit) start:
     /// `x` itself, unless it lies on a surface within the float error bound (a slice through a
     /// wall, a point on an edge or a corner). There a ray query is ill-posed: a ray starting on a
@@ -401,31 +525,11 @@ impl Scene {
     #[inline]
     pub fn off_surfaces(&self, x: DVec3) -> DVec3 {
         let eps = self.eps_at(x);
-        let near = self.accel.triangles_near(x.as_vec3(), (2.0 * eps) as f32);
-        if near.prims().is_empty() {
+        let (prims, len) = self.triangles_near_sorted(x, 3.0 * eps);
+        if len == 0 {
             return x;
         }
-        // Embree's traversal order, made canonical so that the result never depends on it.
-        let mut prims = [0u32; crate::accel::MAX_NEAR];
-        let prims = &mut prims[..near.prims().len()];
-        prims.copy_from_slice(near.prims());
-        prims.sort_unstable();
-        let mut p = x;
-        for &i in prims.iter() {
-            let [a, b, c] =
-                self.triangles[i as usize].map(|v| self.positions[v as usize].as_dvec3());
-            let n = self.tri_normals[i as usize];
-            if (x - a).dot(n).abs() > eps
-                || (closest_point_on_triangle(x, a, b, c) - x).length() > eps
-            {
-                continue;
-            }
-            let s = (p - a).dot(n);
-            if s < 2.0 * eps {
-                p += n * (2.0 * eps - s);
-            }
-        }
-        p
+        self.move_off(x, x, eps, &prims[..len], None, |_, _| false, |_, _| 1.0)
     }
 }
 
@@ -442,6 +546,59 @@ impl Scene {
                     (p - origin).dot(normal).abs() <= self.eps_at(p).max(self.eps_at(origin))
                 })
             })
+    }
+}
+
+/// A point being moved off the surfaces it lies on, each time to twice the error bound in front
+/// of one (plane through `a` with unit normal `n`), unless the move would cross a surface near it
+/// (or come within half the bound of one it was moved off): surfaces closer to each other than the
+/// bound (a gap thinner than the f32 spacing) cannot all be honoured, and the first ones win.
+struct OffSurfaces {
+    p: DVec3,
+    eps: f64,
+    /// Half-spaces the point must stay in: (q − a)·n ≥ min.
+    keep: [(DVec3, DVec3, f64); crate::accel::MAX_NEAR + 1],
+    len: usize,
+}
+
+impl OffSurfaces {
+    fn new(p: DVec3, eps: f64) -> Self {
+        OffSurfaces {
+            p,
+            eps,
+            keep: [(DVec3::ZERO, DVec3::ZERO, 0.0); crate::accel::MAX_NEAR + 1],
+            len: 0,
+        }
+    }
+
+    fn push(&mut self, a: DVec3, n: DVec3, min: f64) {
+        if self.len < self.keep.len() {
+            self.keep[self.len] = (a, n, min);
+            self.len += 1;
+        }
+    }
+
+    /// The point must stay on its side of the plane through `a` with normal `n`.
+    fn keep_side(&mut self, a: DVec3, n: DVec3) {
+        let s = (self.p - a).dot(n);
+        if s != 0.0 {
+            self.push(a, n * s.signum(), 0.0);
+        }
+    }
+
+    fn move_in_front_of(&mut self, a: DVec3, n: DVec3) {
+        let s = (self.p - a).dot(n);
+        if s >= 2.0 * self.eps {
+            return;
+        }
+        let q = self.p + n * (2.0 * self.eps - s);
+        if self.keep[..self.len]
+            .iter()
+            .all(|(b, m, min)| (q - *b).dot(*m) >= *min)
+        {
+            self.p = q;
+            self.push(a, n, 0.5 * self.eps);
+        }
     }
 }
 
