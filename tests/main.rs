@@ -1,4 +1,5 @@
 //! One integration-test binary (as ripgrep does): each capability is a module.
+mod bad_input;
 mod bsdf;
 mod cli;
 mod ftpd;
