@@ -286,6 +286,77 @@ impl Accel {
     }
 }
 
+/// Most triangles one [`Accel::triangles_near`] query reports.
+pub const MAX_NEAR: usize = 64;
+
+/// Triangles reported by a point query, in the order Embree found them.
+#[derive(Clone, Copy, Debug)]
+pub struct Near {
+    prims: [u32; MAX_NEAR],
+    len: usize,
+}
+
+impl Near {
+    pub fn prims(&self) -> &[u32] {
+        &self.prims[..self.len]
+    }
+}
+
+/// Point-query callback: records the primitive (up to [`MAX_NEAR`]) and never shrinks the query
+/// radius. Plain stores only, so it cannot unwind into Embree.
+unsafe extern "C" fn collect_near(args: *mut sys::RTCPointQueryFunctionArguments) -> bool {
+    // SAFETY: Embree passes valid arguments for the duration of the call; their `userPtr` is the
+    // `Near` that `triangles_near` handed to rtcPointQuery, live and used by nobody else meanwhile.
+    let (prim, near) = unsafe { ((*args).primID, &mut *((*args).userPtr as *mut Near)) };
+    if near.len < MAX_NEAR {
+        near.prims[near.len] = prim;
+        near.len += 1;
+    }
+    false
+}
+
+impl Accel {
+    /// The triangles whose bounding boxes come within `radius` of `p` (a superset of the triangles
+    /// within `radius`; at most [`MAX_NEAR`] of them). Nothing for a non-finite point or radius.
+    pub fn triangles_near(&self, p: Vec3, radius: f32) -> Near {
+        let mut near = Near {
+            prims: [0; MAX_NEAR],
+            len: 0,
+        };
+        if !(p.is_finite() && radius.is_finite() && radius >= 0.0) {
+            return near;
+        }
+        let mut query = sys::RTCPointQuery {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            time: 0.0,
+            radius,
+        };
+        // Embree's header-inline rtcInitPointQueryContext: no instance on the stack.
+        let mut ctx = sys::RTCPointQueryContext {
+            instStackSize: 0,
+            ..Default::default()
+        };
+        for id in ctx.instID.iter_mut() {
+            *id = sys::RTC_INVALID_GEOMETRY_ID;
+        }
+        // SAFETY: the scene is committed and immutable (point queries may run concurrently like
+        // ray queries); query and ctx are valid, 16-byte aligned (bindgen keeps the alignment) and
+        // live for the call; the callback only writes to `near`, which outlives the call.
+        unsafe {
+            sys::rtcPointQuery(
+                self.scene,
+                &mut query,
+                &mut ctx,
+                Some(collect_near),
+                &mut near as *mut Near as *mut c_void,
+            )
+        };
+        near
+    }
+}
+
 /// What Embree accepts: finite origin and direction, 0 ≤ tnear ≤ tfar (tfar may be +inf).
 #[inline]
 fn ray_is_valid(o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> bool {

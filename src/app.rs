@@ -4,7 +4,7 @@
 
 use crate::domain::slice::SliceSpec;
 use crate::domain::volume::Volume;
-use crate::domain::{CameraView, Domain, Plane, Stripe, Subset, Tile, VolumeRes};
+use crate::domain::{CameraView, Domain, Plane, PlaneOnSurfaces, Stripe, Subset, Tile, VolumeRes};
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
@@ -587,7 +587,11 @@ pub fn run_plane_tile(
     tile: Option<Tile>,
 ) -> anyhow::Result<(Field, RunStats)> {
     check_flatland(scene, plane, params, kernel)?;
-    let (mut field, stats) = run_domain_tile(scene, plane, params, opts, kernel, tile)?;
+    let (mut field, stats) = if scene.surface_in_plane(plane.origin, plane.normal()) {
+        run_domain_tile(scene, &PlaneOnSurfaces(plane), params, opts, kernel, tile)?
+    } else {
+        run_domain_tile(scene, plane, params, opts, kernel, tile)?
+    };
     describe_run(&mut field, scene, params, opts, "slice");
     field.meta.extend(plane_meta(plane));
     Ok((field, stats))
@@ -730,6 +734,9 @@ pub fn resolve_camera(
             }
         }
     };
+    // An eye on a surface starts on its front side (once per run).
+    let mut camera = camera;
+    camera.eye = scene.off_surfaces(camera.eye);
     CameraView::new(camera, size.0, size.1)
 }
 
@@ -1272,6 +1279,20 @@ fn run_domain_job(
     let run =
         |field: &mut Field, progress: &mut Progress, hooks: Hooks| -> anyhow::Result<RunStats> {
             match (domain, job.tile) {
+                // A slice through a wall: its points start on the surfaces' front sides.
+                (JobDomain::Plane(p), None) if scene.surface_in_plane(p.origin, p.normal()) => {
+                    let d = PlaneOnSurfaces(p);
+                    run_domain_progressive(
+                        &pool, scene, &d, params, opts, kernel, field, progress, hooks,
+                    )
+                }
+                (JobDomain::Plane(p), Some(t)) if scene.surface_in_plane(p.origin, p.normal()) => {
+                    let d = PlaneOnSurfaces(p);
+                    let stripe = Stripe::new(&d, t);
+                    run_domain_progressive(
+                        &pool, scene, &stripe, params, opts, kernel, field, progress, hooks,
+                    )
+                }
                 (JobDomain::Plane(p), None) => run_domain_progressive(
                     &pool, scene, p, params, opts, kernel, field, progress, hooks,
                 ),
@@ -1905,8 +1926,14 @@ fn record_rays(
     o.progress = false;
     let radiance = params.weighting == Weighting::Radiance;
     let flatland = params.flat.is_some();
+    let on_surfaces = scene.surface_in_plane(plane.origin, plane.normal());
     render::run_in(pool, &mut field, &o, |cell, s: &mut Sampler| {
         let x = plane.point(cell, s.next_2d());
+        let x = if on_surfaces {
+            scene.off_surfaces(x)
+        } else {
+            x
+        };
         match (radiance, flatland) {
             (true, false) => ftpd::sample_at_k::<Record<AllFeatures>>(scene, x, params, s),
             (false, false) => ftpd::sample_at_k::<Record<AllButRadiance>>(scene, x, params, s),

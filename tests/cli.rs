@@ -2,6 +2,7 @@
 //! and a real run writing its outputs.
 
 use crate::geometry::scene_path;
+use std::path::Path;
 use std::process::Command;
 
 fn ftpd3d(args: &[&str]) -> (bool, String, String) {
@@ -218,5 +219,127 @@ fn several_slices_and_arbitrary_planes_share_one_run() {
         out.to_str().unwrap(),
     ]);
     assert!(!ok && err.contains("normal=x,y,z is required"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Every bad value is refused with its exact message before any work: no output file appears, and
+/// an existing file at the output path is left as it was, also when the run fails later (a scene
+/// that does not load, a weighting the scene cannot support).
+#[test]
+fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
+    let dir = std::env::temp_dir().join(format!("ftpd3d-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("o.exr");
+    let o = out.to_str().unwrap();
+    let cornell = scene_path("cornell_mirror.obj");
+    let c = cornell.to_str().unwrap();
+    let plane = scene_path("diffuse_plane.obj");
+    let p = plane.to_str().unwrap();
+    let broken = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/err_v_not_a_number.obj");
+    let b = broken.to_str().unwrap();
+    let angle = |a: &str| {
+        format!(
+            "--angle {a}: the perturbation half-angle must lie strictly between 0 and 90 degrees"
+        )
+    };
+    let cases: Vec<(Vec<&str>, String)> = vec![
+        (
+            vec!["--scene", c, "--slice", "z=0", "--t0", "2", "--t1", "1"],
+            "--t0 2 is larger than --t1 1: the run-length interval [t0, t1] is empty".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--t0", "-1"],
+            "--t0 -1: the shortest run length must be finite and ≥ 0".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--t0", "NaN"],
+            "--t0 NaN: the shortest run length must be finite and ≥ 0".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--t1", "0"],
+            "--t1 0: the longest run length must be finite and > 0".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--t1", "inf"],
+            "--t1 inf: the longest run length must be finite and > 0".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--spp", "0"],
+            "--spp 0: at least one sample per cell is needed".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--angle", "0"],
+            angle("0"),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--angle", "-5"],
+            angle("-5"),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--angle", "90"],
+            angle("90"),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--angle", "120"],
+            angle("120"),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=5"],
+            "--slice z=5: outside the scene bounds, which span -1 to 1 along that axis".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "w=0"],
+            "--slice 'w=0': unknown axis 'w' (use x, y or z)".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--res", "0"],
+            "--res 0: must be between 1 and 16384".into(),
+        ),
+        (
+            vec!["--scene", c, "--slice", "z=0", "--res", "99999999"],
+            "--res 99999999: must be between 1 and 16384".into(),
+        ),
+        (
+            vec!["--scene", p, "--slice", "z=0"],
+            format!(
+                "--weight radiance: {p} has no lights (no emissive material, Ke); use --weight \
+                 unweighted or add a light"
+            ),
+        ),
+        (
+            vec!["--scene", b, "--slice", "z=0"],
+            format!(
+                "{b}:3: malformed vertex: expected 'v x y z' (optionally w, or r g b) with \
+                 numbers, got 'v 1 0 abc'"
+            ),
+        ),
+    ];
+    for precious in [None, Some(b"an earlier result".as_slice())] {
+        for (args, msg) in &cases {
+            let _ = std::fs::remove_file(&out);
+            if let Some(bytes) = precious {
+                std::fs::write(&out, bytes).unwrap();
+            }
+            let mut all = args.clone();
+            all.extend(["--quiet", "-o", o]);
+            let (ok, _, err) = ftpd3d(&all);
+            assert!(!ok, "{args:?} should fail");
+            assert_eq!(
+                err.trim_end().lines().last(),
+                Some(format!("error: {msg}").as_str()),
+                "{args:?}"
+            );
+            match precious {
+                None => assert!(!out.exists(), "{args:?} wrote {}", out.display()),
+                Some(bytes) => assert_eq!(std::fs::read(&out).unwrap(), bytes, "{args:?}"),
+            }
+            let leftovers = std::fs::read_dir(&dir).unwrap().count();
+            assert_eq!(
+                leftovers,
+                precious.is_some() as usize,
+                "{args:?}: temporaries left"
+            );
+        }
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

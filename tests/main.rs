@@ -1,4 +1,5 @@
 //! One integration-test binary (as ripgrep does): each capability is a module.
+mod bad_input;
 mod bsdf;
 mod cli;
 mod converge;
@@ -9,5 +10,6 @@ mod geometry;
 mod gltf;
 mod merge;
 mod mis;
+mod stability;
 mod valid;
 mod volume;

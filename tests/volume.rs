@@ -103,6 +103,9 @@ fn vti_read_by_vtkio_equals_the_field() {
             "exact.sum.fluence.B",
             "exact.batch.sigma",
             "exact.batch.sigma2",
+            "exact.sum.w.comp",
+            "exact.sum.wd.comp",
+            "exact.sum.wd2.comp",
         ]
     );
     let get = |name: &str| &arrays.iter().find(|a| a.0 == name).unwrap().2;
@@ -209,6 +212,9 @@ fn vti_header_of_a_2x2x2_volume_is_exactly_this() {
         <DataArray type="Float64" Name="exact.sum.fluence.B" format="appended" offset="1148"></DataArray>
         <DataArray type="Float64" Name="exact.batch.sigma" format="appended" offset="1244"></DataArray>
         <DataArray type="Float64" Name="exact.batch.sigma2" format="appended" offset="1340"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.comp" format="appended" offset="1436"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd.comp" format="appended" offset="1532"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd2.comp" format="appended" offset="1628"></DataArray>
       </PointData>
     </Piece>
   </ImageData>
@@ -217,8 +223,8 @@ fn vti_header_of_a_2x2x2_volume_is_exactly_this() {
     assert_eq!(header, expected);
     // The appended block holds exactly the announced characters, then closes the document.
     let tail = &text[header.len()..];
-    assert_eq!(tail.find('\n'), Some(1340 + 96));
-    assert_eq!(&tail[1340 + 96..], "\n  </AppendedData>\n</VTKFile>\n");
+    assert_eq!(tail.find('\n'), Some(1628 + 96));
+    assert_eq!(&tail[1628 + 96..], "\n  </AppendedData>\n</VTKFile>\n");
     // An empty voxel: byte count 32 (UInt64 LE) then 8 zero floats.
     assert_eq!(
         &tail[..56],

@@ -34,6 +34,22 @@ impl Domain for Plane {
     }
 }
 
+/// A plane with a surface lying in it (a slice through a wall, [`Scene::surface_in_plane`]): its
+/// sample points start on the front side of the surfaces they lie on ([`Scene::off_surfaces`]).
+/// Same cells and random streams as the plane itself.
+pub struct PlaneOnSurfaces<'a>(pub &'a Plane);
+
+impl Domain for PlaneOnSurfaces<'_> {
+    fn dims(&self) -> (usize, usize, usize) {
+        self.0.dims()
+    }
+    #[inline]
+    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
+        let x = scene.off_surfaces(self.0.point(cell, s.next_2d()));
+        ftpd::sample_at_k::<K>(scene, x, p, s)
+    }
+}
+
 impl Domain for Volume {
     fn dims(&self) -> (usize, usize, usize) {
         (self.nx, self.ny, self.nz)

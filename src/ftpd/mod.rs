@@ -213,8 +213,10 @@ pub fn radiance_direction_k<K: Kernel>(
 
 /// One FTPD sample at `x` with start direction drawn by the estimator (slice and volume domains).
 /// Uses the unspecialised kernel for the weighting (in flatland when `p.flat` is set); see
-/// [`sample_at_k`].
+/// [`sample_at_k`]. `x` may lie on a surface (it then starts on the surface's front side,
+/// [`Scene::off_surfaces`]).
 pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
+    let x = scene.off_surfaces(x);
     use crate::kernel::{AllButRadiance, AllButRadianceFlat, AllFeaturesFlat};
     let radiance = p.weighting == Weighting::Radiance;
     match (radiance, p.flat.is_some()) {
@@ -228,6 +230,8 @@ pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample
 /// [`sample_at`] for kernel `K`, which must cover the scene's features and `p.weighting`
 /// (radiance weighting exactly when `K::RADIANCE`), and be a flatland kernel exactly when `p.flat`
 /// is set (then `x` lies in that plane and the scene is prepared for it).
+/// `x` must not lie on a surface (within the float error bound): domains whose points may, move
+/// them first with [`Scene::off_surfaces`].
 #[inline]
 pub fn sample_at_k<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
     debug_assert!(K::RADIANCE || p.weighting != Weighting::Radiance);

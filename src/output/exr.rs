@@ -26,6 +26,10 @@ use exr::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+/// The compensations of the weighted sums, stored exactly like [`EXACT`]; files without them read
+/// as zero compensation.
+const EXACT_COMP: &[(&str, usize)] = &[("sum.w.comp", 0), ("sum.wd.comp", 1), ("sum.wd2.comp", 2)];
+
 /// Writes a 2D field (depth 1) with optional extra f32 channels (e.g. `grad.x`), each one value per
 /// cell in field order. Written to a temporary name, then renamed.
 pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyhow::Result<()> {
@@ -66,9 +70,9 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     );
     f32ch("weight", per(&|k| vals[k].weight));
     f32ch("valid", per(&|k| if vals[k].valid { 1.0 } else { 0.0 }));
-    f32ch("sum.w", per(&|k| field.cells[k].s0));
-    f32ch("sum.wd", per(&|k| field.cells[k].s1));
-    f32ch("sum.wd2", per(&|k| field.cells[k].s2));
+    f32ch("sum.w", per(&|k| field.cells[k].sums().0));
+    f32ch("sum.wd", per(&|k| field.cells[k].sums().1));
+    f32ch("sum.wd2", per(&|k| field.cells[k].sums().2));
     if field.meta.get("domain").is_some_and(|d| d == "camera") {
         // Camera runs keep the beauty image's radiance in the fluence sums.
         let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
@@ -108,11 +112,22 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
             .map(|&k| field.cells[k].batches.min(u32::MAX as u64) as u32)
             .collect(),
     );
-    for (name, get, _) in EXACT {
-        let bits: Vec<u64> = order
+    let bits_of = |get: &dyn Fn(&Moments) -> f64| -> Vec<u64> {
+        order
             .iter()
             .map(|&k| get(&field.cells[k]).to_bits())
-            .collect();
+            .collect()
+    };
+    let mut exact: Vec<(&str, Vec<u64>)> = EXACT
+        .iter()
+        .map(|(name, get, _)| (*name, bits_of(get)))
+        .collect();
+    exact.extend(
+        EXACT_COMP
+            .iter()
+            .map(|(name, c)| (*name, bits_of(&|m: &Moments| m.comp[*c]))),
+    );
+    for (name, bits) in exact {
         u32ch(
             format!("exact.{name}.hi"),
             bits.iter().map(|b| (b >> 32) as u32).collect(),
@@ -201,6 +216,16 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
                 &mut field.cells[idx(e)],
                 f64::from_bits(((hi[e] as u64) << 32) | lo[e] as u64),
             );
+        }
+    }
+    for (name, k) in EXACT_COMP {
+        let (hi, lo) = (format!("exact.{name}.hi"), format!("exact.{name}.lo"));
+        if chan(&hi).is_err() {
+            continue; // written before the sums were compensated
+        }
+        let (hi, lo) = (u32s(&hi)?, u32s(&lo)?);
+        for e in 0..w * h {
+            field.cells[idx(e)].comp[*k] = f64::from_bits(((hi[e] as u64) << 32) | lo[e] as u64);
         }
     }
     let mut meta = BTreeMap::new();

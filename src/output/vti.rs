@@ -346,6 +346,19 @@ pub fn write_vti(path: &Path, field: &Field, origin: DVec3, spacing: DVec3) -> a
             put: Box::new(move |i, b| b.extend_from_slice(&get(&cells[i]).to_le_bytes())),
         });
     }
+    // The compensations of the weighted sums, so that volumes merge and resume exactly too.
+    for (k, name) in ["sum.w.comp", "sum.wd.comp", "sum.wd2.comp"]
+        .into_iter()
+        .enumerate()
+    {
+        arrays.push(Array {
+            name: format!("exact.{name}"),
+            ty: "Float64",
+            comps: 1,
+            size: 8,
+            put: Box::new(move |i, b| b.extend_from_slice(&cells[i].comp[k].to_le_bytes())),
+        });
+    }
 
     let header = header(dims, origin, spacing, &field.meta, &arrays, n);
     write_atomically(path, |tmp| {
@@ -545,6 +558,15 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
                 &mut field.cells[i],
                 f64::from_le_bytes(c.try_into().expect("8 bytes")),
             );
+        }
+    }
+    for (k, name) in ["sum.w.comp", "sum.wd.comp", "sum.wd2.comp"]
+        .into_iter()
+        .enumerate()
+    {
+        let b = block(&format!("exact.{name}"), "Float64", 8)?;
+        for (i, c) in b.chunks_exact(8).enumerate() {
+            field.cells[i].comp[k] = f64::from_le_bytes(c.try_into().expect("8 bytes"));
         }
     }
     Ok(Vti {

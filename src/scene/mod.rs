@@ -114,6 +114,9 @@ pub struct Hit {
     pub material: u32,
     /// Half-width of the region around `p` that may hold the true surface (float error bound).
     pub eps: f64,
+    /// `p` lies within twice the error bound of an edge of its triangle, where other surfaces may
+    /// meet it (see [`Scene::spawn_origin_from`]).
+    pub near_edge: bool,
 }
 
 impl Hit {
@@ -127,9 +130,13 @@ impl Hit {
     }
 }
 
-/// Relative error bound of f32 geometry: a few ulps of the largest coordinate, covering Embree's
-/// intersection error and our barycentric reconstruction.
-const F32_ERROR_ULPS: f64 = 64.0 * f32::EPSILON as f64;
+/// Relative error bound of f32 geometry: a few ulps of the largest coordinate, covering the f32
+/// rounding of ray origins, Embree's intersection error and our barycentric reconstruction. Rays
+/// leaving random points of random triangles (tests/geometry.rs) never re-hit them with as little
+/// as 2 ulps, at 1 and at 10⁴ from the origin; 16 keeps a margin. The bound is also how far rays
+/// start off surfaces, which shortcuts geometry: with 64 ulps (7.6 cm at 10⁴) σ of the Cornell box
+/// translated by 10⁴ came out 4 standard errors above the original's.
+const F32_ERROR_ULPS: f64 = 16.0 * f32::EPSILON as f64;
 
 impl Scene {
     /// Assembles a scene and builds its Embree acceleration structure. Degenerate triangles (zero
@@ -294,19 +301,37 @@ impl Scene {
         );
         let (u, v) = (raw.u as f64, raw.v as f64);
         let ng = self.tri_normals[i];
+        let mag = pa
+            .abs()
+            .max(pb.abs())
+            .max(pc.abs())
+            .max_element()
+            .max(o.abs().max_element());
+        let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
-        // f64 rounding, where that is well conditioned; Embree's f32 barycentrics otherwise (grazing
-        // rays), which keep the point on the triangle.
+        // f64 rounding. For grazing rays (|d·n| ≤ 1e-4) that point may lie far along the ray from
+        // Embree's (which traced the f32-rounded ray), so it is taken only when it lies on the
+        // triangle (within the error bound); else Embree's f32 barycentrics, which keep the point on
+        // the triangle but are off sideways by the f32 rounding of the ray's origin (enough to break
+        // the mirror isometry of pairs 10⁻⁶ rad apart).
         let dn = d.dot(ng);
         let t_plane = (pa - o).dot(ng) / dn;
         let t_raw = raw.t as f64;
-        let p = if dn.abs() > 1e-4
-            && t_plane.is_finite()
-            && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent())
-        {
+        let consistent =
+            t_plane.is_finite() && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent());
+        let p = if dn.abs() > 1e-4 && consistent {
             o + d * t_plane
         } else {
-            (1.0 - u - v) * pa + u * pb + v * pc
+            let q = o + d * t_plane;
+            if t_plane.is_finite()
+                && t_plane > 0.0
+                && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent()) + eps / dn.abs()
+                && (closest_point_on_triangle(q, pa, pb, pc) - q).length_squared() <= eps * eps
+            {
+                q
+            } else {
+                (1.0 - u - v) * pa + u * pb + v * pc
+            }
         };
         let ns = if !K::SHADING_NORMALS || self.normals.is_empty() {
             ng
@@ -322,13 +347,6 @@ impl Scene {
                 ng
             }
         };
-        let mag = pa
-            .abs()
-            .max(pb.abs())
-            .max(pc.abs())
-            .max_element()
-            .max(o.abs().max_element());
-        let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         // Flatland: normals projected into the plane (the geometric one is in it up to the
         // validated 1e-4; shading normals may point anywhere), so scattered directions stay in it.
         let (ng, ns) = if K::FLATLAND {
@@ -341,6 +359,14 @@ impl Scene {
         } else {
             (ng, ns)
         };
+        // Distance from p to each edge (barycentric × the opposite altitude), squared, against
+        // (2 eps)², without square roots.
+        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
+        let (c2, lim) = (e0.cross(e1).length_squared(), 4.0 * eps * eps);
+        let w = 1.0 - u - v;
+        let near_edge = w * w * c2 <= lim * e2.length_squared()
+            || u * u * c2 <= lim * e1.length_squared()
+            || v * v * c2 <= lim * e0.length_squared();
         Hit {
             t: raw.t as f64,
             p,
@@ -349,8 +375,106 @@ impl Scene {
             ns,
             material: self.tri_material[i],
             eps: eps.max(1e-12),
+            near_edge,
         }
         .with_t_from(o, d)
+    }
+
+    /// Origin for a ray leaving `hit` along `dir` on a path that arrived from `from` (the origin of
+    /// the ray that hit, off every surface): [`Hit::spawn_origin`], and where the hit lies at an edge of its triangle, also off
+    /// the other surfaces that meet there (a room's corner, a box's edge), on the side where the
+    /// path is: the side it came from, or the other one for a path that went through the hit
+    /// surface. A path hitting the edge between two walls of a closed room otherwise started its
+    /// next ray within rounding of the other wall's plane, and could pass through it and leave the
+    /// room. Parallel surfaces (the hit surface's own neighbours) are left alone.
+    #[inline]
+    pub fn spawn_origin_from(&self, hit: &Hit, dir: DVec3, from: DVec3) -> DVec3 {
+        let o = hit.spawn_origin(dir);
+        if hit.near_edge {
+            self.spawn_near_edge(hit, dir, from, o)
+        } else {
+            o
+        }
+    }
+
+    #[cold]
+    fn spawn_near_edge(&self, hit: &Hit, dir: DVec3, from: DVec3, o: DVec3) -> DVec3 {
+        let eps = hit.eps;
+        let (prims, len) = self.triangles_near_sorted(hit.p, 3.0 * eps);
+        let through = (dir.dot(hit.ng) >= 0.0) != ((from - hit.p).dot(hit.ng) >= 0.0);
+        self.move_off(
+            o,
+            hit.p,
+            eps,
+            &prims[..len],
+            // `o` is off the hit surface on `dir`'s side: it stays there.
+            Some((hit.p, hit.ng)),
+            // The hit triangle and those parallel to it (its own neighbours).
+            |i, n| i == hit.prim || n.dot(hit.ng).abs() > 1.0 - 1e-9,
+            // The side the path is on: where it came from, or the other for a path that went
+            // through the hit surface.
+            |a, n| {
+                let from_side = if (from - a).dot(n) >= 0.0 { 1.0 } else { -1.0 };
+                if through { -from_side } else { from_side }
+            },
+        )
+    }
+
+    /// Moves `start` off the triangles among `prims` that lie within `eps` of `at`, each to twice
+    /// `eps` on the side `side(a, n)` (±1 times the normal `n`; `a` a vertex) of it, without
+    /// crossing `keep` (a plane: point and normal) or the other triangles within 3 `eps` of `at`
+    /// (except those in the plane of a triangle it is moved off: a flat surface's other
+    /// triangles). Triangles for which `skip(index, normal)` holds are ignored.
+    #[allow(clippy::too_many_arguments)]
+    fn move_off(
+        &self,
+        start: DVec3,
+        at: DVec3,
+        eps: f64,
+        prims: &[u32],
+        keep: Option<(DVec3, DVec3)>,
+        skip: impl Fn(u32, DVec3) -> bool,
+        side: impl Fn(DVec3, DVec3) -> f64,
+    ) -> DVec3 {
+        const N: usize = crate::accel::MAX_NEAR;
+        let mut moves = OffSurfaces::new(start, eps);
+        if let Some((a, n)) = keep {
+            moves.keep_side(a, n);
+        }
+        let (mut on, mut near) = (
+            [(DVec3::ZERO, DVec3::ZERO); N],
+            [(DVec3::ZERO, DVec3::ZERO); N],
+        );
+        let (mut n_on, mut n_near) = (0, 0);
+        for &i in prims {
+            let n = self.tri_normals[i as usize];
+            if skip(i, n) {
+                continue;
+            }
+            let [a, b, c] =
+                self.triangles[i as usize].map(|v| self.positions[v as usize].as_dvec3());
+            let dist = (closest_point_on_triangle(at, a, b, c) - at).length();
+            if dist <= eps {
+                on[n_on] = (a, n);
+                n_on += 1;
+            } else if dist <= 3.0 * eps {
+                near[n_near] = (a, n);
+                n_near += 1;
+            }
+        }
+        let (on, near) = (&on[..n_on], &near[..n_near]);
+        for &(a, n) in near {
+            let coplanar = on
+                .iter()
+                .any(|(b, m)| n.dot(*m).abs() > 1.0 - 1e-9 && (a - *b).dot(*m).abs() <= eps);
+            if !coplanar {
+                moves.keep_side(a, n);
+            }
+        }
+        for &(a, n) in on {
+            moves.move_in_front_of(a, n * side(a, n));
+        }
+        moves.p
     }
 
     pub fn material(&self, hit: &Hit) -> &Material {
@@ -403,6 +527,145 @@ impl Scene {
     pub fn eps_at(&self, p: DVec3) -> f64 {
         F32_ERROR_ULPS * p.abs().max_element() + 1e-9 * self.extent()
     }
+
+    /// The triangles an Embree point query finds within `radius` of `p` (by bounding box), in
+    /// index order, so that what is done with them never depends on Embree's traversal order.
+    fn triangles_near_sorted(
+        &self,
+        p: DVec3,
+        radius: f64,
+    ) -> ([u32; crate::accel::MAX_NEAR], usize) {
+        let near = self.accel.triangles_near(p.as_vec3(), radius as f32);
+        let mut prims = [0u32; crate::accel::MAX_NEAR];
+        let len = near.prims().len();
+        prims[..len].copy_from_slice(near.prims());
+        prims[..len].sort_unstable();
+        (prims, len)
+    }
+
+    /// Where paths from a free point `x` (a sample point or a camera, not a surface hit) start:
+    /// `x` itself, unless it lies on a surface within the float error bound (a slice through a
+    /// wall, a point on an edge or a corner). There a ray query is ill-posed: a ray starting on a
+    /// triangle's plane may or may not hit it (Embree rejects t = 0), so walks would leak through
+    /// walls and radiance paths see through them. Such a point is moved to the front side of every
+    /// surface it lies on, twice the bound off it, where its neighbours in front of those surfaces
+    /// are: the field on a surface is the limit from its front side.
+    ///
+    /// This costs about one ray query (an Embree point query), so domains call it only where
+    /// points may lie on surfaces: single points ([`crate::ftpd::sample_at`]), camera eyes, and
+    /// planes that contain a surface ([`Scene::surface_in_plane`]); elsewhere a jittered point
+    /// lands within the bound of a surface with negligible probability.
+    #[inline]
+    pub fn off_surfaces(&self, x: DVec3) -> DVec3 {
+        let eps = self.eps_at(x);
+        let (prims, len) = self.triangles_near_sorted(x, 3.0 * eps);
+        if len == 0 {
+            return x;
+        }
+        self.move_off(x, x, eps, &prims[..len], None, |_, _| false, |_, _| 1.0)
+    }
+}
+
+impl Scene {
+    /// True when some triangle lies in the plane through `origin` with unit normal `normal` (all
+    /// three vertices within the float error bound of it): a slice through a wall, whose sample
+    /// points must start off the surface ([`Scene::off_surfaces`]).
+    pub fn surface_in_plane(&self, origin: DVec3, normal: DVec3) -> bool {
+        let normal = normal.normalize_or_zero();
+        normal != DVec3::ZERO
+            && self.triangles.iter().any(|t| {
+                t.iter().all(|&i| {
+                    let p = self.positions[i as usize].as_dvec3();
+                    (p - origin).dot(normal).abs() <= self.eps_at(p).max(self.eps_at(origin))
+                })
+            })
+    }
+}
+
+/// A point being moved off the surfaces it lies on, each time to twice the error bound in front
+/// of one (plane through `a` with unit normal `n`), unless the move would cross a surface near it
+/// (or come within half the bound of one it was moved off): surfaces closer to each other than the
+/// bound (a gap thinner than the f32 spacing) cannot all be honoured, and the first ones win.
+struct OffSurfaces {
+    p: DVec3,
+    eps: f64,
+    /// Half-spaces the point must stay in: (q − a)·n ≥ min.
+    keep: [(DVec3, DVec3, f64); crate::accel::MAX_NEAR + 1],
+    len: usize,
+}
+
+impl OffSurfaces {
+    fn new(p: DVec3, eps: f64) -> Self {
+        OffSurfaces {
+            p,
+            eps,
+            keep: [(DVec3::ZERO, DVec3::ZERO, 0.0); crate::accel::MAX_NEAR + 1],
+            len: 0,
+        }
+    }
+
+    fn push(&mut self, a: DVec3, n: DVec3, min: f64) {
+        if self.len < self.keep.len() {
+            self.keep[self.len] = (a, n, min);
+            self.len += 1;
+        }
+    }
+
+    /// The point must stay on its side of the plane through `a` with normal `n`.
+    fn keep_side(&mut self, a: DVec3, n: DVec3) {
+        let s = (self.p - a).dot(n);
+        if s != 0.0 {
+            self.push(a, n * s.signum(), 0.0);
+        }
+    }
+
+    fn move_in_front_of(&mut self, a: DVec3, n: DVec3) {
+        let s = (self.p - a).dot(n);
+        if s >= 2.0 * self.eps {
+            return;
+        }
+        let q = self.p + n * (2.0 * self.eps - s);
+        if self.keep[..self.len]
+            .iter()
+            .all(|(b, m, min)| (q - *b).dot(*m) >= *min)
+        {
+            self.p = q;
+            self.push(a, n, 0.5 * self.eps);
+        }
+    }
+}
+
+/// The point of triangle (a, b, c) closest to `p` (Ericson, Real-Time Collision Detection, 5.1.5).
+pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
 }
 
 impl Scene {

@@ -10,19 +10,50 @@ use glam::Vec3;
 use std::path::Path;
 
 /// Loads an OBJ file (and the MTL files it names) into a [`Scene`].
+///
+/// The file is first checked line by line ([`prescan`]): tobj reports malformed input without a
+/// line number, so every `v`, `vt`, `vn` and `f` statement is validated here and the first bad one
+/// is reported as `FILE:LINE`. Statements the loader does not use (free-form curves and surfaces,
+/// points, lines, ...) are warned about once per keyword. Material libraries are read by this module
+/// too ([`load_mtl`]), so that a missing or malformed one is a warning naming it (its materials
+/// become grey diffuse), never a panic in the parser. A file without faces is an error.
 pub fn load(path: &Path) -> anyhow::Result<Scene> {
+    let file = path.display().to_string();
     if !path.is_file() {
-        bail!("{}: no such scene file", path.display());
+        bail!("{file}: no such scene file");
     }
+    let bytes = std::fs::read(path).with_context(|| format!("{file}: cannot read"))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "{file}: not a text file (invalid UTF-8 at byte {})",
+            e.utf8_error().valid_up_to()
+        )
+    })?;
+    let scan = prescan(&file, &text)?;
+    let mut report = LoadReport {
+        warnings: scan.warnings,
+        ..Default::default()
+    };
     let opts = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, mtl) = tobj::load_obj(path, &opts)
-        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), describe(&e)))?;
-    let mut report = LoadReport::default();
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mtl_notes = std::cell::RefCell::new(Vec::new());
+    // The checks above keep tobj away from the inputs it is known to panic on; should it still
+    // panic, the file is reported as unreadable rather than the run aborting.
+    let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |lib| {
+            load_mtl(&file, dir, lib, &mtl_notes)
+        })
+    }));
+    let (models, mtl) = match parsed {
+        Ok(result) => result.map_err(|e| anyhow::anyhow!("{file}: {}", describe(&e)))?,
+        Err(_) => bail!("{file}: the OBJ parser failed on this file (please report it)"),
+    };
+    let mtl_notes = mtl_notes.into_inner();
     let mut materials: Vec<Material> = match mtl {
         Ok(list) => list
             .iter()
@@ -31,20 +62,22 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
                 if let Some(w) = warn {
                     report
                         .warnings
-                        .push(format!("{}: material '{}': {w}", path.display(), m.name));
+                        .push(format!("{file}: material '{}': {w}", m.name));
                 }
                 mat
             })
             .collect(),
         Err(e) => {
-            report.warnings.push(format!(
-                "{}: material library not loaded ({}); using grey diffuse",
-                path.display(),
-                describe(&e)
-            ));
+            if mtl_notes.is_empty() {
+                report.warnings.push(format!(
+                    "{file}: material library not loaded ({}); using grey diffuse",
+                    describe(&e)
+                ));
+            }
             Vec::new()
         }
     };
+    report.warnings.extend(mtl_notes);
     // Index of the default material for faces without one.
     let default_id = materials.len() as u32;
     materials.push(Material::default_grey());
@@ -59,7 +92,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         let base = positions.len() as u64;
         let nverts = mesh.positions.len() / 3;
         if base + nverts as u64 >= u32::MAX as u64 {
-            bail!("{}: more than 2^32 vertices", path.display());
+            bail!("{file}: more than 2^32 vertices");
         }
         positions.extend(
             mesh.positions
@@ -80,8 +113,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
             Some(id) if id < default_id as usize => id as u32,
             Some(id) => {
                 report.warnings.push(format!(
-                    "{}: object '{}' names material #{id}, which is not defined",
-                    path.display(),
+                    "{file}: object '{}' names material #{id}, which is not defined",
                     model.name
                 ));
                 default_id
@@ -92,8 +124,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
             let tri = [f[0], f[1], f[2]];
             if tri.iter().any(|&i| i as usize >= nverts) {
                 bail!(
-                    "{}: object '{}' has a face index outside its {} vertices",
-                    path.display(),
+                    "{file}: object '{}' has a face index outside its {} vertices",
                     model.name,
                     nverts
                 );
@@ -102,13 +133,23 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
             tri_material.push(mat);
         }
     }
+    if triangles.is_empty() {
+        bail!(
+            "{file}: no geometry: the file has no faces ('f' statements){}",
+            if scan.vertices == 0 {
+                " and no vertices"
+            } else {
+                ""
+            }
+        );
+    }
     if !all_have_normals {
         // A mix of meshes with and without normals: zero normals fall back to the geometric one.
         if normals.iter().all(|n| *n == Vec3::ZERO) {
             normals.clear();
         }
     }
-    Scene::build(
+    let scene = Scene::build(
         path,
         positions,
         normals,
@@ -117,7 +158,258 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         materials,
         report,
     )
-    .with_context(|| format!("{}: building the scene", path.display()))
+    .with_context(|| format!("{file}: building the scene"))?;
+    if scene.triangles.is_empty() {
+        bail!(
+            "{file}: no geometry: all {} triangles are degenerate (zero area or non-finite coordinates)",
+            scene.report.triangles_read
+        );
+    }
+    Ok(scene)
+}
+
+/// What [`prescan`] learnt about an OBJ file.
+#[derive(Debug, Default)]
+pub struct Prescan {
+    pub vertices: usize,
+    pub faces: usize,
+    pub warnings: Vec<String>,
+}
+
+/// The OBJ statements the loader uses (`#` starts a comment).
+const OBJ_KEYWORDS: &[&str] = &["v", "vt", "vn", "f", "o", "g", "s", "mtllib", "usemtl"];
+
+/// Checks an OBJ file line by line: `v x y z [w | r g b]`, `vt u v [w]` and `vn x y z` must hold
+/// numbers, and every vertex of an `f` statement (`v`, `v/vt`, `v//vn` or `v/vt/vn`, at least
+/// three) must be a whole number that names a position (texture coordinate, normal) defined before
+/// it: positive from 1, or negative counting back from the last one. The first bad line is an error
+/// `FILE:LINE: ...`. Other statements are ignored with one warning per keyword.
+pub fn prescan(file: &str, text: &str) -> anyhow::Result<Prescan> {
+    let mut scan = Prescan::default();
+    let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
+    // Keyword → (first line, count), in order of first appearance.
+    let mut ignored: Vec<(String, usize, usize)> = Vec::new();
+    for (k, raw) in text.lines().enumerate() {
+        let line_no = k + 1;
+        let line = raw.trim();
+        let mut words = line.split_whitespace();
+        let Some(kw) = words.next() else { continue };
+        if kw.starts_with('#') {
+            continue;
+        }
+        let shown = || {
+            let mut s: String = line.chars().take(60).collect();
+            if line.chars().count() > 60 {
+                s.push('…');
+            }
+            s
+        };
+        let numbers = |words: std::str::SplitWhitespace| -> Option<Vec<f32>> {
+            words.map(|w| w.parse::<f32>().ok()).collect()
+        };
+        match kw {
+            "v" => {
+                let v = numbers(words);
+                match v.as_deref() {
+                    Some([_, _, _]) | Some([_, _, _, _, _, _]) => {}
+                    Some([_, _, _, w]) if *w != 0.0 => {}
+                    Some([_, _, _, _]) => bail!(
+                        "{file}:{line_no}: vertex with w = 0 (a point at infinity): '{}'",
+                        shown()
+                    ),
+                    _ => bail!(
+                        "{file}:{line_no}: malformed vertex: expected 'v x y z' (optionally w, or r g b) with numbers, got '{}'",
+                        shown()
+                    ),
+                }
+                nv += 1;
+            }
+            "vt" => {
+                match numbers(words) {
+                    Some(v) if (2..=3).contains(&v.len()) => {}
+                    _ => bail!(
+                        "{file}:{line_no}: malformed texture coordinate: expected 'vt u v' (optionally w) with numbers, got '{}'",
+                        shown()
+                    ),
+                }
+                nvt += 1;
+            }
+            "vn" => {
+                match numbers(words) {
+                    Some(v) if v.len() == 3 => {}
+                    _ => bail!(
+                        "{file}:{line_no}: malformed normal: expected 'vn x y z' with numbers, got '{}'",
+                        shown()
+                    ),
+                }
+                nvn += 1;
+            }
+            "f" => {
+                let refs: Vec<&str> = words.collect();
+                if refs.len() < 3 {
+                    bail!(
+                        "{file}:{line_no}: a face needs at least 3 vertices, this one has {}: '{}'",
+                        refs.len(),
+                        shown()
+                    );
+                }
+                for r in refs {
+                    check_face_vertex(file, line_no, r, [nv, nvt, nvn])?;
+                }
+                scan.faces += 1;
+            }
+            "usemtl" | "mtllib" if words.next().is_none() => {
+                bail!("{file}:{line_no}: '{kw}' needs a name: '{}'", shown())
+            }
+            kw if OBJ_KEYWORDS.contains(&kw) => {}
+            other => match ignored.iter_mut().find(|(k, _, _)| k == other) {
+                Some(entry) => entry.2 += 1,
+                None => ignored.push((other.to_string(), line_no, 1)),
+            },
+        }
+    }
+    scan.vertices = nv;
+    for (kw, first, count) in ignored {
+        let what = match kw.as_str() {
+            "p" => "points ('p') are not rendered".to_string(),
+            "l" => "lines ('l') are not rendered".to_string(),
+            _ => format!("'{kw}' statements are not supported"),
+        };
+        let times = if count == 1 {
+            String::new()
+        } else {
+            format!(", {count} lines")
+        };
+        scan.warnings
+            .push(format!("{file}:{first}: {what}; ignored{times}"));
+    }
+    Ok(scan)
+}
+
+/// Checks one vertex of a face (`v`, `v/vt`, `v//vn`, `v/vt/vn`) against the counts of positions,
+/// texture coordinates and normals defined so far.
+fn check_face_vertex(
+    file: &str,
+    line_no: usize,
+    r: &str,
+    counts: [usize; 3],
+) -> anyhow::Result<()> {
+    const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    const WHATS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
+    let parts: Vec<&str> = r.split('/').collect();
+    let well_formed = match parts.as_slice() {
+        [v] => !v.is_empty(),
+        [v, _] => !v.is_empty(),
+        [v, _, _] => !v.is_empty(),
+        _ => false,
+    };
+    if !well_formed {
+        bail!("{file}:{line_no}: malformed face vertex '{r}': expected v, v/vt, v//vn or v/vt/vn");
+    }
+    for (k, part) in parts.iter().enumerate() {
+        if part.is_empty() {
+            continue; // v//vn
+        }
+        let Ok(i) = part.parse::<i64>() else {
+            bail!("{file}:{line_no}: malformed face vertex '{r}': '{part}' is not a whole number");
+        };
+        let n = counts[k] as i64;
+        if i == 0 {
+            bail!(
+                "{file}:{line_no}: face {} index 0 in '{r}': OBJ indices start at 1 (or count back from -1)",
+                WHAT[k]
+            );
+        }
+        if i > n || -i > n {
+            bail!(
+                "{file}:{line_no}: face refers to {} {i} (in '{r}'), but only {n} {} are defined before this line",
+                WHAT[k],
+                WHATS[k]
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Reads a material library named by an OBJ file for tobj: missing, unreadable or malformed
+/// libraries leave a note (a warning naming the library) and load no materials. A colour given as
+/// one number (`Kd 0.5`, grey) is expanded to three, which tobj requires.
+fn load_mtl(
+    obj_file: &str,
+    dir: &Path,
+    lib: &Path,
+    notes: &std::cell::RefCell<Vec<String>>,
+) -> tobj::MTLLoadResult {
+    let path = dir.join(lib);
+    let shown = path.display().to_string();
+    let note = |s: String| notes.borrow_mut().push(format!("{obj_file}: {s}"));
+    let bytes = match std::fs::read(&path) {
+        Ok(b) => b,
+        Err(e) => {
+            note(format!(
+                "material library {shown} cannot be read ({e}); its materials are grey diffuse"
+            ));
+            return Err(tobj::LoadError::OpenFileFailed);
+        }
+    };
+    let Ok(text) = String::from_utf8(bytes) else {
+        note(format!(
+            "material library {shown}: not a text file (invalid UTF-8); its materials are grey diffuse"
+        ));
+        return Err(tobj::LoadError::ReadError);
+    };
+    match prescan_mtl(&shown, &text) {
+        Ok(clean) => tobj::load_mtl_buf(&mut clean.as_bytes()).inspect_err(|e| {
+            note(format!(
+                "material library {shown}: {}; its materials are grey diffuse",
+                describe(e)
+            ))
+        }),
+        Err(msg) => {
+            note(format!(
+                "material library {msg}; the library's materials are grey diffuse"
+            ));
+            Err(tobj::LoadError::MaterialParseError)
+        }
+    }
+}
+
+/// Checks an MTL file line by line (colours `Ka Kd Ks Ke` one or three numbers, `Ns Ni d` one
+/// number, `illum` a whole number, `newmtl` a name); returns the text with one-number colours
+/// expanded, or `FILE:LINE: ...` for the first bad line.
+fn prescan_mtl(file: &str, text: &str) -> Result<String, String> {
+    let mut out = String::with_capacity(text.len() + 64);
+    for (k, raw) in text.lines().enumerate() {
+        let line_no = k + 1;
+        let line = raw.trim();
+        let mut words = line.split_whitespace();
+        let kw = words.next().unwrap_or("");
+        let rest: Vec<&str> = words.collect();
+        let nums: Option<Vec<f32>> = rest.iter().map(|w| w.parse::<f32>().ok()).collect();
+        let bad = |what: &str| Err(format!("{file}:{line_no}: {what}, got '{line}'"));
+        match kw {
+            "Ka" | "Kd" | "Ks" | "Ke" => match nums.as_deref() {
+                Some([g]) => {
+                    out.push_str(&format!("{kw} {g} {g} {g}\n"));
+                    continue;
+                }
+                Some(v) if v.len() >= 3 => {}
+                _ => return bad(&format!("'{kw}' needs a colour r g b (or one grey value)")),
+            },
+            "Ns" | "Ni" | "d" => match nums.as_deref() {
+                Some([_, ..]) => {}
+                _ => return bad(&format!("'{kw}' needs a number")),
+            },
+            "illum" if rest.first().is_none_or(|w| w.parse::<i32>().is_err()) => {
+                return bad("'illum' needs a whole number");
+            }
+            "newmtl" if rest.is_empty() => return bad("'newmtl' needs a material name"),
+            _ => {}
+        }
+        out.push_str(raw);
+        out.push('\n');
+    }
+    Ok(out)
 }
 
 fn describe(e: &tobj::LoadError) -> String {

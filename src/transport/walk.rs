@@ -119,9 +119,9 @@ pub fn walk_k<K: Kernel>(
             return None;
         }
         bounces += 1;
+        origin = scene.spawn_origin_from(&hit, bs.wi, origin);
         d = bs.wi;
         base = hit.p;
-        origin = hit.spawn_origin(d);
     }
 }
 
@@ -272,7 +272,8 @@ pub fn radiance_k<K: Kernel>(
                 };
                 if f != Rgb::ZERO {
                     st.rays += 1;
-                    if scene.visible_k::<K>(hit.spawn_origin(ls.wi), hit.p + ls.wi * ls.dist) {
+                    let o = scene.spawn_origin_from(&hit, ls.wi, origin);
+                    if scene.visible_k::<K>(o, hit.p + ls.wi * ls.dist) {
                         let w = if ls.delta {
                             1.0
                         } else {
@@ -313,11 +314,11 @@ pub fn radiance_k<K: Kernel>(
         if !survives(&mut beta, depth, s) {
             break;
         }
+        origin = scene.spawn_origin_from(&hit, bs.wi, origin);
         prev_p = hit.p;
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
         d = bs.wi;
-        origin = hit.spawn_origin(d);
     }
     out.rest = l;
     out

@@ -1,0 +1,328 @@
+//! Bad input: broken scene files give errors (or warnings, where the input is recoverable) that
+//! name the file, and the line where there is one, never a panic. `tests/corpus/` holds small
+//! broken files: `err_*` must fail to load, `warn_*` load with a warning, `ok_*` load cleanly;
+//! `part_*` are files the others refer to. Bad command-line values are in `tests/cli.rs`.
+
+use ftpd3d::app::load_scene;
+use ftpd3d::math::Rgb;
+use ftpd3d::transport::bsdf::Bsdf;
+use std::path::{Path, PathBuf};
+
+fn corpus(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join("corpus")
+        .join(name)
+}
+
+/// The error of loading a corpus file, with its context chain.
+fn error_of(name: &str) -> String {
+    let path = corpus(name);
+    match load_scene(&path) {
+        Ok(_) => panic!("{name} loaded"),
+        Err(e) => format!("{e:#}"),
+    }
+}
+
+/// Asserts that loading corpus file `name` fails with exactly `FILE` + `rest` as its message.
+fn assert_error(name: &str, rest: &str) {
+    let e = error_of(name);
+    let expected = format!("{}{rest}", corpus(name).display());
+    assert_eq!(e, expected);
+}
+
+#[test]
+fn bad_input_every_corpus_file_errors_or_warns_naming_it_never_panics() {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(corpus(""))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    let mut counts = [0; 3];
+    for path in files {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with("part_") || name == "README.md" {
+            continue;
+        }
+        let shown = path.display().to_string();
+        let result = std::panic::catch_unwind(|| load_scene(&path));
+        let Ok(result) = result else {
+            panic!("{name}: the loader panicked");
+        };
+        match (name.split('_').next().unwrap(), result) {
+            ("err", Err(e)) => {
+                let e = format!("{e:#}");
+                assert!(e.starts_with(&shown), "{name}: {e}");
+                counts[0] += 1;
+            }
+            ("warn", Ok(scene)) => {
+                let w = &scene.report.warnings;
+                assert!(!w.is_empty(), "{name}: no warning");
+                assert!(w.iter().all(|w| w.starts_with(&shown)), "{name}: {w:?}");
+                counts[1] += 1;
+            }
+            ("ok", Ok(scene)) => {
+                assert!(
+                    scene.report.warnings.is_empty(),
+                    "{name}: {:?}",
+                    scene.report.warnings
+                );
+                counts[2] += 1;
+            }
+            (_, Ok(scene)) => panic!("{name}: loaded, warnings {:?}", scene.report.warnings),
+            (_, Err(e)) => panic!("{name}: {e:#}"),
+        }
+    }
+    assert!(
+        counts[0] >= 30 && counts[1] >= 5 && counts[2] >= 2,
+        "{counts:?}"
+    );
+}
+
+#[test]
+fn bad_input_obj_missing_file() {
+    let path = corpus("part_does_not_exist.obj");
+    let e = format!("{:#}", load_scene(&path).err().unwrap());
+    assert_eq!(e, format!("{}: no such scene file", path.display()));
+}
+
+#[test]
+fn bad_input_obj_bad_face_indices_name_file_and_line() {
+    assert_error(
+        "err_face_index_out_of_range.obj",
+        ":4: face refers to vertex 7 (in '7'), but only 3 vertices are defined before this line",
+    );
+    assert_error(
+        "err_face_relative_out_of_range.obj",
+        ":4: face refers to vertex -4 (in '-4'), but only 3 vertices are defined before this line",
+    );
+    assert_error(
+        "err_face_normal_out_of_range.obj",
+        ":5: face refers to normal 2 (in '2//2'), but only 1 normals are defined before this line",
+    );
+    assert_error(
+        "err_face_index_zero.obj",
+        ":4: face vertex index 0 in '0': OBJ indices start at 1 (or count back from -1)",
+    );
+    assert_error(
+        "err_face_malformed.obj",
+        ":4: malformed face vertex 'x': 'x' is not a whole number",
+    );
+    assert_error(
+        "err_face_too_many_slashes.obj",
+        ":4: malformed face vertex '1/1/1/1': expected v, v/vt, v//vn or v/vt/vn",
+    );
+    assert_error(
+        "err_face_two_vertices.obj",
+        ":4: a face needs at least 3 vertices, this one has 2: 'f 1 2'",
+    );
+}
+
+#[test]
+fn bad_input_obj_non_numeric_values_name_file_and_line() {
+    assert_error(
+        "err_v_not_a_number.obj",
+        ":3: malformed vertex: expected 'v x y z' (optionally w, or r g b) with numbers, got 'v 1 0 abc'",
+    );
+    assert_error(
+        "err_v_two_numbers.obj",
+        ":2: malformed vertex: expected 'v x y z' (optionally w, or r g b) with numbers, got 'v 1 0'",
+    );
+    assert_error(
+        "err_v_w_zero.obj",
+        ":1: vertex with w = 0 (a point at infinity): 'v 0 0 0 0'",
+    );
+    assert_error(
+        "err_vn_not_a_number.obj",
+        ":4: malformed normal: expected 'vn x y z' with numbers, got 'vn 0 zero 1'",
+    );
+    assert_error(
+        "err_vt_one_number.obj",
+        ":4: malformed texture coordinate: expected 'vt u v' (optionally w) with numbers, got 'vt 0.5'",
+    );
+    assert_error(
+        "err_usemtl_without_name.obj",
+        ":4: 'usemtl' needs a name: 'usemtl'",
+    );
+    assert_error(
+        "err_not_utf8.obj",
+        ": not a text file (invalid UTF-8 at byte 7)",
+    );
+}
+
+#[test]
+fn bad_input_obj_unsupported_statements_warn_once_per_keyword() {
+    let path = corpus("warn_unsupported_statements.obj");
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+    let f = path.display();
+    assert_eq!(
+        scene.report.warnings,
+        vec![
+            format!("{f}:5: 'cstype' statements are not supported; ignored"),
+            format!("{f}:6: 'deg' statements are not supported; ignored"),
+            format!("{f}:7: 'curv' statements are not supported; ignored, 2 lines"),
+            format!("{f}:8: 'parm' statements are not supported; ignored"),
+            format!("{f}:9: 'end' statements are not supported; ignored"),
+            format!("{f}:11: points ('p') are not rendered; ignored"),
+            format!("{f}:12: lines ('l') are not rendered; ignored"),
+            format!("{f}:13: 'vp' statements are not supported; ignored"),
+        ]
+    );
+}
+
+#[test]
+fn bad_input_obj_without_geometry_is_an_error() {
+    assert_error(
+        "err_empty.obj",
+        ": no geometry: the file has no faces ('f' statements) and no vertices",
+    );
+    assert_error(
+        "err_no_faces.obj",
+        ": no geometry: the file has no faces ('f' statements)",
+    );
+    assert_error(
+        "err_all_degenerate.obj",
+        ": no geometry: all 2 triangles are degenerate (zero area or non-finite coordinates)",
+    );
+}
+
+#[test]
+fn bad_input_missing_or_malformed_mtl_warns_naming_it_then_grey_diffuse() {
+    let grey = Bsdf::Diffuse {
+        kd: Rgb::splat(0.5),
+    };
+    let path = corpus("warn_missing_mtl.obj");
+    let scene = load_scene(&path).unwrap();
+    let mtl = corpus("warn_missing_mtl_gone.mtl");
+    let w = &scene.report.warnings;
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].starts_with(&format!(
+            "{}: material library {} cannot be read (",
+            path.display(),
+            mtl.display()
+        )) && w[0].ends_with("); its materials are grey diffuse"),
+        "{w:?}"
+    );
+    assert_eq!(scene.materials[scene.tri_material[0] as usize].bsdf, grey);
+
+    let path = corpus("warn_bad_mtl.obj");
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(
+        scene.report.warnings,
+        vec![format!(
+            "{}: material library {}:2: 'Kd' needs a colour r g b (or one grey value), got 'Kd 0.5 0.5'; \
+             the library's materials are grey diffuse",
+            path.display(),
+            corpus("part_bad_mtl.mtl").display()
+        )]
+    );
+    assert_eq!(scene.materials[scene.tri_material[0] as usize].bsdf, grey);
+
+    // One number is a grey (tobj itself would panic on it).
+    let scene = load_scene(&corpus("ok_grey_kd.obj")).unwrap();
+    assert_eq!(
+        scene.materials[scene.tri_material[0] as usize].bsdf,
+        Bsdf::Diffuse {
+            kd: Rgb::splat(0.25)
+        }
+    );
+}
+
+#[test]
+fn bad_input_gltf_files_name_the_file_and_the_problem() {
+    assert_error(
+        "err_truncated.glb",
+        ": truncated .glb: the header declares 624 bytes, the file has 312",
+    );
+    assert_error(
+        "err_truncated_header.glb",
+        ": truncated .glb: 7 bytes, shorter than the 12-byte header",
+    );
+    assert_error(
+        "err_glb_version_1.glb",
+        ": binary glTF version 1; only version 2 is supported",
+    );
+    let e = error_of("err_missing_buffer.gltf");
+    let f = corpus("err_missing_buffer.gltf");
+    assert!(
+        e.starts_with(&format!(
+            "{}: buffer #0: cannot read 'part_gone.bin' ({}): ",
+            f.display(),
+            corpus("part_gone.bin").display()
+        )),
+        "{e}"
+    );
+    assert_error(
+        "err_bad_accessor_type.gltf",
+        ": mesh 'Quad' primitive 0: POSITION accessor #0 is not VEC3 f32 (it is VEC2 f32)",
+    );
+    assert_error(
+        "err_bad_accessor_component.gltf",
+        ": mesh 'Quad' primitive 0: POSITION accessor #0 is not VEC3 f32 (it is VEC3 u16)",
+    );
+    assert_error(
+        "err_accessor_past_buffer.gltf",
+        ": mesh 'Quad' primitive 0: accessor #0: 400 elements of 12 bytes (stride 12) from offset 0 \
+         run past the end of buffer view #0 (48 bytes)",
+    );
+    assert_error(
+        "err_attribute_accessor_missing.gltf",
+        ": not a valid glTF 2.0 file: meshes[0].primitives[0].attributes: accessor 9 does not exist \
+         (2 accessors)",
+    );
+    assert_error(
+        "err_not_json.gltf",
+        ": not a valid glTF 2.0 file: expected ident at line 1 column 44",
+    );
+    for (name, mode) in [
+        ("warn_points_primitive.gltf", "POINTS"),
+        ("warn_lines_primitive.gltf", "LINES"),
+    ] {
+        let scene = load_scene(&corpus(name)).unwrap();
+        assert_eq!(scene.triangles.len(), 2);
+        assert_eq!(
+            scene.report.warnings,
+            vec![format!(
+                "{}: mesh 'Quad' primitive 1: mode {mode} is not triangles; skipped",
+                corpus(name).display()
+            )]
+        );
+    }
+}
+
+#[test]
+fn bad_input_sidecar_files_name_the_file_and_the_problem() {
+    let e = error_of("err_sidecar_unknown_key.toml");
+    assert!(
+        e.starts_with(&format!(
+            "{}: TOML parse error at line 2, column 1",
+            corpus("err_sidecar_unknown_key.toml").display()
+        )) && e.contains("unknown field `colour`"),
+        "{e}"
+    );
+    assert_error(
+        "err_sidecar_missing_mesh.toml",
+        &format!(
+            ": loading its mesh: {}: no such scene file",
+            corpus("part_nothere.obj").display()
+        ),
+    );
+    assert_error(
+        "err_sidecar_negative_light.toml",
+        ": point_light #1: position must be finite and intensity finite and ≥ 0",
+    );
+    assert_error(
+        "err_sidecar_mesh_is_toml.toml",
+        ": mesh = \"err_sidecar_unknown_key.toml\" must be a mesh file, not another .toml",
+    );
+    assert_error(
+        "err_sidecar_bad_camera.toml",
+        ": camera #1: target equals eye",
+    );
+    assert_error(
+        "err_unsupported_format.ply",
+        ": unsupported scene format '.ply' (supported: .obj, .gltf, .glb, .toml)",
+    );
+}
