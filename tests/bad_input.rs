@@ -326,3 +326,21 @@ fn bad_input_sidecar_files_name_the_file_and_the_problem() {
         ": unsupported scene format '.ply' (supported: .obj, .gltf, .glb, .toml)",
     );
 }
+
+#[test]
+fn bad_input_non_regular_files_are_not_read() {
+    // /dev/zero never ends: a library or buffer named so must not be read.
+    let path = corpus("warn_mtllib_dev_zero.obj");
+    let scene = load_scene(&path).unwrap();
+    assert_eq!(
+        scene.report.warnings,
+        vec![format!(
+            "{}: material library /dev/zero is not a regular file; its materials are grey diffuse",
+            path.display()
+        )]
+    );
+    assert_error(
+        "err_buffer_dev_zero.gltf",
+        ": buffer #0: '/dev/zero' (/dev/zero) is not a regular file",
+    );
+}

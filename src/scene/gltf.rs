@@ -214,6 +214,13 @@ fn load_buffers(
             }
             ::gltf::buffer::Source::Uri(uri) => {
                 let target = dir.join(percent_decode(uri));
+                // Only regular files: /dev/zero or a FIFO would never end.
+                if target.exists() && !target.is_file() {
+                    bail!(
+                        "{file}: {label}: '{uri}' ({}) is not a regular file",
+                        target.display()
+                    );
+                }
                 std::fs::read(&target).map_err(|e| {
                     anyhow!(
                         "{file}: {label}: cannot read '{uri}' ({}): {e}",

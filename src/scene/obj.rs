@@ -343,6 +343,13 @@ fn load_mtl(
     let path = dir.join(lib);
     let shown = path.display().to_string();
     let note = |s: String| notes.borrow_mut().push(format!("{obj_file}: {s}"));
+    // Only regular files: a library named /dev/zero or a FIFO would never end.
+    if path.exists() && !path.is_file() {
+        note(format!(
+            "material library {shown} is not a regular file; its materials are grey diffuse"
+        ));
+        return Err(tobj::LoadError::OpenFileFailed);
+    }
     let bytes = match std::fs::read(&path) {
         Ok(b) => b,
         Err(e) => {
