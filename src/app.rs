@@ -91,24 +91,7 @@ pub fn flat_extent(bounds: &scene::Aabb, fl: &Flatland) -> f64 {
         glam::DVec2::splat(f64::INFINITY),
         glam::DVec2::splat(f64::NEG_INFINITY),
     );
-    for k in 0..8 {
-        let c = glam::DVec3::new(
-            if k & 1 == 0 {
-                bounds.min.x
-            } else {
-                bounds.max.x
-            },
-            if k & 2 == 0 {
-                bounds.min.y
-            } else {
-                bounds.max.y
-            },
-            if k & 4 == 0 {
-                bounds.min.z
-            } else {
-                bounds.max.z
-            },
-        );
+    for c in bounds.corners() {
         let q = glam::DVec2::new(c.dot(fl.e1), c.dot(fl.e2));
         lo = lo.min(q);
         hi = hi.max(q);

@@ -289,24 +289,8 @@ impl Plane {
                     (f64::INFINITY, f64::INFINITY),
                     (f64::NEG_INFINITY, f64::NEG_INFINITY),
                 );
-                for k in 0..8 {
-                    let c = DVec3::new(
-                        if k & 1 == 0 {
-                            bounds.min.x
-                        } else {
-                            bounds.max.x
-                        },
-                        if k & 2 == 0 {
-                            bounds.min.y
-                        } else {
-                            bounds.max.y
-                        },
-                        if k & 4 == 0 {
-                            bounds.min.z
-                        } else {
-                            bounds.max.z
-                        },
-                    ) - spec.origin;
+                for corner in bounds.corners() {
+                    let c = corner - spec.origin;
                     let (a, b) = (c.dot(u), c.dot(v));
                     lo = (lo.0.min(a), lo.1.min(b));
                     hi = (hi.0.max(a), hi.1.max(b));

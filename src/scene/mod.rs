@@ -46,6 +46,17 @@ impl Aabb {
             (self.max - self.min).length()
         }
     }
+    /// The eight corners.
+    pub fn corners(&self) -> [DVec3; 8] {
+        std::array::from_fn(|k| {
+            DVec3::new(
+                if k & 1 == 0 { self.min.x } else { self.max.x },
+                if k & 2 == 0 { self.min.y } else { self.max.y },
+                if k & 4 == 0 { self.min.z } else { self.max.z },
+            )
+        })
+    }
+
     pub fn center(&self) -> DVec3 {
         0.5 * (self.min + self.max)
     }
