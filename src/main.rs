@@ -95,7 +95,7 @@ struct ConvergeArgs {
     /// the scene has lights, unweighted otherwise].
     #[arg(long = "weight", value_enum)]
     weight: Option<WeightArg>,
-    /// Independent batches per run (for the estimated standard error; at most the run's spp).
+    /// Passes each run is split into (at most the run's spp).
     #[arg(long, default_value_t = 8)]
     batches: u32,
     /// Add an isotropic point light at x,y,z with radiant intensity r,g,b; repeatable.
@@ -171,7 +171,7 @@ struct RunArgs {
     /// is given]. With --adaptive: the mean over cells.
     #[arg(long)]
     spp: Option<u32>,
-    /// Independent batches (passes) --spp is split into when no --pass-spp is given (at most --spp).
+    /// Passes --spp is split into when no --pass-spp is given (at most --spp).
     #[arg(long, default_value_t = 8)]
     batches: u32,
     /// Time budget of the whole run, e.g. 90s, 10m, 1h30m: no pass starts that would end after it.

@@ -227,25 +227,6 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
         }
     }
 
-    // Batches per cell decide what the standard error means: say so when they differ in size.
-    let batch_size = |f: &Field| -> Option<(u64, u64)> {
-        let spp = f.meta.get("spp")?.parse::<u64>().ok()?;
-        let b = f.meta.get("batches")?.parse::<u64>().ok()?;
-        Some((spp, b.clamp(1, spp.max(1))))
-    };
-    let sizes: BTreeSet<(u64, u64)> = inputs.iter().filter_map(|(_, f)| batch_size(f)).collect();
-    if sizes.len() > 1 {
-        warnings.push(format!(
-            "the inputs use different samples per batch ({}): the standard error treats every \
-             batch alike, so it is only approximate",
-            sizes
-                .iter()
-                .map(|(s, b)| format!("{s} spp in {b} batches"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-    }
-
     let mut it = inputs.iter();
     let (_, head) = it.next().expect("not empty");
     let mut field = head.clone();

@@ -12,7 +12,7 @@
 use crate::math::{Rgb, safe_sqrt};
 
 /// Weighted moments of the pairwise path deviation Δ at one cell (paper eq. 14's ΣP, ΣΔ, ΣΔ²), plus
-/// independent-batch statistics of σ for the standard error.
+/// the sums of their pairwise products for σ's standard error (see [`Moments::stderr`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Moments {
     /// Σ c (c = weight · βA · βB, luminance).
@@ -27,10 +27,10 @@ pub struct Moments {
     pub n: u64,
     /// Σ over samples of the direction weight (RGB), for fluence = Σ / n.
     pub fluence: Rgb,
-    /// Number of batches with a defined σ, Σ σ_b and Σ σ_b² over them.
+    /// Number of batches (non-empty passes of a cell) folded in.
     pub batches: u64,
-    pub batch_sigma: f64,
-    pub batch_sigma2: f64,
+    /// Per-sample products of (c, cΔ, cΔ²), summed: Σc², Σc·cΔ, Σc·cΔ², Σ(cΔ)², ΣcΔ·cΔ², Σ(cΔ²)².
+    pub cross: [f64; 6],
 }
 
 /// Finalised values of one cell.
@@ -42,7 +42,8 @@ pub struct CellValue {
     pub mean: f64,
     /// Weighted second moment of Δ (S2/S0).
     pub m2: f64,
-    /// Standard error of σ from the spread of independent batches (0 with fewer than 2 batches).
+    /// Standard error of σ, linearised over the independent samples (see [`Moments::stderr`]); 0
+    /// with fewer than two samples.
     pub stderr: f64,
     /// Mean contribution weight S0/n.
     pub weight: f64,
@@ -73,7 +74,15 @@ impl Moments {
         let cd = c * delta;
         add_compensated(&mut self.s0, &mut self.comp[0], c);
         add_compensated(&mut self.s1, &mut self.comp[1], cd);
-        add_compensated(&mut self.s2, &mut self.comp[2], cd * delta);
+        let cd2 = cd * delta;
+        add_compensated(&mut self.s2, &mut self.comp[2], cd2);
+        let x = &mut self.cross;
+        x[0] += c * c;
+        x[1] += c * cd;
+        x[2] += c * cd2;
+        x[3] += cd * cd;
+        x[4] += cd * cd2;
+        x[5] += cd2 * cd2;
         self.n += 1;
         self.fluence += weight_rgb;
     }
@@ -100,8 +109,11 @@ impl Moments {
         }
     }
 
-    /// Adds the weighted sums of `o` (compensated, compensations included).
+    /// Adds the weighted sums of `o` (compensated, compensations included) and its product sums.
     fn add_sums(&mut self, o: &Moments) {
+        for k in 0..6 {
+            self.cross[k] += o.cross[k];
+        }
         add_compensated(&mut self.s0, &mut self.comp[0], o.s0);
         add_compensated(&mut self.s1, &mut self.comp[1], o.s1);
         add_compensated(&mut self.s2, &mut self.comp[2], o.s2);
@@ -110,12 +122,10 @@ impl Moments {
         }
     }
 
-    /// Folds the sums of one finished batch into `self`, recording the batch's σ.
+    /// Folds the sums of one finished batch into `self` and counts it.
     pub fn add_batch(&mut self, batch: &Moments) {
-        if let Some(s) = batch.sigma() {
+        if batch.n > 0 {
             self.batches += 1;
-            self.batch_sigma += s;
-            self.batch_sigma2 += s * s;
         }
         self.add_sums(batch);
         self.n += batch.n;
@@ -129,8 +139,6 @@ impl Moments {
         self.n += o.n;
         self.fluence += o.fluence;
         self.batches += o.batches;
-        self.batch_sigma += o.batch_sigma;
-        self.batch_sigma2 += o.batch_sigma2;
     }
 
     pub fn finalize(&self) -> CellValue {
@@ -139,13 +147,7 @@ impl Moments {
         };
         let (s0, s1, s2) = self.sums();
         let (mean, m2) = (s1 / s0, s2 / s0);
-        let k = self.batches as f64;
-        let stderr = if self.batches >= 2 {
-            let var = (self.batch_sigma2 - self.batch_sigma * self.batch_sigma / k) / (k - 1.0);
-            safe_sqrt(var / k)
-        } else {
-            0.0
-        };
+        let stderr = self.stderr();
         CellValue {
             sigma,
             mean,
@@ -154,6 +156,86 @@ impl Moments {
             weight: if self.n > 0 { s0 / self.n as f64 } else { 0.0 },
             valid: true,
         }
+    }
+
+    /// Standard error of σ by the delta method (linearisation; the infinitesimal jackknife).
+    ///
+    /// σ is a smooth function of the three sample means C = S0/n, A = S1/n, B = S2/n of the
+    /// per-sample values c, a = cΔ, b = cΔ²: with m1 = A/C, m2 = B/C and v = m2 − m1², σ = √m2 + √v.
+    /// To first order its error is the mean of the influences ψᵢ = (x·bᵢ + y·aᵢ + z·cᵢ)/C, with
+    /// x = ∂σ/∂m2, y = ∂σ/∂m1 and z = −(x·m2 + y·m1), so that Σψᵢ = 0 at the sample means. The
+    /// samples are independent, so Var σ ≈ Σψᵢ² / (n(n − 1)), and Σψᵢ² expands into the six
+    /// product sums in [`Moments::cross`]. This uses every sample as its own batch: the spread of σ
+    /// over small batches, which it replaces, is biased (σ is nonlinear, and a batch of 8 rarely
+    /// holds one of the rare large contributions of radiance weighting) and underestimated the
+    /// error 2-3 times there.
+    ///
+    /// √v has an infinite derivative at v = 0 (where Δ barely varies): when the standard error of
+    /// v itself, s_v, exceeds 4v, the linearisation of √v is no longer valid and the estimate is
+    /// the bound s(√m2) + √s_v (|√v̂ − √v| ≤ √|v̂ − v|; the two agree on the √v term at s_v = 4v).
+    /// Returns 0 with fewer than two samples or S0 ≤ 0, and for a cell whose Δ never varies.
+    pub fn stderr(&self) -> f64 {
+        let (s0, s1, s2) = self.sums();
+        if self.n < 2 || !(s0 > 0.0 && s0.is_finite()) {
+            return 0.0;
+        }
+        let (m1, m2) = (s1 / s0, s2 / s0);
+        if !(m2 > 0.0) {
+            return 0.0;
+        }
+        let v = m2 - m1 * m1;
+        let n = self.n as f64;
+        let scale = n / ((n - 1.0) * s0 * s0);
+        let x = &self.cross;
+        // Σ(x·b + y·a + z·c)² / (C²·n(n−1)), clamped at 0 (the expansion cancels).
+        let var = |xb: f64, ya: f64| {
+            let zc = -(xb * m2 + ya * m1);
+            let q = zc * zc * x[0]
+                + 2.0 * ya * zc * x[1]
+                + 2.0 * xb * zc * x[2]
+                + ya * ya * x[3]
+                + 2.0 * xb * ya * x[4]
+                + xb * xb * x[5];
+            (q * scale).max(0.0)
+        };
+        let rm2 = m2.sqrt();
+        let var_v = var(1.0, -2.0 * m1);
+        let se_v = var_v.sqrt();
+        let se = if v > 0.0 && se_v < 4.0 * v {
+            let rv = v.sqrt();
+            var(0.5 / rm2 + 0.5 / rv, -m1 / rv).sqrt()
+        } else {
+            var(0.5 / rm2, 0.0).sqrt() + se_v.sqrt()
+        };
+        if se.is_finite() { se } else { 0.0 }
+    }
+
+    /// Every field as bits, for exact comparisons (equal bits: equal accumulators, −0 included).
+    pub fn bit_pattern(&self) -> [u64; 17] {
+        let f = [
+            self.s0,
+            self.s1,
+            self.s2,
+            self.comp[0],
+            self.comp[1],
+            self.comp[2],
+            self.fluence.x,
+            self.fluence.y,
+            self.fluence.z,
+            self.cross[0],
+            self.cross[1],
+            self.cross[2],
+            self.cross[3],
+            self.cross[4],
+            self.cross[5],
+        ];
+        let mut out = [0u64; 17];
+        for (o, x) in out.iter_mut().zip(f) {
+            *o = x.to_bits();
+        }
+        out[15] = self.n;
+        out[16] = self.batches;
+        out
     }
 
     /// Mean incident radiance integrated over the sphere (scalar irradiance).
@@ -228,5 +310,101 @@ mod tests {
         direct.add_sample(0.5, 0.25, Rgb::ONE);
         direct.add_sample(0.75, -1.5, Rgb::X);
         assert_eq!(ab, direct);
+    }
+
+    /// Mean, variance and the standard error of that variance (from the fourth central moment)
+    /// of `xs`.
+    fn mean_var_se(xs: &[f64]) -> (f64, f64, f64) {
+        let r = xs.len() as f64;
+        let mean = xs.iter().sum::<f64>() / r;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (r - 1.0);
+        let m4 = xs.iter().map(|x| (x - mean).powi(4)).sum::<f64>() / r;
+        (mean, var, ((m4 - var * var) / r).max(0.0).sqrt())
+    }
+
+    /// Replicates of σ̂ over `n` samples of (c, Δ) from `draw`: (σ̂, its estimated stderr) each.
+    fn replicates(
+        reps: u64,
+        n: usize,
+        draw: impl Fn(&mut crate::rng::Sampler) -> (f64, f64),
+    ) -> Vec<(f64, f64)> {
+        (0..reps)
+            .map(|r| {
+                let mut s = crate::rng::Sampler::new(17, r, 0);
+                let mut m = Moments::default();
+                for _ in 0..n {
+                    let (c, d) = draw(&mut s);
+                    m.add_sample(c, d, Rgb::ZERO);
+                }
+                let v = m.finalize();
+                (v.sigma, v.stderr)
+            })
+            .collect()
+    }
+
+    /// Checks the estimated variance of σ̂ against the variance of σ̂ over independent replicates,
+    /// each within three of its own standard errors (computed from the replicates), and that the
+    /// z-scores against the true σ have unit variance, within three standard errors.
+    fn check_stderr_against_replicates(what: &str, reps: &[(f64, f64)], sigma_true: f64) {
+        let sig: Vec<f64> = reps.iter().map(|r| r.0).collect();
+        let est: Vec<f64> = reps.iter().map(|r| r.1 * r.1).collect();
+        let (_, var_emp, se_emp) = mean_var_se(&sig);
+        let (var_est, v2, _) = mean_var_se(&est);
+        let se_est = (v2 / est.len() as f64).sqrt();
+        let tol = 3.0 * se_emp.hypot(se_est);
+        println!("{what}: Var σ̂ over replicates {var_emp:.4e} ± {se_emp:.1e}, estimated {var_est:.4e} ± {se_est:.1e}");
+        assert!((var_emp - var_est).abs() < tol, "{what}: {var_emp} vs {var_est} (tol {tol})");
+        let z: Vec<f64> = reps.iter().map(|(s, e)| (s - sigma_true) / e).collect();
+        let (zm, zv, zse) = mean_var_se(&z);
+        println!("{what}: z mean {zm:.3}, variance {zv:.3} ± {zse:.3}");
+        assert!((zv - 1.0).abs() < 3.0 * zse, "{what}: z variance {zv} ± {zse}");
+    }
+
+    #[test]
+    fn stderr_matches_the_spread_of_replicates_weighted() {
+        // c ~ Exp(1) independent of Δ ~ U(0, 2): m1 = 1, m2 = 4/3, so σ = √(4/3) + √(1/3) = √3.
+        let reps = replicates(2000, 400, |s| {
+            (-(1.0 - s.next_f64()).ln(), 2.0 * s.next_f64())
+        });
+        check_stderr_against_replicates("weighted", &reps, 3f64.sqrt());
+    }
+
+    #[test]
+    fn stderr_matches_the_spread_of_replicates_rare_large_weights() {
+        // The shape radiance weighting gives: most samples c = 1, one in 50 carries c = 40, and
+        // those see larger Δ (Δ ~ U(0, 1) or U(1, 3)). Pooled: P(heavy) = 40·0.02/(0.98 + 0.8),
+        // m1 and m2 the mixtures of the two uniforms' moments.
+        let reps = replicates(2000, 2000, |s| {
+            if s.next_f64() < 0.02 {
+                (40.0, 1.0 + 2.0 * s.next_f64())
+            } else {
+                (1.0, s.next_f64())
+            }
+        });
+        let p = 0.8 / 1.78;
+        let m1 = (1.0 - p) * 0.5 + p * 2.0;
+        let m2 = (1.0 - p) / 3.0 + p * 13.0 / 3.0;
+        check_stderr_against_replicates("rare large", &reps, sigma_from(m1, m2));
+    }
+
+    #[test]
+    fn stderr_is_zero_where_delta_never_varies_and_finite_at_the_kink() {
+        let mut m = Moments::default();
+        for k in 0..100 {
+            m.add_sample(1.0 + k as f64, 0.3, Rgb::ZERO);
+        }
+        let v = m.finalize();
+        assert!(v.stderr >= 0.0 && v.stderr < 1e-6 * v.sigma, "{v:?}");
+        // Δ almost constant: v ≈ 0 takes the bound, still finite and positive.
+        let mut m = Moments::default();
+        for k in 0..100 {
+            m.add_sample(1.0, 0.3 + 1e-9 * (k % 2) as f64, Rgb::ZERO);
+        }
+        let v = m.finalize();
+        assert!(v.stderr.is_finite() && v.stderr > 0.0, "{v:?}");
+        // One sample: no estimate.
+        let mut m = Moments::default();
+        m.add_sample(1.0, 0.3, Rgb::ZERO);
+        assert_eq!(m.finalize().stderr, 0.0);
     }
 }

@@ -6,15 +6,15 @@
 //! |------------------------------|------|----------------------------------------------------------|
 //! | `ftpd`                       | f32  | σ (eq. 14); 0 where `valid` = 0                          |
 //! | `ftpd.mean`, `ftpd.m2`       | f32  | weighted mean and second moment of Δ                     |
-//! | `ftpd.stderr`, `ftpd.relerr` | f32  | standard error of σ from independent batches, and /σ    |
+//! | `ftpd.stderr`, `ftpd.relerr` | f32  | standard error of σ (delta method over the samples), /σ |
 //! | `weight`                     | f32  | mean contribution weight ΣP / samples                    |
 //! | `fluence.R/G/B`              | f32  | incident radiance integrated over the sphere (radiance weighting only) |
 //! | `radiance.R/G/B`             | f32  | camera images: a path-traced beauty image along the same pixel rays |
 //! | `samples`                    | u32  | samples taken at the cell                                |
 //! | `valid`                      | f32  | 1 where σ is defined (ΣP > 0)                             |
 //! | `sum.w`, `sum.wd`, `sum.wd2` | f32  | ΣP, ΣPΔ, ΣPΔ² rounded, for viewing                        |
-//! | `exact.<sum>.hi/.lo`         | u32  | the exact f64 bits of every sum (ΣP, ΣPΔ, ΣPΔ², fluence, batch σ sums) |
-//! | `batches`                    | u32  | batches with a defined σ                                 |
+//! | `exact.<sum>.hi/.lo`         | u32  | the exact f64 bits of every sum (ΣP, ΣPΔ, ΣPΔ², their compensations, fluence, product sums `sum.w.w` … `sum.wd2.wd2`) |
+//! | `batches`                    | u32  | batches (passes) that sampled the cell                   |
 //!
 //! Image rows run top to bottom, so the first row is the plane's largest v.
 

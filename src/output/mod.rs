@@ -78,12 +78,12 @@ pub(crate) const EXACT: &[(&str, Getter, Setter)] = &[
     ("sum.fluence.R", |m| m.fluence.x, |m, v| m.fluence.x = v),
     ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
     ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
-    ("batch.sigma", |m| m.batch_sigma, |m, v| m.batch_sigma = v),
-    (
-        "batch.sigma2",
-        |m| m.batch_sigma2,
-        |m, v| m.batch_sigma2 = v,
-    ),
+    ("sum.w.w", |m| m.cross[0], |m, v| m.cross[0] = v),
+    ("sum.w.wd", |m| m.cross[1], |m, v| m.cross[1] = v),
+    ("sum.w.wd2", |m| m.cross[2], |m, v| m.cross[2] = v),
+    ("sum.wd.wd", |m| m.cross[3], |m, v| m.cross[3] = v),
+    ("sum.wd.wd2", |m| m.cross[4], |m, v| m.cross[4] = v),
+    ("sum.wd2.wd2", |m| m.cross[5], |m, v| m.cross[5] = v),
 ];
 
 /// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).

@@ -15,14 +15,14 @@
 //! | array                          | type          | meaning                                         |
 //! |--------------------------------|---------------|-------------------------------------------------|
 //! | `ftpd` (the active scalars)    | Float32       | σ (eq. 14); 0 where `valid` = 0                 |
-//! | `ftpd.stderr`, `ftpd.relerr`   | Float32       | standard error of σ from independent batches, and /σ |
+//! | `ftpd.stderr`, `ftpd.relerr`   | Float32       | standard error of σ (delta method over the samples), and /σ |
 //! | `ftpd.mean`, `ftpd.m2`         | Float32       | weighted mean and second moment of Δ            |
 //! | `weight`                       | Float32       | mean contribution weight ΣP / samples           |
 //! | `fluence`                      | Float32 × 3   | incident radiance integrated over the sphere (RGB); zeros unless radiance-weighted |
 //! | `grad.mag`                     | Float32       | ‖∇σ‖ in σ per scene unit (central differences, one-sided at borders and next to invalid voxels; 0 at invalid voxels) |
 //! | `valid`                        | UInt8         | 1 where σ is defined (ΣP > 0)                   |
-//! | `samples`, `batches`           | UInt32        | samples taken; batches with a defined σ         |
-//! | `exact.<sum>`                  | Float64       | the raw f64 sums, bit for bit: `exact.sum.w`, `exact.sum.wd`, `exact.sum.wd2`, `exact.sum.fluence.R/G/B`, `exact.batch.sigma`, `exact.batch.sigma2` |
+//! | `samples`, `batches`           | UInt32        | samples taken; batches (passes) that sampled it |
+//! | `exact.<sum>`                  | Float64       | the raw f64 sums, bit for bit: `exact.sum.w`, `exact.sum.wd`, `exact.sum.wd2`, `exact.sum.fluence.R/G/B`, the product sums `exact.sum.w.w` … `exact.sum.wd2.wd2` |
 //!
 //! With `samples` and `batches`, the `exact.*` arrays are each voxel's whole accumulator, so
 //! [`read_vti`] gives back the field exactly and volumes merge by addition like EXR fields.
