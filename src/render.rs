@@ -380,8 +380,8 @@ pub fn error_stats(cells: &[Moments]) -> ErrorStats {
 /// which dilute that contribution), so S/n is not an unbiased mean, and σ, a nonlinear function of
 /// ratios of sums, is biased at finite n in any run. Both biases shrink as the samples grow; the
 /// driver tests compare the mean of σ over a slice with that of a uniform run of four times the
-/// samples. Each unit is a batch of the same size as a uniform pass's, so the batch statistics
-/// (standard error) keep equal-sized, independent batches.
+/// samples. Each unit is a batch of the same size as a uniform pass's; the standard error comes
+/// from per-sample sums, so it does not depend on how samples are grouped.
 pub fn allocate(cells: &[Moments], unit: u32, budget: u64, max_share: u32) -> Vec<u32> {
     let unit = unit.max(1) as f64;
     let kmax = max_share.max(1) as f64;

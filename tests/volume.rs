@@ -101,8 +101,12 @@ fn vti_read_by_vtkio_equals_the_field() {
             "exact.sum.fluence.R",
             "exact.sum.fluence.G",
             "exact.sum.fluence.B",
-            "exact.batch.sigma",
-            "exact.batch.sigma2",
+            "exact.sum.w.w",
+            "exact.sum.w.wd",
+            "exact.sum.w.wd2",
+            "exact.sum.wd.wd",
+            "exact.sum.wd.wd2",
+            "exact.sum.wd2.wd2",
             "exact.sum.w.comp",
             "exact.sum.wd.comp",
             "exact.sum.wd2.comp",
@@ -210,11 +214,15 @@ fn vti_header_of_a_2x2x2_volume_is_exactly_this() {
         <DataArray type="Float64" Name="exact.sum.fluence.R" format="appended" offset="956"></DataArray>
         <DataArray type="Float64" Name="exact.sum.fluence.G" format="appended" offset="1052"></DataArray>
         <DataArray type="Float64" Name="exact.sum.fluence.B" format="appended" offset="1148"></DataArray>
-        <DataArray type="Float64" Name="exact.batch.sigma" format="appended" offset="1244"></DataArray>
-        <DataArray type="Float64" Name="exact.batch.sigma2" format="appended" offset="1340"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.w.comp" format="appended" offset="1436"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd.comp" format="appended" offset="1532"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd2.comp" format="appended" offset="1628"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.w" format="appended" offset="1244"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.wd" format="appended" offset="1340"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.wd2" format="appended" offset="1436"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd.wd" format="appended" offset="1532"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd.wd2" format="appended" offset="1628"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd2.wd2" format="appended" offset="1724"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.comp" format="appended" offset="1820"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd.comp" format="appended" offset="1916"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd2.comp" format="appended" offset="2012"></DataArray>
       </PointData>
     </Piece>
   </ImageData>
@@ -223,8 +231,8 @@ fn vti_header_of_a_2x2x2_volume_is_exactly_this() {
     assert_eq!(header, expected);
     // The appended block holds exactly the announced characters, then closes the document.
     let tail = &text[header.len()..];
-    assert_eq!(tail.find('\n'), Some(1628 + 96));
-    assert_eq!(&tail[1628 + 96..], "\n  </AppendedData>\n</VTKFile>\n");
+    assert_eq!(tail.find('\n'), Some(2012 + 96));
+    assert_eq!(&tail[2012 + 96..], "\n  </AppendedData>\n</VTKFile>\n");
     // An empty voxel: byte count 32 (UInt64 LE) then 8 zero floats.
     assert_eq!(
         &tail[..56],
