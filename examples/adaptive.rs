@@ -1,7 +1,7 @@
 //! Time to a target error, uniform against adaptive sampling, on two shipped scenes.
 //!
 //! ```sh
-//! cargo run --release --example adaptive [-- TARGET RES]    # defaults: 0.05 64
+//! cargo run --release --example adaptive [-- TARGET RES]    # defaults: 0.1 48
 //! ```
 //!
 //! For each scene (stair wall and Cornell box with mirror, slice z = 0, radiance weighting) and each
@@ -22,8 +22,8 @@ use std::path::Path;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let target: f64 = args.first().map_or(Ok(0.05), |a| a.parse())?;
-    let res: usize = args.get(1).map_or(Ok(64), |a| a.parse())?;
+    let target: f64 = args.first().map_or(Ok(0.1), |a| a.parse())?;
+    let res: usize = args.get(1).map_or(Ok(48), |a| a.parse())?;
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     println!(
         "target: p95 relative error ≤ {target}; slice z=0, {res} cells on the long side; passes of 8 spp; \

@@ -3,18 +3,10 @@
 
 use crate::geometry::scene_path;
 use std::path::Path;
-use std::process::Command;
 
 fn ftpd3d(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .args(args)
-        .output()
-        .expect("binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let r = crate::support::ftpd3d(None, args);
+    (r.ok, r.out, r.err)
 }
 
 #[test]

@@ -115,10 +115,7 @@ fn bits(field: &Field) -> Vec<[u64; 17]> {
 }
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ftpd3d-driver-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::support::temp_dir("driver", name)
 }
 
 #[test]

@@ -999,15 +999,8 @@ fn flatland_mirror_is_an_isometry() {
 }
 
 fn ftpd3d_cli(args: &[&str]) -> (bool, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .args(args)
-        .output()
-        .expect("binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let r = crate::support::ftpd3d(None, args);
+    (r.ok, r.out, r.err)
 }
 
 #[test]

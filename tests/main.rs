@@ -11,5 +11,6 @@ mod gltf;
 mod merge;
 mod mis;
 mod stability;
+mod support;
 mod valid;
 mod volume;

@@ -10,23 +10,13 @@ use std::process::Command;
 
 /// A fresh, empty directory for one test.
 fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ftpd3d-merge-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    crate::support::temp_dir("merge", test)
 }
 
 /// Runs ftpd3d in `dir`; (success, stderr).
 fn ftpd3d_in(dir: &Path, args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let r = crate::support::ftpd3d(Some(dir), args);
+    (r.ok, r.err)
 }
 
 fn cornell() -> String {

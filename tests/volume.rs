@@ -10,9 +10,7 @@ use ftpd3d::render::RenderOptions;
 use std::path::{Path, PathBuf};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ftpd3d-volume-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::support::temp_dir("volume", name)
 }
 
 fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> VolumeJob {
@@ -320,14 +318,8 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
 }
 
 fn ftpd3d_bin(args: &[&str]) -> (bool, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .args(args)
-        .output()
-        .expect("binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let r = crate::support::ftpd3d(None, args);
+    (r.ok, r.err)
 }
 
 #[test]

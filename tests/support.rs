@@ -1,0 +1,34 @@
+//! Scaffolding the test modules share: fresh temporary directories and runs of the binary.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A fresh, empty directory for one test: `ftpd3d-<module>-<test>-<pid>` under the system's
+/// temporary directory.
+pub fn temp_dir(module: &str, test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ftpd3d-{module}-{test}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// What a run of the binary gave: exit success, stdout, stderr.
+pub struct Run {
+    pub ok: bool,
+    pub out: String,
+    pub err: String,
+}
+
+/// Runs the ftpd3d binary with `args`, in `dir` when given.
+pub fn ftpd3d(dir: Option<&Path>, args: &[&str]) -> Run {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_ftpd3d"));
+    if let Some(d) = dir {
+        cmd.current_dir(d);
+    }
+    let out = cmd.args(args).output().expect("binary runs");
+    Run {
+        ok: out.status.success(),
+        out: String::from_utf8_lossy(&out.stdout).into_owned(),
+        err: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
