@@ -795,33 +795,10 @@ pub fn fmt_duration(d: Duration) -> String {
     }
 }
 
-/// Keys of a field's metadata that must agree for a run to resume from it: where the samples are,
-/// what they estimate, and which random streams and pass sizes produced them. Budgets (spp cap,
-/// time, target error) may change between invocations.
-pub const RESUME_KEYS: &[&str] = &[
-    "scene",
-    "domain",
-    "plane",
-    "plane.origin",
-    "plane.u",
-    "plane.v",
-    "plane.size",
-    "camera",
-    "camera.eye",
-    "camera.forward",
-    "camera.up",
-    "camera.fov_y_deg",
-    "weighting",
-    "t0",
-    "t1",
-    "angle_deg",
-    "max_bounces",
-    "seed",
-    "schedule",
-    "adaptive",
-    "features",
-    "kernel",
-];
+/// Keys of a field's metadata beyond [`crate::merge::MUST_MATCH`] (what the samples estimate)
+/// that must agree for a run to resume from it: which random streams, pass sizes and kernel
+/// produced them. Budgets (spp cap, time, target error) may change between invocations.
+pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel"];
 
 /// Checks that the field read from `path` was made by the run described by `meta` on a grid of
 /// `dims`; the error names the first key that differs.
@@ -849,7 +826,7 @@ pub fn check_resume(
             path.display()
         );
     }
-    for key in RESUME_KEYS {
+    for key in crate::merge::MUST_MATCH.iter().chain(RESUME_KEYS) {
         let (a, b) = (file.meta.get(*key), meta.get(*key));
         if a != b {
             let show = |v: Option<&String>| v.map_or_else(|| "(none)".to_string(), Clone::clone);

@@ -23,8 +23,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-/// Metadata keys that describe the run itself: merged fields must agree on every one (absent on
-/// both counts as agreeing).
+/// Metadata keys that describe what a run estimates: merged fields must agree on every one (absent
+/// on both counts as agreeing), and so must a resumed run with its file (with
+/// [`crate::app::RESUME_KEYS`]).
 pub const MUST_MATCH: &[&str] = &[
     "scene",
     "domain",

@@ -390,6 +390,11 @@ fn resume_refuses_another_seed_or_run_length_naming_the_key() {
     sched.pass_spp = Some(3);
     let e = app::check_resume(&path, &back, &s.field(&sched).meta, dims).unwrap_err();
     assert!(format!("{e:#}").contains("schedule differs"), "{e:#}");
+    // Another light: a point light given on the command line changes what the samples estimate.
+    let mut lit = s.field(&o).meta;
+    lit.insert("point_lights".into(), "0,1,0:1,1,1".into());
+    let e = app::check_resume(&path, &back, &lit, dims).unwrap_err();
+    assert!(format!("{e:#}").contains("point_lights differs"), "{e:#}");
     // Through the command line.
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
         .args([
