@@ -1341,7 +1341,48 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
         stats.capped,
         params.max_bounces,
         stats.clamped
+    ) + &cost_of_accuracy(
+        total,
+        stats.samples_per_second(),
+        error.p95,
+        params.weighting,
     )
+    .map(|c| format!("\n{c}"))
+    .unwrap_or_default()
+}
+
+/// What more accuracy costs, projected from this run: `None` without an error or a rate.
+///
+/// Monte Carlo error falls as samples^−½, so halving the p95 relative error takes 4× the samples
+/// in all and one more digit 100×; the extra time is the samples still missing at the rate just
+/// measured. Radiance weighting is slower than that at first (its contributions are heavy-tailed,
+/// and its estimated error is optimistic at low samples), which the text says.
+pub fn cost_of_accuracy(
+    total_samples: u64,
+    samples_per_second: f64,
+    p95: f64,
+    weighting: Weighting,
+) -> Option<String> {
+    if total_samples == 0 || !(samples_per_second > 0.0) || !(p95 > 0.0 && p95.is_finite()) {
+        return None;
+    }
+    let more = |factor: f64| {
+        let secs = (factor - 1.0) * total_samples as f64 / samples_per_second;
+        Duration::try_from_secs_f64(secs).map_or_else(|_| "forever".into(), fmt_duration)
+    };
+    let caveat = if weighting == Weighting::Radiance {
+        "; radiance weighting converges slower than this at first, `ftpd3d converge` measures it"
+    } else {
+        ""
+    };
+    Some(format!(
+        "cost of accuracy (error ∝ samples^-1/2): p95 {:.3} needs 4x the samples (about {} more \
+         at this rate), p95 {:.4} 100x (about {} more){caveat}",
+        p95 / 2.0,
+        more(4.0),
+        p95 / 10.0,
+        more(100.0)
+    ))
 }
 
 /// `s` quoted for a POSIX shell when it needs it.
@@ -1741,6 +1782,14 @@ pub fn run_volume_job(job: &VolumeJob) -> anyhow::Result<Field> {
         params.max_bounces,
         stats.clamped
     ));
+    if let Some(c) = cost_of_accuracy(
+        field.total_samples(),
+        stats.samples_per_second(),
+        rel_p95,
+        params.weighting,
+    ) {
+        say(c);
+    }
     write_volume_outputs(&field, &volume, &job.output, job.png)?;
     say(format!("wrote {}", job.output.display()));
     Ok(field)

@@ -335,3 +335,23 @@ fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn summary_projects_the_cost_of_the_next_digit() {
+    use ftpd3d::app::cost_of_accuracy;
+    use ftpd3d::ftpd::Weighting;
+    // 1000 samples at 100/s: 4x needs 3000 more (30 s), 100x 99 000 more (16 min 30 s).
+    let c = cost_of_accuracy(1000, 100.0, 0.2, Weighting::Unweighted).unwrap();
+    assert_eq!(
+        c,
+        "cost of accuracy (error ∝ samples^-1/2): p95 0.100 needs 4x the samples (about 30s more \
+         at this rate), p95 0.0200 100x (about 16m30s more)"
+    );
+    let r = cost_of_accuracy(1000, 100.0, 0.2, Weighting::Radiance).unwrap();
+    assert!(r.starts_with(&c) && r.contains("converge"), "{r}");
+    // Nothing to project from: no samples, no rate, no error, or a NaN.
+    assert!(cost_of_accuracy(0, 100.0, 0.2, Weighting::Unweighted).is_none());
+    assert!(cost_of_accuracy(1000, 0.0, 0.2, Weighting::Unweighted).is_none());
+    assert!(cost_of_accuracy(1000, 100.0, 0.0, Weighting::Unweighted).is_none());
+    assert!(cost_of_accuracy(1000, 100.0, f64::NAN, Weighting::Unweighted).is_none());
+}
