@@ -638,6 +638,9 @@ fn stderr_predicts_the_error_against_a_16x_reference() {
     let (m2, v2, se2) = zscores_against_16x(&s, 512);
     println!("radiance, 128 spp: z mean {m1:.3}, variance {v1:.3} ± {se1:.3}");
     println!("radiance, 512 spp: z mean {m2:.3}, variance {v2:.3} ± {se2:.3}");
-    assert!(v1 - v2 > 3.0 * se1.hypot(se2), "{v1} ± {se1} → {v2} ± {se2}");
+    assert!(
+        v1 - v2 > 3.0 * se1.hypot(se2),
+        "{v1} ± {se1} → {v2} ± {se2}"
+    );
     assert!(v2 > 1.0 - 3.0 * se2, "{v2} ± {se2}");
 }

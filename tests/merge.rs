@@ -61,7 +61,11 @@ fn run(dir: &Path, extra: &[&str]) {
 fn assert_same_cells(a: &Field, b: &Field, what: &str) {
     assert_eq!((a.width, a.height), (b.width, b.height), "{what}");
     for (k, (x, y)) in a.cells.iter().zip(&b.cells).enumerate() {
-        assert_eq!(x.bit_pattern(), y.bit_pattern(), "{what}: cell {k}: {x:?} vs {y:?}");
+        assert_eq!(
+            x.bit_pattern(),
+            y.bit_pattern(),
+            "{what}: cell {k}: {x:?} vs {y:?}"
+        );
     }
 }
 

@@ -352,12 +352,20 @@ mod tests {
         let (var_est, v2, _) = mean_var_se(&est);
         let se_est = (v2 / est.len() as f64).sqrt();
         let tol = 3.0 * se_emp.hypot(se_est);
-        println!("{what}: Var σ̂ over replicates {var_emp:.4e} ± {se_emp:.1e}, estimated {var_est:.4e} ± {se_est:.1e}");
-        assert!((var_emp - var_est).abs() < tol, "{what}: {var_emp} vs {var_est} (tol {tol})");
+        println!(
+            "{what}: Var σ̂ over replicates {var_emp:.4e} ± {se_emp:.1e}, estimated {var_est:.4e} ± {se_est:.1e}"
+        );
+        assert!(
+            (var_emp - var_est).abs() < tol,
+            "{what}: {var_emp} vs {var_est} (tol {tol})"
+        );
         let z: Vec<f64> = reps.iter().map(|(s, e)| (s - sigma_true) / e).collect();
         let (zm, zv, zse) = mean_var_se(&z);
         println!("{what}: z mean {zm:.3}, variance {zv:.3} ± {zse:.3}");
-        assert!((zv - 1.0).abs() < 3.0 * zse, "{what}: z variance {zv} ± {zse}");
+        assert!(
+            (zv - 1.0).abs() < 3.0 * zse,
+            "{what}: z variance {zv} ± {zse}"
+        );
     }
 
     #[test]
