@@ -71,6 +71,27 @@ impl Params {
     }
 }
 
+/// `(1 − cos θmax, tan(θmax / 2))` of the perturbation cone: the same values as
+/// [`Params::one_minus_cos_max`] and `(θmax / 2).tan()`, remembered per thread for the last θmax so
+/// that a run does not evaluate `sin` and `tan` again for every sample (θmax is fixed for a run).
+#[inline]
+fn cone_constants(p: &Params) -> (f64, f64) {
+    use std::cell::Cell;
+    thread_local! {
+        static LAST: Cell<(u64, f64, f64)> = const { Cell::new((u64::MAX, 0.0, 0.0)) };
+    }
+    let key = p.theta_max.to_bits();
+    LAST.with(|c| {
+        let (k, omc, tan_half) = c.get();
+        if k == key {
+            return (omc, tan_half);
+        }
+        let v = (p.one_minus_cos_max(), (0.5 * p.theta_max).tan());
+        c.set((key, v.0, v.1));
+        v
+    })
+}
+
 /// The regulariser `s(r) = 3r² − 2r³` on r ∈ [0, 1] (section 5.1).
 #[inline]
 pub fn regulariser(r: f64) -> f64 {
@@ -310,7 +331,7 @@ pub fn pair_from_k<K: Kernel>(
         weight,
         ..Default::default()
     };
-    let tan_half_max = (0.5 * p.theta_max).tan();
+    let (one_minus_cos_max, tan_half_max) = cone_constants(p);
     let (omega2, chord, r) = if K::FLATLAND {
         flat::perturb(
             flat_plane(p),
@@ -320,7 +341,7 @@ pub fn pair_from_k<K: Kernel>(
             s.next_2d().0,
         )
     } else {
-        perturb(omega, p.one_minus_cos_max(), tan_half_max, s.next_2d())
+        perturb(omega, one_minus_cos_max, tan_half_max, s.next_2d())
     };
     if luminance(weight) <= 0.0 {
         // No light passes here in this direction: the pair carries no weight; skip tracing it.
