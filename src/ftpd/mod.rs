@@ -22,7 +22,7 @@ use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::transport::flat::{self, Flatland};
 use crate::transport::sampling::{sample_uniform_cone_1mc, sample_uniform_sphere};
-use crate::transport::walk::{RadianceStats, radiance_k, walk_k};
+use crate::transport::walk::{RadianceStats, radiance_k, walk_counted_k};
 use glam::DVec3;
 use std::fmt;
 
@@ -347,9 +347,9 @@ pub fn pair_from_k<K: Kernel>(
         // No light passes here in this direction: the pair carries no weight; skip tracing it.
         return out;
     }
-    let a = walk_k::<K>(scene, x, omega, t, p.max_bounces, s);
-    let b = walk_k::<K>(scene, x, omega2, t, p.max_bounces, s);
-    out.rays += a.map_or(1, |w| w.rays) + b.map_or(1, |w| w.rays);
+    let (a, rays_a) = walk_counted_k::<K>(scene, x, omega, t, p.max_bounces, s);
+    let (b, rays_b) = walk_counted_k::<K>(scene, x, omega2, t, p.max_bounces, s);
+    out.rays += rays_a + rays_b;
     let (Some(a), Some(b)) = (a, b) else {
         return out;
     };
