@@ -129,7 +129,7 @@ pub fn walk_counted_k<K: Kernel>(
             scene
                 .material(&hit)
                 .bsdf
-                .sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)
+                .sample_k::<K>(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)
         };
         let Some(bs) = sampled else {
             return (None, rays);
