@@ -5,14 +5,17 @@
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI, TAU};
 
-/// `(sin 2πu, cos 2πu)` for a turn fraction `u` (any finite value; samplers pass [0, 1)), to about
+/// `(sin 2πu, cos 2πu)` for a turn fraction `u` (|u| < 2⁴⁸; samplers pass [0, 1)), to about
 /// one ulp: the reduction to a quarter turn is exact (4u minus the nearest integer), the remaining
 /// angle, at most π/4, goes through Taylor polynomials whose truncation error is below 1e-17. Several
 /// times cheaper than `(TAU * u).sin_cos()`, which every sampled direction needs.
 #[inline]
 pub fn sin_cos_turns(u: f64) -> (f64, f64) {
+    // Nearest integer to x (ties to even) by the 1.5·2⁵² trick: exact for |x| < 2⁵¹, and inline
+    // (`f64::round` is a libm call on targets without SSE4.1).
+    const ROUND: f64 = 6_755_399_441_055_744.0;
     let x = 4.0 * u;
-    let k = x.round();
+    let k = (x + ROUND) - ROUND;
     let a = (x - k) * std::f64::consts::FRAC_PI_2;
     let a2 = a * a;
     let sin_a = a + a
