@@ -22,7 +22,7 @@ use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::transport::flat::{self, Flatland};
 use crate::transport::sampling::{sample_uniform_cone_1mc, sample_uniform_sphere};
-use crate::transport::walk::{RadianceStats, radiance_k, walk_k};
+use crate::transport::walk::{RadianceStats, radiance_k, walk_counted_k};
 use glam::DVec3;
 use std::fmt;
 
@@ -69,6 +69,27 @@ impl Params {
     fn one_minus_cos_max(&self) -> f64 {
         2.0 * (0.5 * self.theta_max).sin().powi(2)
     }
+}
+
+/// `(1 − cos θmax, tan(θmax / 2))` of the perturbation cone: the same values as
+/// [`Params::one_minus_cos_max`] and `(θmax / 2).tan()`, remembered per thread for the last θmax so
+/// that a run does not evaluate `sin` and `tan` again for every sample (θmax is fixed for a run).
+#[inline]
+fn cone_constants(p: &Params) -> (f64, f64) {
+    use std::cell::Cell;
+    thread_local! {
+        static LAST: Cell<(u64, f64, f64)> = const { Cell::new((u64::MAX, 0.0, 0.0)) };
+    }
+    let key = p.theta_max.to_bits();
+    LAST.with(|c| {
+        let (k, omc, tan_half) = c.get();
+        if k == key {
+            return (omc, tan_half);
+        }
+        let v = (p.one_minus_cos_max(), (0.5 * p.theta_max).tan());
+        c.set((key, v.0, v.1));
+        v
+    })
 }
 
 /// The regulariser `s(r) = 3r² − 2r³` on r ∈ [0, 1] (section 5.1).
@@ -310,7 +331,7 @@ pub fn pair_from_k<K: Kernel>(
         weight,
         ..Default::default()
     };
-    let tan_half_max = (0.5 * p.theta_max).tan();
+    let (one_minus_cos_max, tan_half_max) = cone_constants(p);
     let (omega2, chord, r) = if K::FLATLAND {
         flat::perturb(
             flat_plane(p),
@@ -320,15 +341,15 @@ pub fn pair_from_k<K: Kernel>(
             s.next_2d().0,
         )
     } else {
-        perturb(omega, p.one_minus_cos_max(), tan_half_max, s.next_2d())
+        perturb(omega, one_minus_cos_max, tan_half_max, s.next_2d())
     };
     if luminance(weight) <= 0.0 {
         // No light passes here in this direction: the pair carries no weight; skip tracing it.
         return out;
     }
-    let a = walk_k::<K>(scene, x, omega, t, p.max_bounces, s);
-    let b = walk_k::<K>(scene, x, omega2, t, p.max_bounces, s);
-    out.rays += a.map_or(1, |w| w.rays) + b.map_or(1, |w| w.rays);
+    let (a, rays_a) = walk_counted_k::<K>(scene, x, omega, t, p.max_bounces, s);
+    let (b, rays_b) = walk_counted_k::<K>(scene, x, omega2, t, p.max_bounces, s);
+    out.rays += rays_a + rays_b;
     let (Some(a), Some(b)) = (a, b) else {
         return out;
     };

@@ -106,10 +106,48 @@ pub struct Scene {
     pub named_slices: Vec<(String, String)>,
     /// Diagonal of the bounds (1 for an empty scene), cached: the hit code uses it per ray.
     extent: f64,
+    /// Per-triangle data the hit code needs on every hit, computed once at load (same indexing
+    /// as `triangles`).
+    tri_hit: Vec<TriHit>,
     /// The slice plane of a flatland run with its light cross-sections and 2D materials, set by
     /// [`Scene::prepare_flatland`]; `None` for 3D runs.
     pub flat: Option<FlatScene>,
     accel: Accel,
+}
+
+/// What [`Scene::hit_from_raw`] needs of a triangle, precomputed at load in f64 with exactly the
+/// expressions it used to evaluate per hit (so hits are bit-identical), and packed together so that a
+/// hit touches one record instead of the index, position and normal arrays.
+#[derive(Clone, Copy, Debug)]
+struct TriHit {
+    /// Vertices.
+    p: [DVec3; 3],
+    /// Unit geometric normal (as `tri_normals`).
+    ng: DVec3,
+    /// Largest vertex coordinate magnitude.
+    mag: f64,
+    /// |e0 × e1|² with e0 = p1 − p0, e1 = p2 − p0, and |e2|², |e1|², |e0|² (e2 = p2 − p1): the edge
+    /// test's constants.
+    c2: f64,
+    e_len2: [f64; 3],
+}
+
+impl TriHit {
+    fn new(positions: &[Vec3], tri: &[u32; 3], ng: DVec3) -> TriHit {
+        let [pa, pb, pc] = tri.map(|v| positions[v as usize].as_dvec3());
+        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
+        TriHit {
+            p: [pa, pb, pc],
+            ng,
+            mag: pa.abs().max(pb.abs()).max(pc.abs()).max_element(),
+            c2: e0.cross(e1).length_squared(),
+            e_len2: [
+                e2.length_squared(),
+                e1.length_squared(),
+                e0.length_squared(),
+            ],
+        }
+    }
 }
 
 /// Everything the transport code needs about a ray-surface hit, in f64.
@@ -188,6 +226,11 @@ impl Scene {
         let lights =
             LightSet::from_emitters(&positions, &kept, &tri_normals, &kept_mat, &materials);
         let features = Features::of(&materials, &kept_mat, &lights);
+        let tri_hit = kept
+            .iter()
+            .zip(&tri_normals)
+            .map(|(t, &ng)| TriHit::new(&positions, t, ng))
+            .collect();
         Ok(Scene {
             source: source.to_path_buf(),
             positions,
@@ -206,6 +249,7 @@ impl Scene {
                 let d = bounds.diagonal();
                 if d > 0.0 && d.is_finite() { d } else { 1.0 }
             },
+            tri_hit,
             flat: None,
             accel,
         })
@@ -304,20 +348,11 @@ impl Scene {
     #[inline]
     fn hit_from_raw<K: crate::kernel::Kernel>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let i = raw.prim as usize;
-        let [a, b, c] = self.triangles[i];
-        let (pa, pb, pc) = (
-            self.positions[a as usize].as_dvec3(),
-            self.positions[b as usize].as_dvec3(),
-            self.positions[c as usize].as_dvec3(),
-        );
+        let th = &self.tri_hit[i];
+        let [pa, pb, pc] = th.p;
         let (u, v) = (raw.u as f64, raw.v as f64);
-        let ng = self.tri_normals[i];
-        let mag = pa
-            .abs()
-            .max(pb.abs())
-            .max(pc.abs())
-            .max_element()
-            .max(o.abs().max_element());
+        let ng = th.ng;
+        let mag = th.mag.max(o.abs().max_element());
         let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
         // f64 rounding. For grazing rays (|d·n| ≤ 1e-4) that point may lie far along the ray from
@@ -347,6 +382,7 @@ impl Scene {
         let ns = if !K::SHADING_NORMALS || self.normals.is_empty() {
             ng
         } else {
+            let [a, b, c] = self.triangles[i];
             let n = (1.0 - u - v) * self.normals[a as usize].as_dvec3()
                 + u * self.normals[b as usize].as_dvec3()
                 + v * self.normals[c as usize].as_dvec3();
@@ -372,12 +408,11 @@ impl Scene {
         };
         // Distance from p to each edge (barycentric × the opposite altitude), squared, against
         // (2 eps)², without square roots.
-        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
-        let (c2, lim) = (e0.cross(e1).length_squared(), 4.0 * eps * eps);
+        let (c2, lim) = (th.c2, 4.0 * eps * eps);
         let w = 1.0 - u - v;
-        let near_edge = w * w * c2 <= lim * e2.length_squared()
-            || u * u * c2 <= lim * e1.length_squared()
-            || v * v * c2 <= lim * e0.length_squared();
+        let near_edge = w * w * c2 <= lim * th.e_len2[0]
+            || u * u * c2 <= lim * th.e_len2[1]
+            || v * v * c2 <= lim * th.e_len2[2];
         Hit {
             t: raw.t as f64,
             p,

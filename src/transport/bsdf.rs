@@ -84,18 +84,7 @@ impl Bsdf {
         let (ngo, nso) = (ng * side, ns * side);
         match self {
             Bsdf::Black => None,
-            Bsdf::Diffuse { kd } => {
-                let wi = Frame::from_z(nso).to_world(sample_cosine_hemisphere(u));
-                if wi.dot(ngo) <= 0.0 {
-                    return None;
-                }
-                Some(BsdfSample {
-                    wi,
-                    weight: *kd,
-                    pdf: pdf_cosine_hemisphere(wi.dot(nso)),
-                    delta: false,
-                })
-            }
+            Bsdf::Diffuse { kd } => Self::sample_diffuse(*kd, ngo, nso, u),
             Bsdf::Glossy { kd, ks, exponent } => {
                 let pd = Self::diffuse_probability(*kd, *ks);
                 let wi = if u_lobe < pd {
@@ -187,15 +176,9 @@ impl Bsdf {
     /// `f(wo, wi) |cos θi|` of the non-delta lobes (delta lobes evaluate to zero).
     #[inline]
     pub fn eval(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3, _mode: Mode) -> Rgb {
-        let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
-        let (ngo, nso) = (ng * side, ns * side);
-        if wi.dot(ngo) <= 0.0 {
+        let Some((nso, cos_i)) = Self::cos_i(wo, wi, ng, ns) else {
             return Rgb::ZERO;
-        }
-        let cos_i = wi.dot(nso);
-        if cos_i <= 0.0 {
-            return Rgb::ZERO;
-        }
+        };
         match self {
             Bsdf::Black | Bsdf::Dielectric { .. } => Rgb::ZERO,
             Bsdf::Diffuse { kd } | Bsdf::Mirror { kd, .. } => *kd * (FRAC_1_PI * cos_i),
@@ -218,17 +201,11 @@ impl Bsdf {
     /// Solid-angle density with which `sample` produces `wi` through its non-delta lobes.
     #[inline]
     pub fn pdf(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3) -> f64 {
-        let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
-        let (ngo, nso) = (ng * side, ns * side);
-        if wi.dot(ngo) <= 0.0 {
-            return 0.0;
-        }
-        let cos_i = wi.dot(nso);
         // `sample` rejects directions below the shading horizon, so none has density there
         // (the Phong lobe around the mirror direction may reach below it when ns ≠ ng).
-        if cos_i <= 0.0 {
+        let Some((nso, cos_i)) = Self::cos_i(wo, wi, ng, ns) else {
             return 0.0;
-        }
+        };
         match self {
             Bsdf::Black | Bsdf::Dielectric { .. } => 0.0,
             Bsdf::Diffuse { .. } => pdf_cosine_hemisphere(cos_i),
@@ -241,6 +218,41 @@ impl Bsdf {
                 pd * pdf_cosine_hemisphere(cos_i) + (1.0 - pd) * pdf_phong_lobe(cos_a, *exponent)
             }
         }
+    }
+}
+
+/// The Lambertian lobe, shared by the general entry points and the inlined diffuse-only path of
+/// specialised kernels ([`Bsdf::sample_k`]), so that both compute bit-identical results.
+impl Bsdf {
+    /// `sample` of `Diffuse { kd }`, with the normals already oriented towards `wo`.
+    #[inline(always)]
+    fn sample_diffuse(kd: Rgb, ngo: DVec3, nso: DVec3, u: (f64, f64)) -> Option<BsdfSample> {
+        let wi = Frame::from_z(nso).to_world(sample_cosine_hemisphere(u));
+        if wi.dot(ngo) <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: kd,
+            pdf: pdf_cosine_hemisphere(wi.dot(nso)),
+            delta: false,
+        })
+    }
+
+    /// The side of `wo` (±1) and the cosine of `wi` to the shading normal on that side, or `None`
+    /// where `eval` and `pdf` of every lobe are zero (wi below the geometric or shading horizon).
+    #[inline(always)]
+    fn cos_i(wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3) -> Option<(DVec3, f64)> {
+        let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
+        let (ngo, nso) = (ng * side, ns * side);
+        if wi.dot(ngo) <= 0.0 {
+            return None;
+        }
+        let cos_i = wi.dot(nso);
+        if cos_i <= 0.0 {
+            return None;
+        }
+        Some((nso, cos_i))
     }
 }
 
@@ -286,6 +298,13 @@ impl Bsdf {
         }
     }
 
+    /// The kernel has no lobe but the Lambertian one: materials are `Diffuse` or `Black`, handled
+    /// inline instead of through the general five-way `sample`/`eval`/`pdf`.
+    #[inline(always)]
+    fn lambertian_only<K: crate::kernel::Kernel>() -> bool {
+        !K::GLOSSY && !K::MIRROR && !K::DIELECTRIC
+    }
+
     #[inline(always)]
     pub fn is_delta_k<K: crate::kernel::Kernel>(&self) -> bool {
         !self.absent_in::<K>() && self.is_delta()
@@ -302,7 +321,13 @@ impl Bsdf {
         u: (f64, f64),
         mode: Mode,
     ) -> Option<BsdfSample> {
-        if self.absent_in::<K>() {
+        if Self::lambertian_only::<K>() {
+            let Bsdf::Diffuse { kd } = self else {
+                return None;
+            };
+            let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
+            Self::sample_diffuse(*kd, ng * side, ns * side, u)
+        } else if self.absent_in::<K>() {
             None
         } else {
             self.sample(wo, ng, ns, u_lobe, u, mode)
@@ -318,7 +343,12 @@ impl Bsdf {
         ns: DVec3,
         mode: Mode,
     ) -> Rgb {
-        if self.absent_in::<K>() {
+        if Self::lambertian_only::<K>() {
+            match (self, Self::cos_i(wo, wi, ng, ns)) {
+                (Bsdf::Diffuse { kd }, Some((_, cos_i))) => *kd * (FRAC_1_PI * cos_i),
+                _ => Rgb::ZERO,
+            }
+        } else if self.absent_in::<K>() {
             Rgb::ZERO
         } else {
             self.eval(wo, wi, ng, ns, mode)
@@ -333,7 +363,12 @@ impl Bsdf {
         ng: DVec3,
         ns: DVec3,
     ) -> f64 {
-        if self.absent_in::<K>() {
+        if Self::lambertian_only::<K>() {
+            match (self, Self::cos_i(wo, wi, ng, ns)) {
+                (Bsdf::Diffuse { .. }, Some((_, cos_i))) => pdf_cosine_hemisphere(cos_i),
+                _ => 0.0,
+            }
+        } else if self.absent_in::<K>() {
             0.0
         } else {
             self.pdf(wo, wi, ng, ns)

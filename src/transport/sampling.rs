@@ -5,12 +5,51 @@
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI, TAU};
 
+/// `(sin 2πu, cos 2πu)` for a turn fraction `u` (|u| < 2⁴⁸; samplers pass [0, 1)), to about
+/// one ulp: the reduction to a quarter turn is exact (4u minus the nearest integer), the remaining
+/// angle, at most π/4, goes through Taylor polynomials whose truncation error is below 1e-17. Several
+/// times cheaper than `(TAU * u).sin_cos()`, which every sampled direction needs.
+#[inline]
+pub fn sin_cos_turns(u: f64) -> (f64, f64) {
+    // Nearest integer to x (ties to even) by the 1.5·2⁵² trick: exact for |x| < 2⁵¹, and inline
+    // (`f64::round` is a libm call on targets without SSE4.1).
+    const ROUND: f64 = 6_755_399_441_055_744.0;
+    let x = 4.0 * u;
+    let k = (x + ROUND) - ROUND;
+    let a = (x - k) * std::f64::consts::FRAC_PI_2;
+    let a2 = a * a;
+    let sin_a = a + a
+        * a2
+        * (-0.16666666666666666
+            + a2 * (0.008333333333333333
+                + a2 * (-0.0001984126984126984
+                    + a2 * (2.7557319223985893e-6
+                        + a2 * (-2.505210838544172e-8
+                            + a2 * (1.6059043836821613e-10 + a2 * -7.647163731819816e-13))))));
+    let cos_a = 1.0
+        + a2 * (-0.5
+            + a2 * (0.041666666666666664
+                + a2 * (-0.001388888888888889
+                    + a2 * (2.48015873015873e-5
+                        + a2 * (-2.755731922398589e-7
+                            + a2 * (2.08767569878681e-9
+                                + a2 * (-1.1470745597729725e-11 + a2 * 4.779477332387385e-14)))))));
+    // 2πu = k π/2 + a.
+    let q = k as i64;
+    let (s, c) = if q & 1 == 0 {
+        (sin_a, cos_a)
+    } else {
+        (cos_a, -sin_a)
+    };
+    if q & 2 == 0 { (s, c) } else { (-s, -c) }
+}
+
 /// Uniform direction on the unit sphere.
 pub fn sample_uniform_sphere(u: (f64, f64)) -> DVec3 {
     let z = 1.0 - 2.0 * u.0;
     let r = crate::math::safe_sqrt(1.0 - z * z);
-    let phi = TAU * u.1;
-    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = sin_cos_turns(u.1);
+    DVec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 pub fn pdf_uniform_sphere() -> f64 {
@@ -20,8 +59,8 @@ pub fn pdf_uniform_sphere() -> f64 {
 /// Cosine-weighted direction on the hemisphere around +z (Malley's method).
 pub fn sample_cosine_hemisphere(u: (f64, f64)) -> DVec3 {
     let r = u.0.sqrt();
-    let phi = TAU * u.1;
-    let (x, y) = (r * phi.cos(), r * phi.sin());
+    let (sin_phi, cos_phi) = sin_cos_turns(u.1);
+    let (x, y) = (r * cos_phi, r * sin_phi);
     DVec3::new(x, y, crate::math::safe_sqrt(1.0 - x * x - y * y))
 }
 
@@ -47,8 +86,8 @@ pub fn sample_uniform_cone_1mc(u: (f64, f64), one_minus_cos_max: f64) -> DVec3 {
     let omc = u.0 * one_minus_cos_max; // 1 - cos θ, uniform in [0, 1 - cos θmax]
     let cos_t = 1.0 - omc;
     let sin_t = crate::math::safe_sqrt(omc * (2.0 - omc));
-    let phi = TAU * u.1;
-    DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+    let (sin_phi, cos_phi) = sin_cos_turns(u.1);
+    DVec3::new(sin_t * cos_phi, sin_t * sin_phi, cos_t)
 }
 
 pub fn pdf_uniform_cone(one_minus_cos_max: f64) -> f64 {
@@ -64,8 +103,8 @@ fn one_minus_cos_from_cos(c: f64) -> f64 {
 pub fn sample_phong_lobe(u: (f64, f64), n: f64) -> DVec3 {
     let cos_t = u.0.powf(1.0 / (n + 1.0));
     let sin_t = crate::math::safe_sqrt(1.0 - cos_t * cos_t);
-    let phi = TAU * u.1;
-    DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+    let (sin_phi, cos_phi) = sin_cos_turns(u.1);
+    DVec3::new(sin_t * cos_phi, sin_t * sin_phi, cos_t)
 }
 
 /// Density of [`sample_phong_lobe`] at a direction with cosine `cos_alpha` to +z.
@@ -116,6 +155,35 @@ mod tests {
             let (b0, b1, b2) = sample_uniform_triangle(u);
             assert!(b0 >= 0.0 && b1 >= 0.0 && b2 >= -1e-15);
         }
+    }
+
+    #[test]
+    fn sin_cos_turns_matches_libm() {
+        let mut s = crate::rng::Sampler::new(5, 0, 0);
+        let edges = [
+            0.0,
+            0.125,
+            0.25,
+            0.375,
+            0.5,
+            0.625,
+            0.75,
+            0.875,
+            1.0 - 1e-16,
+            1e-300,
+        ];
+        let random = (0..200_000).map(|_| s.next_f64());
+        for u in edges.into_iter().chain(random) {
+            let (sn, cs) = sin_cos_turns(u);
+            let (sr, cr) = (TAU * u).sin_cos();
+            // TAU * u itself is rounded: allow for its error (≤ 2πu · 2⁻⁵³) plus a few ulps.
+            let tol = 8.0 * f64::EPSILON;
+            assert!((sn - sr).abs() <= tol && (cs - cr).abs() <= tol, "u = {u}");
+            assert!((sn * sn + cs * cs - 1.0).abs() <= 4.0 * f64::EPSILON);
+        }
+        assert_eq!(sin_cos_turns(0.0), (0.0, 1.0));
+        assert_eq!(sin_cos_turns(0.25).0, 1.0);
+        assert_eq!(sin_cos_turns(0.5).1, -1.0);
     }
 
     #[test]

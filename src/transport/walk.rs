@@ -53,6 +53,20 @@ pub fn walk_k<K: Kernel>(
     max_bounces: u32,
     s: &mut Sampler,
 ) -> Option<WalkEnd> {
+    walk_counted_k::<K>(scene, x, dir, t, max_bounces, s).0
+}
+
+/// [`walk_k`] with the number of rays traced, also for walks that were absorbed (whose
+/// [`WalkEnd`] is not returned), so that ray counts match the ray queries made.
+#[inline]
+pub fn walk_counted_k<K: Kernel>(
+    scene: &Scene,
+    x: DVec3,
+    dir: DVec3,
+    t: f64,
+    max_bounces: u32,
+    s: &mut Sampler,
+) -> (Option<WalkEnd>, u32) {
     // `base` is the true start of the current segment (x, then surface points); `origin` the same
     // point pushed off the surface for the ray query. Lengths are measured from `base`, so the
     // offsets never change the geometry of the walk.
@@ -67,36 +81,39 @@ pub fn walk_k<K: Kernel>(
         rays += 1;
         let Some(hit) = scene.intersect_k::<K>(origin, d, remaining + (origin - base).length())
         else {
-            return Some(WalkEnd {
+            let end = WalkEnd {
                 end: base + d * remaining,
                 beta,
                 bounces,
                 capped: false,
                 rays,
-            });
+            };
+            return (Some(end), rays);
         };
         remaining -= (hit.p - base).dot(d);
         if remaining <= 0.0 {
-            return Some(WalkEnd {
+            let end = WalkEnd {
                 end: hit.p,
                 beta,
                 bounces,
                 capped: false,
                 rays,
-            });
+            };
+            return (Some(end), rays);
         }
         if bounces >= max_bounces {
-            return Some(WalkEnd {
+            let end = WalkEnd {
                 end: hit.p,
                 beta,
                 bounces,
                 capped: true,
                 rays,
-            });
+            };
+            return (Some(end), rays);
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let bs = if K::FLATLAND {
+        let sampled = if K::FLATLAND {
             let fs = scene.flat();
             fs.bsdfs[hit.material as usize].sample(
                 &fs.plane,
@@ -107,16 +124,19 @@ pub fn walk_k<K: Kernel>(
                 u,
                 s,
                 Mode::Importance,
-            )?
+            )
         } else {
             scene
                 .material(&hit)
                 .bsdf
-                .sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)?
+                .sample_k::<K>(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)
+        };
+        let Some(bs) = sampled else {
+            return (None, rays);
         };
         beta *= bs.weight;
         if beta == Rgb::ZERO {
-            return None;
+            return (None, rays);
         }
         bounces += 1;
         origin = scene.spawn_origin_from(&hit, bs.wi, origin);
