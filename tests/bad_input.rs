@@ -344,3 +344,31 @@ fn bad_input_non_regular_files_are_not_read() {
         ": buffer #0: '/dev/zero' (/dev/zero) is not a regular file",
     );
 }
+
+/// A field of the earlier format (standard error from batch σ sums, no per-sample product sums)
+/// cannot give the error this version computes: reading it says so and names the file.
+#[test]
+fn bad_input_field_of_the_earlier_format_is_refused_naming_it() {
+    use exr::prelude::*;
+    let dir = crate::support::temp_dir("bad", "old_exr");
+    let path = dir.join("old.exr");
+    let ch = |name: &str| AnyChannel::new(name, FlatSamples::U32(vec![0u32]));
+    let channels = AnyChannels::sort(
+        vec![
+            ch("exact.batch.sigma.hi"),
+            ch("exact.batch.sigma.lo"),
+            ch("exact.sum.w.hi"),
+            ch("exact.sum.w.lo"),
+        ]
+        .into(),
+    );
+    Image::from_channels((1, 1), channels)
+        .write()
+        .to_file(&path)
+        .unwrap();
+    let e = format!("{:#}", ftpd3d::output::exr::read_exr(&path).unwrap_err());
+    assert!(
+        e.contains("old.exr") && e.contains("earlier ftpd3d") && e.contains("run it again"),
+        "{e}"
+    );
+}

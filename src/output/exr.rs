@@ -179,6 +179,15 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
     let image = read_image(path)?;
     let layer = &image.layer_data;
     let (w, h) = (layer.size.x(), layer.size.y());
+    let has = |name: &str| layer.channel_data.list.iter().any(|c| c.name.eq(name));
+    if has("exact.batch.sigma.hi") && !has("exact.sum.w.w.hi") {
+        bail!(
+            "{}: written by an earlier ftpd3d, whose standard error came from batch σ sums; the \
+             per-sample product sums the error needs now are not in it, so it cannot be merged or \
+             resumed: run it again",
+            path.display()
+        );
+    }
     let chan = |name: &str| -> anyhow::Result<&FlatSamples> {
         layer
             .channel_data

@@ -524,6 +524,14 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
             field.meta.insert(comment_unescape(k), comment_unescape(v));
         }
     }
+    if offsets.contains_key("exact.batch.sigma") && !offsets.contains_key("exact.sum.w.w") {
+        bail!(
+            "{}: written by an earlier ftpd3d, whose standard error came from batch σ sums; the \
+             per-sample product sums the error needs now are not in it, so it cannot be merged: \
+             run it again",
+            path.display()
+        );
+    }
     let block = |name: &str, ty: &str, size: usize| -> anyhow::Result<Vec<u8>> {
         let (t, off) = offsets
             .get(name)
