@@ -109,43 +109,42 @@ pub struct Scene {
     /// Per-triangle data the hit code needs on every hit, computed once at load (same indexing
     /// as `triangles`).
     tri_hit: Vec<TriHit>,
+    /// The shading normals of each triangle's three vertices (same indexing as `triangles`), so
+    /// that a hit reads one record instead of the index and three normal entries; empty when the
+    /// scene has no shading normals.
+    tri_shading: Vec<[Vec3; 3]>,
     /// The slice plane of a flatland run with its light cross-sections and 2D materials, set by
     /// [`Scene::prepare_flatland`]; `None` for 3D runs.
     pub flat: Option<FlatScene>,
     accel: Accel,
 }
 
-/// What [`Scene::hit_from_raw`] needs of a triangle, precomputed at load in f64 with exactly the
-/// expressions it used to evaluate per hit (so hits are bit-identical), and packed together so that a
-/// hit touches one record instead of the index, position and normal arrays.
+/// What [`Scene::hit_from_raw`] reads of a triangle on every hit, packed into one 64-byte cache
+/// line: on scenes of millions of triangles each hit is a cache miss, and one line instead of the
+/// index, position, normal and material arrays (or a wider precomputed record) is most of the
+/// difference between the kernel's time per ray and Embree's. The vertices are the scene's own
+/// f32 values (exact), the normal the f64 one of `tri_normals`; what the hit code derives from them
+/// (magnitude, edge lengths) is recomputed per hit with the same expressions, so hits are
+/// bit-identical to reading it precomputed.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 struct TriHit {
-    /// Vertices.
-    p: [DVec3; 3],
     /// Unit geometric normal (as `tri_normals`).
     ng: DVec3,
-    /// Largest vertex coordinate magnitude.
-    mag: f64,
-    /// |e0 × e1|² with e0 = p1 − p0, e1 = p2 − p0, and |e2|², |e1|², |e0|² (e2 = p2 − p1): the edge
-    /// test's constants.
-    c2: f64,
-    e_len2: [f64; 3],
+    /// Vertices.
+    p: [Vec3; 3],
+    /// Material index (as `tri_material`).
+    material: u32,
 }
 
+const _: () = assert!(std::mem::size_of::<TriHit>() == 64);
+
 impl TriHit {
-    fn new(positions: &[Vec3], tri: &[u32; 3], ng: DVec3) -> TriHit {
-        let [pa, pb, pc] = tri.map(|v| positions[v as usize].as_dvec3());
-        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
+    fn new(positions: &[Vec3], tri: &[u32; 3], ng: DVec3, material: u32) -> TriHit {
         TriHit {
-            p: [pa, pb, pc],
             ng,
-            mag: pa.abs().max(pb.abs()).max(pc.abs()).max_element(),
-            c2: e0.cross(e1).length_squared(),
-            e_len2: [
-                e2.length_squared(),
-                e1.length_squared(),
-                e0.length_squared(),
-            ],
+            p: tri.map(|v| positions[v as usize]),
+            material,
         }
     }
 }
@@ -226,11 +225,20 @@ impl Scene {
         let lights =
             LightSet::from_emitters(&positions, &kept, &tri_normals, &kept_mat, &materials);
         let features = Features::of(&materials, &kept_mat, &lights);
-        let tri_hit = kept
-            .iter()
-            .zip(&tri_normals)
-            .map(|(t, &ng)| TriHit::new(&positions, t, ng))
-            .collect();
+        let mut tri_hit = crate::accel::vec_with_huge_pages(kept.len());
+        tri_hit.extend(
+            kept.iter()
+                .zip(&tri_normals)
+                .zip(&kept_mat)
+                .map(|((t, &ng), &m)| TriHit::new(&positions, t, ng, m)),
+        );
+        let tri_shading = if normals.is_empty() {
+            Vec::new()
+        } else {
+            kept.iter()
+                .map(|t| t.map(|v| normals[v as usize]))
+                .collect()
+        };
         Ok(Scene {
             source: source.to_path_buf(),
             positions,
@@ -250,6 +258,7 @@ impl Scene {
                 if d > 0.0 && d.is_finite() { d } else { 1.0 }
             },
             tri_hit,
+            tri_shading,
             flat: None,
             accel,
         })
@@ -349,10 +358,15 @@ impl Scene {
     fn hit_from_raw<K: crate::kernel::Kernel>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let i = raw.prim as usize;
         let th = &self.tri_hit[i];
-        let [pa, pb, pc] = th.p;
+        let [pa, pb, pc] = th.p.map(|q| q.as_dvec3());
         let (u, v) = (raw.u as f64, raw.v as f64);
         let ng = th.ng;
-        let mag = th.mag.max(o.abs().max_element());
+        let mag = pa
+            .abs()
+            .max(pb.abs())
+            .max(pc.abs())
+            .max_element()
+            .max(o.abs().max_element());
         let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
         // f64 rounding. For grazing rays (|d·n| ≤ 1e-4) that point may lie far along the ray from
@@ -379,13 +393,11 @@ impl Scene {
                 (1.0 - u - v) * pa + u * pb + v * pc
             }
         };
-        let ns = if !K::SHADING_NORMALS || self.normals.is_empty() {
+        let ns = if !K::SHADING_NORMALS || self.tri_shading.is_empty() {
             ng
         } else {
-            let [a, b, c] = self.triangles[i];
-            let n = (1.0 - u - v) * self.normals[a as usize].as_dvec3()
-                + u * self.normals[b as usize].as_dvec3()
-                + v * self.normals[c as usize].as_dvec3();
+            let [na, nb, nc] = self.tri_shading[i];
+            let n = (1.0 - u - v) * na.as_dvec3() + u * nb.as_dvec3() + v * nc.as_dvec3();
             let len = n.length();
             if len > 1e-12 && len.is_finite() {
                 let n = n / len;
@@ -407,19 +419,21 @@ impl Scene {
             (ng, ns)
         };
         // Distance from p to each edge (barycentric × the opposite altitude), squared, against
-        // (2 eps)², without square roots.
-        let (c2, lim) = (th.c2, 4.0 * eps * eps);
+        // (2 eps)², without square roots: with e0 = p1 − p0, e1 = p2 − p0, e2 = p2 − p1, the
+        // altitude onto edge k is |e0 × e1| / |e_k|.
+        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
+        let (c2, lim) = (e0.cross(e1).length_squared(), 4.0 * eps * eps);
         let w = 1.0 - u - v;
-        let near_edge = w * w * c2 <= lim * th.e_len2[0]
-            || u * u * c2 <= lim * th.e_len2[1]
-            || v * v * c2 <= lim * th.e_len2[2];
+        let near_edge = w * w * c2 <= lim * e2.length_squared()
+            || u * u * c2 <= lim * e1.length_squared()
+            || v * v * c2 <= lim * e0.length_squared();
         Hit {
             t: raw.t as f64,
             p,
             prim: raw.prim,
             ng,
             ns,
-            material: self.tri_material[i],
+            material: th.material,
             eps: eps.max(1e-12),
             near_edge,
         }
