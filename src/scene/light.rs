@@ -47,11 +47,150 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+/// Chooses one of several lights in proportion to its power (3D and flatland alike).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct PowerCdf {
+    /// Cumulative power, normalised to 1 at the end.
+    cdf: Vec<f64>,
+}
+
+impl PowerCdf {
+    pub(crate) fn new(powers: impl IntoIterator<Item = f64>) -> PowerCdf {
+        let mut acc = 0.0;
+        let mut cdf: Vec<f64> = powers
+            .into_iter()
+            .map(|p| {
+                acc += p;
+                acc
+            })
+            .collect();
+        if acc > 0.0 {
+            for c in &mut cdf {
+                *c /= acc;
+            }
+        }
+        PowerCdf { cdf }
+    }
+
+    /// True when nothing can be chosen (no lights, or none with power).
+    pub(crate) fn is_empty(&self) -> bool {
+        self.cdf.last().is_none_or(|&t| t <= 0.0)
+    }
+
+    /// Probability of choosing light `i`.
+    pub(crate) fn prob(&self, i: usize) -> f64 {
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        self.cdf[i] - lo
+    }
+
+    /// The light that `u` ∈ [0, 1) chooses, with its probability; `None` when it has none.
+    #[inline]
+    pub(crate) fn pick(&self, u: f64) -> Option<(usize, f64)> {
+        if self.is_empty() {
+            return None;
+        }
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .min(self.cdf.len() - 1);
+        let p = self.prob(i);
+        (p > 0.0).then_some((i, p))
+    }
+}
+
+/// `dist^(dims−1)`: how densities per unit of an emitter's measure (area in 3D, length in
+/// flatland) turn into densities per solid angle (per angle), and how a point light's intensity
+/// falls off. `d2` is the squared distance.
+#[inline]
+fn falloff(d2: f64, dims: i32) -> f64 {
+    if dims == 3 { d2 } else { d2.sqrt() }
+}
+
+/// The connection from `x` to the point `y` of an emitter (unit `normal`, emitting radiance
+/// `emission` from its front side) chosen with probability `p_choice` and then uniformly on its
+/// `measure` (area in 3D, length in flatland; `dims` = 3 or 2): the density is converted to solid
+/// angle (angle) by `dist^(dims−1) / cos θ_light`. `None` from behind.
+#[inline]
+pub(crate) fn connect_emitter(
+    x: DVec3,
+    y: DVec3,
+    normal: DVec3,
+    p_choice: f64,
+    measure: f64,
+    emission: Rgb,
+    dims: i32,
+) -> Option<LightSample> {
+    let to = y - x;
+    let d2 = to.length_squared();
+    let dist = d2.sqrt();
+    if !(dist > 0.0) {
+        return None;
+    }
+    let wi = to / dist;
+    let cos_l = -wi.dot(normal);
+    if cos_l <= 0.0 {
+        return None;
+    }
+    let pdf = p_choice * falloff(d2, dims) / (measure * cos_l);
+    pdf.is_finite().then_some(LightSample {
+        wi,
+        dist,
+        li: emission,
+        pdf,
+        delta: false,
+    })
+}
+
+/// The density with which [`connect_emitter`] picks the point `y` of that emitter from `x`; 0 from
+/// behind.
+#[inline]
+pub(crate) fn emitter_pdf(
+    x: DVec3,
+    y: DVec3,
+    normal: DVec3,
+    p_choice: f64,
+    measure: f64,
+    dims: i32,
+) -> f64 {
+    let to = y - x;
+    let d2 = to.length_squared();
+    let cos_l = -to.dot(normal) / d2.sqrt();
+    if !(cos_l > 0.0) {
+        return 0.0;
+    }
+    p_choice * falloff(d2, dims) / (measure * cos_l)
+}
+
+/// The connection from `x` to an isotropic point light of radiant intensity `intensity` (per
+/// steradian in 3D, per radian in flatland) chosen with probability `p_choice`: what arrives is
+/// `I / dist^(dims−1)`, and only light sampling finds it (`delta`).
+#[inline]
+pub(crate) fn connect_point(
+    x: DVec3,
+    position: DVec3,
+    intensity: Rgb,
+    p_choice: f64,
+    dims: i32,
+) -> Option<LightSample> {
+    let to = position - x;
+    let d2 = to.length_squared();
+    let dist = d2.sqrt();
+    if !(dist > 0.0) {
+        return None;
+    }
+    Some(LightSample {
+        wi: to / dist,
+        dist,
+        li: intensity / falloff(d2, dims),
+        pdf: p_choice,
+        delta: true,
+    })
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct LightSet {
     pub lights: Vec<Light>,
-    /// Cumulative power, normalised to 1 at the end.
-    cdf: Vec<f64>,
+    choice: PowerCdf,
     /// For each scene triangle, its index in `lights` or `u32::MAX`.
     light_of_prim: Vec<u32>,
 }
@@ -88,7 +227,7 @@ impl LightSet {
         }
         let mut set = LightSet {
             lights,
-            cdf: Vec::new(),
+            choice: PowerCdf::default(),
             light_of_prim,
         };
         set.rebuild_cdf();
@@ -104,34 +243,15 @@ impl LightSet {
     }
 
     fn rebuild_cdf(&mut self) {
-        let mut acc = 0.0;
-        self.cdf = self
-            .lights
-            .iter()
-            .map(|l| {
-                acc += l.power();
-                acc
-            })
-            .collect();
-        if acc > 0.0 {
-            for c in &mut self.cdf {
-                *c /= acc;
-            }
-        }
+        self.choice = PowerCdf::new(self.lights.iter().map(Light::power));
     }
 
     pub fn is_empty(&self) -> bool {
-        self.lights.is_empty() || self.cdf.last().is_none_or(|&t| t <= 0.0)
+        self.lights.is_empty() || self.choice.is_empty()
     }
 
     pub fn total_power(&self) -> f64 {
         self.lights.iter().map(Light::power).sum()
-    }
-
-    /// Probability of choosing light `i`.
-    fn choice_pdf(&self, i: usize) -> f64 {
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        self.cdf[i] - lo
     }
 
     /// Samples a light point as seen from `x`. `None` when there are no lights or the point faces
@@ -148,17 +268,7 @@ impl LightSet {
         u_light: f64,
         u: (f64, f64),
     ) -> Option<LightSample> {
-        if self.is_empty() {
-            return None;
-        }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u_light)
-            .min(self.lights.len() - 1);
-        let p_choice = self.choice_pdf(i);
-        if p_choice <= 0.0 {
-            return None;
-        }
+        let (i, p_choice) = self.choice.pick(u_light)?;
         match &self.lights[i] {
             Light::Triangle {
                 v,
@@ -169,44 +279,12 @@ impl LightSet {
             } => {
                 let (b0, b1, b2) = sample_uniform_triangle(u);
                 let y = b0 * v[0] + b1 * v[1] + b2 * v[2];
-                let to = y - x;
-                let d2 = to.length_squared();
-                let dist = d2.sqrt();
-                if !(dist > 0.0) {
-                    return None;
-                }
-                let wi = to / dist;
-                let cos_l = -wi.dot(*normal);
-                if cos_l <= 0.0 {
-                    return None;
-                }
-                let pdf = p_choice * d2 / (area * cos_l);
-                pdf.is_finite().then_some(LightSample {
-                    wi,
-                    dist,
-                    li: *emission,
-                    pdf,
-                    delta: false,
-                })
+                connect_emitter(x, y, *normal, p_choice, *area, *emission, 3)
             }
             Light::Point {
                 position,
                 intensity,
-            } if K::POINT_LIGHTS => {
-                let to = *position - x;
-                let d2 = to.length_squared();
-                let dist = d2.sqrt();
-                if !(dist > 0.0) {
-                    return None;
-                }
-                Some(LightSample {
-                    wi: to / dist,
-                    dist,
-                    li: *intensity / d2,
-                    pdf: p_choice,
-                    delta: true,
-                })
-            }
+            } if K::POINT_LIGHTS => connect_point(x, *position, *intensity, p_choice, 3),
             Light::Point { .. } => None,
         }
     }
@@ -223,12 +301,6 @@ impl LightSet {
         let Light::Triangle { area, .. } = &self.lights[li as usize] else {
             return 0.0;
         };
-        let to = y - x;
-        let d2 = to.length_squared();
-        let cos_l = (-to.dot(ng) / d2.sqrt()).max(0.0);
-        if cos_l <= 0.0 {
-            return 0.0;
-        }
-        self.choice_pdf(li as usize) * d2 / (area * cos_l)
+        emitter_pdf(x, y, ng, self.choice.prob(li as usize), *area, 3)
     }
 }

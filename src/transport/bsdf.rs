@@ -135,40 +135,7 @@ impl Bsdf {
                 }
             }
             Bsdf::Dielectric { ior, tint } => {
-                // Entering when wo is on the front (outside) side of the geometric normal.
-                let entering = wo.dot(ng) > 0.0;
-                let eta = if entering { *ior } else { 1.0 / *ior }; // eta_t / eta_i
-                let n = nso;
-                let cos_i = wo.dot(n).clamp(-1.0, 1.0).abs();
-                let f = fresnel_dielectric(cos_i, eta);
-                if u_lobe < f {
-                    let wi = reflect(wo, n);
-                    if wi.dot(ngo) <= 0.0 {
-                        return None;
-                    }
-                    Some(BsdfSample {
-                        wi,
-                        weight: Rgb::ONE,
-                        pdf: 0.0,
-                        delta: true,
-                    })
-                } else {
-                    let wi = refract(wo, n, eta)?;
-                    if wi.dot(ngo) >= 0.0 {
-                        return None;
-                    }
-                    let scale = if mode == Mode::Radiance {
-                        1.0 / (eta * eta)
-                    } else {
-                        1.0
-                    };
-                    Some(BsdfSample {
-                        wi,
-                        weight: *tint * scale,
-                        pdf: 0.0,
-                        delta: true,
-                    })
-                }
+                sample_dielectric(wo, ng, ngo, nso, *ior, *tint, u_lobe, mode, 3)
             }
         }
     }
@@ -254,6 +221,56 @@ impl Bsdf {
         }
         Some((nso, cos_i))
     }
+}
+
+/// Samples a smooth dielectric of relative index `ior` (inside over outside) in `dims` dimensions:
+/// reflection with the Fresnel probability, else refraction (entering when `wo` is on the front side
+/// of `ng`). Radiance, measured per (area × solid angle) in 3D and per (length × angle) in
+/// flatland, changes by 1/η^(dims−1) across the interface; importance does not. `ngo` and `nso`
+/// are the normals turned towards `wo`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn sample_dielectric(
+    wo: DVec3,
+    ng: DVec3,
+    ngo: DVec3,
+    nso: DVec3,
+    ior: f64,
+    tint: Rgb,
+    u_lobe: f64,
+    mode: Mode,
+    dims: i32,
+) -> Option<BsdfSample> {
+    let entering = wo.dot(ng) > 0.0;
+    let eta = if entering { ior } else { 1.0 / ior }; // eta_t / eta_i
+    let cos_i = wo.dot(nso).clamp(-1.0, 1.0).abs();
+    if u_lobe < fresnel_dielectric(cos_i, eta) {
+        let wi = reflect(wo, nso);
+        if wi.dot(ngo) <= 0.0 {
+            return None;
+        }
+        return Some(BsdfSample {
+            wi,
+            weight: Rgb::ONE,
+            pdf: 0.0,
+            delta: true,
+        });
+    }
+    let wi = refract(wo, nso, eta)?;
+    if wi.dot(ngo) >= 0.0 {
+        return None;
+    }
+    let scale = if mode == Mode::Radiance {
+        1.0 / eta.powi(dims - 1)
+    } else {
+        1.0
+    };
+    Some(BsdfSample {
+        wi,
+        weight: tint * scale,
+        pdf: 0.0,
+        delta: true,
+    })
 }
 
 /// Unpolarised Fresnel reflectance of a smooth dielectric interface.

@@ -30,8 +30,10 @@ use crate::kernel::Kernel;
 use crate::math::{Rgb, luminance, reflect};
 use crate::rng::Sampler;
 use crate::scene::Scene;
-use crate::scene::light::{Light, LightSample};
-use crate::transport::bsdf::{Bsdf, BsdfSample, Mode, fresnel_dielectric, refract};
+use crate::scene::light::{
+    Light, LightSample, PowerCdf, connect_emitter, connect_point, emitter_pdf,
+};
+use crate::transport::bsdf::{Bsdf, BsdfSample, Mode, sample_dielectric};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -391,40 +393,7 @@ impl FlatBsdf {
                 }
             }
             Bsdf::Dielectric { ior, tint } => {
-                let entering = wo.dot(ng) > 0.0;
-                let eta = if entering { *ior } else { 1.0 / *ior };
-                let n = nso;
-                let cos_i = wo.dot(n).clamp(-1.0, 1.0).abs();
-                let f = fresnel_dielectric(cos_i, eta);
-                if u_lobe < f {
-                    let wi = reflect(wo, n);
-                    if wi.dot(ngo) <= 0.0 {
-                        return None;
-                    }
-                    Some(BsdfSample {
-                        wi,
-                        weight: Rgb::ONE,
-                        pdf: 0.0,
-                        delta: true,
-                    })
-                } else {
-                    let wi = refract(wo, n, eta)?;
-                    if wi.dot(ngo) >= 0.0 {
-                        return None;
-                    }
-                    // Radiance over (length × angle) changes by 1/η across the interface in 2D.
-                    let scale = if mode == Mode::Radiance {
-                        1.0 / eta
-                    } else {
-                        1.0
-                    };
-                    Some(BsdfSample {
-                        wi,
-                        weight: *tint * scale,
-                        pdf: 0.0,
-                        delta: true,
-                    })
-                }
+                sample_dielectric(wo, ng, ngo, nso, *ior, *tint, u_lobe, mode, 2)
             }
         }
     }
@@ -512,7 +481,7 @@ impl FlatLight {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FlatLights {
     pub lights: Vec<FlatLight>,
-    cdf: Vec<f64>,
+    choice: PowerCdf,
     /// For each scene triangle, its index in `lights` or `u32::MAX`.
     light_of_prim: Vec<u32>,
 }
@@ -520,54 +489,26 @@ pub struct FlatLights {
 impl FlatLights {
     /// `light_of_prim[t]` is the index in `lights` of triangle t's cross-section, or `u32::MAX`.
     fn new(lights: Vec<FlatLight>, light_of_prim: Vec<u32>) -> FlatLights {
-        let mut acc = 0.0;
-        let mut cdf: Vec<f64> = lights
-            .iter()
-            .map(|l| {
-                acc += l.power();
-                acc
-            })
-            .collect();
-        if acc > 0.0 {
-            for c in &mut cdf {
-                *c /= acc;
-            }
-        }
         FlatLights {
+            choice: PowerCdf::new(lights.iter().map(FlatLight::power)),
             lights,
-            cdf,
             light_of_prim,
         }
     }
 
     pub fn is_empty(&self) -> bool {
-        self.lights.is_empty() || self.cdf.last().is_none_or(|&t| t <= 0.0)
+        self.lights.is_empty() || self.choice.is_empty()
     }
 
     pub fn total_power(&self) -> f64 {
         self.lights.iter().map(FlatLight::power).sum()
     }
 
-    fn choice_pdf(&self, i: usize) -> f64 {
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        self.cdf[i] - lo
-    }
-
     /// Samples a light point as seen from `x` (in the plane). `pdf` is per radian (the choice
     /// probability for a point light), `li` the radiance arriving along `-wi`, or `I/d`.
     #[inline]
     pub fn sample_k<K: Kernel>(&self, x: DVec3, u_light: f64, u: f64) -> Option<LightSample> {
-        if self.is_empty() {
-            return None;
-        }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u_light)
-            .min(self.lights.len() - 1);
-        let p_choice = self.choice_pdf(i);
-        if p_choice <= 0.0 {
-            return None;
-        }
+        let (i, p_choice) = self.choice.pick(u_light)?;
         match &self.lights[i] {
             FlatLight::Segment {
                 a,
@@ -576,44 +517,19 @@ impl FlatLights {
                 length,
                 emission,
                 ..
-            } => {
-                let y = *a + (*b - *a) * u;
-                let to = y - x;
-                let dist = to.length();
-                if !(dist > 0.0) {
-                    return None;
-                }
-                let wi = to / dist;
-                let cos_l = -wi.dot(*normal);
-                if cos_l <= 0.0 {
-                    return None;
-                }
-                let pdf = p_choice * dist / (length * cos_l);
-                pdf.is_finite().then_some(LightSample {
-                    wi,
-                    dist,
-                    li: *emission,
-                    pdf,
-                    delta: false,
-                })
-            }
+            } => connect_emitter(
+                x,
+                *a + (*b - *a) * u,
+                *normal,
+                p_choice,
+                *length,
+                *emission,
+                2,
+            ),
             FlatLight::Point {
                 position,
                 intensity,
-            } if K::POINT_LIGHTS => {
-                let to = *position - x;
-                let dist = to.length();
-                if !(dist > 0.0) {
-                    return None;
-                }
-                Some(LightSample {
-                    wi: to / dist,
-                    dist,
-                    li: *intensity / dist,
-                    pdf: p_choice,
-                    delta: true,
-                })
-            }
+            } if K::POINT_LIGHTS => connect_point(x, *position, *intensity, p_choice, 2),
             FlatLight::Point { .. } => None,
         }
     }
@@ -631,13 +547,7 @@ impl FlatLights {
         let FlatLight::Segment { normal, length, .. } = &self.lights[li as usize] else {
             return 0.0;
         };
-        let to = y - x;
-        let dist = to.length();
-        let cos_l = -to.dot(*normal) / dist;
-        if !(cos_l > 0.0) {
-            return 0.0;
-        }
-        self.choice_pdf(li as usize) * dist / (length * cos_l)
+        emitter_pdf(x, y, *normal, self.choice.prob(li as usize), *length, 2)
     }
 }
 
