@@ -108,31 +108,10 @@ impl Bsdf {
                 })
             }
             Bsdf::Mirror { kd, ks } => {
-                let pd = Self::diffuse_probability(*kd, *ks);
-                if u_lobe < pd {
+                sample_mirror_mixture(wo, ngo, nso, *kd, *ks, u_lobe, || {
                     let wi = Frame::from_z(nso).to_world(sample_cosine_hemisphere(u));
-                    if wi.dot(ngo) <= 0.0 {
-                        return None;
-                    }
-                    let pdf = pd * pdf_cosine_hemisphere(wi.dot(nso));
-                    Some(BsdfSample {
-                        wi,
-                        weight: *kd / pd,
-                        pdf,
-                        delta: false,
-                    })
-                } else {
-                    let wi = reflect(wo, nso);
-                    if wi.dot(ngo) <= 0.0 {
-                        return None;
-                    }
-                    Some(BsdfSample {
-                        wi,
-                        weight: *ks / (1.0 - pd),
-                        pdf: 0.0,
-                        delta: true,
-                    })
-                }
+                    (wi, pdf_cosine_hemisphere(wi.dot(nso)))
+                })
             }
             Bsdf::Dielectric { ior, tint } => {
                 sample_dielectric(wo, ng, ngo, nso, *ior, *tint, u_lobe, mode, 3)
@@ -221,6 +200,46 @@ impl Bsdf {
         }
         Some((nso, cos_i))
     }
+}
+
+/// Samples the `kd` Lambertian plus `ks` perfect-mirror mixture, choosing the lobe by albedo:
+/// `diffuse` draws the Lambertian direction and gives its density (per solid angle in 3D, per
+/// radian in flatland). `ngo` and `nso` are the normals turned towards `wo`.
+#[inline]
+pub(crate) fn sample_mirror_mixture(
+    wo: DVec3,
+    ngo: DVec3,
+    nso: DVec3,
+    kd: Rgb,
+    ks: Rgb,
+    u_lobe: f64,
+    diffuse: impl FnOnce() -> (DVec3, f64),
+) -> Option<BsdfSample> {
+    let pd = Bsdf::diffuse_probability(kd, ks);
+    let (wi, sample) = if u_lobe < pd {
+        let (wi, pdf) = diffuse();
+        (
+            wi,
+            BsdfSample {
+                wi,
+                weight: kd / pd,
+                pdf: pd * pdf,
+                delta: false,
+            },
+        )
+    } else {
+        let wi = reflect(wo, nso);
+        (
+            wi,
+            BsdfSample {
+                wi,
+                weight: ks / (1.0 - pd),
+                pdf: 0.0,
+                delta: true,
+            },
+        )
+    };
+    (wi.dot(ngo) > 0.0).then_some(sample)
 }
 
 /// Samples a smooth dielectric of relative index `ior` (inside over outside) in `dims` dimensions:

@@ -33,7 +33,7 @@ use crate::scene::Scene;
 use crate::scene::light::{
     Light, LightSample, PowerCdf, connect_emitter, connect_point, emitter_pdf,
 };
-use crate::transport::bsdf::{Bsdf, BsdfSample, Mode, sample_dielectric};
+use crate::transport::bsdf::{Bsdf, BsdfSample, Mode, sample_dielectric, sample_mirror_mixture};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -367,30 +367,10 @@ impl FlatBsdf {
                 })
             }
             Bsdf::Mirror { kd, ks } => {
-                let pd = Bsdf::diffuse_probability(*kd, *ks);
-                if u_lobe < pd {
+                sample_mirror_mixture(wo, ngo, nso, *kd, *ks, u_lobe, || {
                     let wi = sample_cosine(pl, nso, u.0);
-                    if wi.dot(ngo) <= 0.0 {
-                        return None;
-                    }
-                    Some(BsdfSample {
-                        wi,
-                        weight: *kd / pd,
-                        pdf: pd * pdf_cosine(wi.dot(nso)),
-                        delta: false,
-                    })
-                } else {
-                    let wi = reflect(wo, nso);
-                    if wi.dot(ngo) <= 0.0 {
-                        return None;
-                    }
-                    Some(BsdfSample {
-                        wi,
-                        weight: *ks / (1.0 - pd),
-                        pdf: 0.0,
-                        delta: true,
-                    })
-                }
+                    (wi, pdf_cosine(wi.dot(nso)))
+                })
             }
             Bsdf::Dielectric { ior, tint } => {
                 sample_dielectric(wo, ng, ngo, nso, *ior, *tint, u_lobe, mode, 2)
