@@ -516,6 +516,32 @@ mod tests {
     }
 
     #[test]
+    fn huge_page_vectors_hold_what_is_put_in_them() {
+        // Below, at and well above the 2 MiB threshold, and an odd element size, so that the
+        // advised range starts and ends inside pages.
+        for n in [
+            0usize,
+            1,
+            1000,
+            (2 << 20) / 8,
+            (2 << 20) / 8 + 12_345,
+            3_000_001,
+        ] {
+            let mut v: Vec<u64> = vec_with_huge_pages(n);
+            assert!(v.capacity() >= n);
+            v.extend((0..n as u64).map(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+            assert!(
+                v.iter()
+                    .enumerate()
+                    .all(|(i, &x)| x == (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+            );
+        }
+        let mut w: Vec<[u8; 13]> = vec_with_huge_pages(400_000);
+        w.extend((0..400_000u32).map(|i| [(i % 251) as u8; 13]));
+        assert!(w.iter().enumerate().all(|(i, x)| x[12] == (i % 251) as u8));
+    }
+
+    #[test]
     fn queries_from_many_threads() {
         let a = one_triangle();
         let hits: usize = std::thread::scope(|s| {
