@@ -232,13 +232,11 @@ impl Scene {
                 .zip(&kept_mat)
                 .map(|((t, &ng), &m)| TriHit::new(&positions, t, ng, m)),
         );
-        let tri_shading = if normals.is_empty() {
-            Vec::new()
-        } else {
-            kept.iter()
-                .map(|t| t.map(|v| normals[v as usize]))
-                .collect()
-        };
+        let mut tri_shading = Vec::new();
+        if !normals.is_empty() {
+            tri_shading = crate::accel::vec_with_huge_pages(kept.len());
+            tri_shading.extend(kept.iter().map(|t| t.map(|v| normals[v as usize])));
+        }
         Ok(Scene {
             source: source.to_path_buf(),
             positions,
