@@ -120,9 +120,9 @@ pub struct Scene {
 }
 
 /// What [`Scene::hit_from_raw`] reads of a triangle on every hit, packed into one 64-byte cache
-/// line: on scenes of millions of triangles each hit is a cache miss, and one line instead of the
-/// index, position, normal and material arrays (or a wider precomputed record) is most of the
-/// difference between the kernel's time per ray and Embree's. The vertices are the scene's own
+/// line: on scenes of millions of triangles each hit is a cache and TLB miss (most of the kernel's
+/// own time per ray there), so one line, on huge pages, replaces the index, position, normal and
+/// material arrays and the wider precomputed record this used to be. The vertices are the scene's own
 /// f32 values (exact), the normal the f64 one of `tri_normals`; what the hit code derives from them
 /// (magnitude, edge lengths) is recomputed per hit with the same expressions, so hits are
 /// bit-identical to reading it precomputed.
