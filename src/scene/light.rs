@@ -100,10 +100,10 @@ impl PowerCdf {
 
 /// `dist^(dims−1)`: how densities per unit of an emitter's measure (area in 3D, length in
 /// flatland) turn into densities per solid angle (per angle), and how a point light's intensity
-/// falls off. `d2` is the squared distance.
+/// falls off. `d2` is the squared distance and `dist` its square root.
 #[inline]
-fn falloff(d2: f64, dims: i32) -> f64 {
-    if dims == 3 { d2 } else { d2.sqrt() }
+fn falloff(d2: f64, dist: f64, dims: i32) -> f64 {
+    if dims == 3 { d2 } else { dist }
 }
 
 /// The connection from `x` to the point `y` of an emitter (unit `normal`, emitting radiance
@@ -131,7 +131,7 @@ pub(crate) fn connect_emitter(
     if cos_l <= 0.0 {
         return None;
     }
-    let pdf = p_choice * falloff(d2, dims) / (measure * cos_l);
+    let pdf = p_choice * falloff(d2, dist, dims) / (measure * cos_l);
     pdf.is_finite().then_some(LightSample {
         wi,
         dist,
@@ -154,11 +154,12 @@ pub(crate) fn emitter_pdf(
 ) -> f64 {
     let to = y - x;
     let d2 = to.length_squared();
-    let cos_l = -to.dot(normal) / d2.sqrt();
+    let dist = d2.sqrt();
+    let cos_l = -to.dot(normal) / dist;
     if !(cos_l > 0.0) {
         return 0.0;
     }
-    p_choice * falloff(d2, dims) / (measure * cos_l)
+    p_choice * falloff(d2, dist, dims) / (measure * cos_l)
 }
 
 /// The connection from `x` to an isotropic point light of radiant intensity `intensity` (per
@@ -181,7 +182,7 @@ pub(crate) fn connect_point(
     Some(LightSample {
         wi: to / dist,
         dist,
-        li: intensity / falloff(d2, dims),
+        li: intensity / falloff(d2, dist, dims),
         pdf: p_choice,
         delta: true,
     })

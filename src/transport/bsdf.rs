@@ -216,30 +216,23 @@ pub(crate) fn sample_mirror_mixture(
     diffuse: impl FnOnce() -> (DVec3, f64),
 ) -> Option<BsdfSample> {
     let pd = Bsdf::diffuse_probability(kd, ks);
-    let (wi, sample) = if u_lobe < pd {
+    let sample = if u_lobe < pd {
         let (wi, pdf) = diffuse();
-        (
+        BsdfSample {
             wi,
-            BsdfSample {
-                wi,
-                weight: kd / pd,
-                pdf: pd * pdf,
-                delta: false,
-            },
-        )
+            weight: kd / pd,
+            pdf: pd * pdf,
+            delta: false,
+        }
     } else {
-        let wi = reflect(wo, nso);
-        (
-            wi,
-            BsdfSample {
-                wi,
-                weight: ks / (1.0 - pd),
-                pdf: 0.0,
-                delta: true,
-            },
-        )
+        BsdfSample {
+            wi: reflect(wo, nso),
+            weight: ks / (1.0 - pd),
+            pdf: 0.0,
+            delta: true,
+        }
     };
-    (wi.dot(ngo) > 0.0).then_some(sample)
+    (sample.wi.dot(ngo) > 0.0).then_some(sample)
 }
 
 /// Samples a smooth dielectric of relative index `ior` (inside over outside) in `dims` dimensions:
