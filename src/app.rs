@@ -4,10 +4,10 @@
 
 use crate::domain::slice::SliceSpec;
 use crate::domain::volume::Volume;
-use crate::domain::{CameraView, Domain, Plane, PlaneOnSurfaces, Stripe, Subset, Tile, VolumeRes};
+use crate::domain::{CameraView, Domain, Plane, PlaneOnSurfaces, Subset, VolumeRes};
 use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
-use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
+use crate::kernel::{self, Kernel, WithKernel};
 use crate::output;
 use crate::render::{
     self, ErrorStats, Hooks, InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason,
@@ -195,9 +195,8 @@ pub struct Job {
     /// Extra point lights: position, radiant intensity.
     pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
     pub estimator: EstimatorArgs,
+    /// How many samples, when to stop, and which stripe of the grid (`render.tile`, `--tile i/N`).
     pub render: RenderOptions,
-    /// Compute only this stripe of the grid (`--tile i/N`); `None`: the whole grid.
-    pub tile: Option<Tile>,
     pub output: PathBuf,
     pub png: bool,
     pub quiet: bool,
@@ -401,40 +400,35 @@ pub fn describe_run(
     m.insert("flatland".into(), params.flat.is_some().to_string());
 }
 
-/// The kernel for a scene and parameters: specialised to the scene's features, or every effect.
-pub fn kernel_choice(scene: &Scene, params: &Params, specialise: bool) -> KernelChoice {
-    let k = if specialise {
-        KernelChoice::new(&scene.features, !scene.normals.is_empty(), params.weighting)
-    } else {
-        KernelChoice::all(params.weighting)
-    };
-    k.with_flatland(params.flat.is_some())
-}
-
-/// Runs FTPD over a plane with the kernel chosen for the scene; the field comes back with its
-/// metadata filled in.
+/// Runs FTPD over a plane (the whole grid, or the stripe `opts.tile`); the field comes back with
+/// its metadata filled in. A plane with a surface lying in it (a slice through a wall) starts its
+/// points on the surfaces' front sides ([`PlaneOnSurfaces`]).
 pub fn run_plane(
     scene: &Scene,
     plane: &Plane,
     params: &Params,
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
-    run_plane_with(
-        scene,
-        plane,
-        params,
-        opts,
-        kernel_choice(scene, params, true),
-    )
+    check_flatland(scene, plane, params)?;
+    let on_surfaces = PlaneOnSurfaces(plane);
+    let domain: &dyn Domain = if scene.surface_in_plane(plane.origin, plane.normal()) {
+        &on_surfaces
+    } else {
+        plane
+    };
+    let (mut field, stats) = run_domain(scene, domain, params, opts)?;
+    describe_run(&mut field, scene, params, opts, "slice");
+    field.meta.extend(plane_meta(plane));
+    Ok((field, stats))
 }
 
-/// Runs FTPD over any domain with the given kernel (which must cover the scene's features).
-pub fn run_domain_with<D: Domain>(
+/// Runs FTPD over any domain (the whole grid, or the stripe `opts.tile`) with the kernel `params`
+/// needs ([`ftpd::kernel_for`]).
+pub fn run_domain(
     scene: &Scene,
-    domain: &D,
+    domain: &dyn Domain,
     params: &Params,
     opts: &RenderOptions,
-    kernel: KernelChoice,
 ) -> anyhow::Result<(Field, RunStats)> {
     let (w, h, d) = domain.dims();
     let mut field = Field::new(w, h, d);
@@ -447,25 +441,28 @@ pub fn run_domain_with<D: Domain>(
         domain,
         params,
         opts,
-        kernel,
         &mut field,
         &mut Progress::default(),
         Hooks::default(),
     )?;
-    field.meta.insert("kernel".into(), kernel.to_string());
+    field
+        .meta
+        .insert("kernel".into(), ftpd::kernel_for(params).to_string());
+    if let Some(t) = opts.tile {
+        field.meta.insert("tile".into(), t.to_string());
+    }
     Ok((field, stats))
 }
 
-/// Runs passes over `field` (new, or resumed at `progress`) with the given kernel until a budget of
-/// `opts` is reached or `hooks.stop` is set; see [`render::run_progressive`].
+/// Runs passes over `field` (new, or resumed at `progress`) with the kernel `params` needs until a
+/// budget of `opts` is reached or `hooks.stop` is set; see [`render::run_progressive`].
 #[allow(clippy::too_many_arguments)]
-pub fn run_domain_progressive<D: Domain>(
+pub fn run_domain_progressive(
     pool: &rayon::ThreadPool,
     scene: &Scene,
-    domain: &D,
+    domain: &dyn Domain,
     params: &Params,
     opts: &RenderOptions,
-    kernel: KernelChoice,
     field: &mut Field,
     progress: &mut Progress,
     hooks: Hooks,
@@ -482,17 +479,17 @@ pub fn run_domain_progressive<D: Domain>(
             dims.2
         );
     }
-    struct DomainRun<'a, 'h, D> {
+    struct DomainRun<'a, 'h> {
         pool: &'a rayon::ThreadPool,
         scene: &'a Scene,
-        domain: &'a D,
+        domain: &'a dyn Domain,
         params: &'a Params,
         opts: &'a RenderOptions,
         field: &'a mut Field,
         progress: &'a mut Progress,
         hooks: Hooks<'h>,
     }
-    impl<D: Domain> WithKernel for DomainRun<'_, '_, D> {
+    impl WithKernel for DomainRun<'_, '_> {
         type Output = anyhow::Result<RunStats>;
         fn run<K: Kernel>(self) -> Self::Output {
             let DomainRun {
@@ -511,12 +508,15 @@ pub fn run_domain_progressive<D: Domain>(
                 opts,
                 progress,
                 hooks,
-                |cell, s: &mut Sampler| domain.sample::<K>(scene, cell, params, s),
+                |cell, s: &mut Sampler| {
+                    let start = domain.start(scene, cell, s);
+                    ftpd::sample::<K>(scene, start, params, s)
+                },
             )
         }
     }
     kernel::dispatch(
-        kernel,
+        ftpd::kernel_for(params),
         DomainRun {
             pool,
             scene,
@@ -530,66 +530,11 @@ pub fn run_domain_progressive<D: Domain>(
     )
 }
 
-/// [`run_domain_with`] over one tile of the domain's grid (see [`crate::domain::tile`]), or the
-/// whole grid when `tile` is `None`.
-pub fn run_domain_tile<D: Domain>(
-    scene: &Scene,
-    domain: &D,
-    params: &Params,
-    opts: &RenderOptions,
-    kernel: KernelChoice,
-    tile: Option<Tile>,
-) -> anyhow::Result<(Field, RunStats)> {
-    let Some(tile) = tile else {
-        return run_domain_with(scene, domain, params, opts, kernel);
-    };
-    let stripe = Stripe::new(domain, tile);
-    let (mut field, mut stats) = run_domain_with(scene, &stripe, params, opts, kernel)?;
-    tile.finish(&mut field, &mut stats, opts.spp);
-    Ok((field, stats))
-}
-
-/// [`run_plane`] with a given kernel (which must cover the scene's features).
-pub fn run_plane_with(
-    scene: &Scene,
-    plane: &Plane,
-    params: &Params,
-    opts: &RenderOptions,
-    kernel: KernelChoice,
-) -> anyhow::Result<(Field, RunStats)> {
-    run_plane_tile(scene, plane, params, opts, kernel, None)
-}
-
-/// [`run_plane_with`] over one tile of the plane's grid (`None`: the whole grid).
-pub fn run_plane_tile(
-    scene: &Scene,
-    plane: &Plane,
-    params: &Params,
-    opts: &RenderOptions,
-    kernel: KernelChoice,
-    tile: Option<Tile>,
-) -> anyhow::Result<(Field, RunStats)> {
-    check_flatland(scene, plane, params, kernel)?;
-    let (mut field, stats) = if scene.surface_in_plane(plane.origin, plane.normal()) {
-        run_domain_tile(scene, &PlaneOnSurfaces(plane), params, opts, kernel, tile)?
-    } else {
-        run_domain_tile(scene, plane, params, opts, kernel, tile)?
-    };
-    describe_run(&mut field, scene, params, opts, "slice");
-    field.meta.extend(plane_meta(plane));
-    Ok((field, stats))
-}
-
 /// A flatland run needs a flatland kernel, a scene prepared for its plane, and a domain in it.
-fn check_flatland(
-    scene: &Scene,
-    plane: &Plane,
-    params: &Params,
-    kernel: KernelChoice,
-) -> anyhow::Result<()> {
-    match (params.flat, kernel.flatland) {
-        (None, false) => Ok(()),
-        (Some(fl), true) => {
+fn check_flatland(scene: &Scene, plane: &Plane, params: &Params) -> anyhow::Result<()> {
+    match params.flat {
+        None => Ok(()),
+        Some(fl) => {
             let prepared = scene.flat.as_ref().map(|f| f.plane);
             if prepared != Some(fl) {
                 bail!(
@@ -609,10 +554,6 @@ fn check_flatland(
             }
             Ok(())
         }
-        (flat, _) => bail!(
-            "{kernel} cannot run a {} estimator",
-            if flat.is_some() { "flatland" } else { "3D" }
-        ),
     }
 }
 
@@ -1129,9 +1070,9 @@ fn run_domain_job(
         JobDomain::Plane(p) => p.dims(),
         JobDomain::Camera(v) => v.dims(),
     };
-    let kernel = kernel_choice(scene, params, true);
+    let kernel = ftpd::kernel_for(params);
     if let JobDomain::Plane(p) = domain {
-        check_flatland(scene, p, params, kernel)?;
+        check_flatland(scene, p, params)?;
     }
     let mut fresh = Field::new(w, h, d);
     describe_run(&mut fresh, scene, params, opts, kind);
@@ -1141,7 +1082,7 @@ fn run_domain_job(
     });
     fresh.meta.insert("kernel".into(), kernel.to_string());
     annotate_point_lights(&mut fresh, job);
-    if let Some(t) = job.tile {
+    if let Some(t) = opts.tile {
         fresh.meta.insert("tile".into(), t.to_string());
     }
     let (mut field, mut progress) = match &job.resume {
@@ -1178,7 +1119,7 @@ fn run_domain_job(
     if let Some(e) = opts.budget.target_error {
         budget_text.push(format!("target error {e}"));
     }
-    let tile_note = match job.tile {
+    let tile_note = match opts.tile {
         Some(t) if t.rows(h).is_empty() => {
             eprintln!(
                 "warning: --tile {t}: the grid has {h} rows, fewer than {} tiles; this tile is empty",
@@ -1236,50 +1177,26 @@ fn run_domain_job(
         stop: Some(&render::INTERRUPT),
         after_pass: Some(&mut checkpoint),
     };
-    let run =
-        |field: &mut Field, progress: &mut Progress, hooks: Hooks| -> anyhow::Result<RunStats> {
-            match (domain, job.tile) {
-                // A slice through a wall: its points start on the surfaces' front sides.
-                (JobDomain::Plane(p), None) if scene.surface_in_plane(p.origin, p.normal()) => {
-                    let d = PlaneOnSurfaces(p);
-                    run_domain_progressive(
-                        &pool, scene, &d, params, opts, kernel, field, progress, hooks,
-                    )
-                }
-                (JobDomain::Plane(p), Some(t)) if scene.surface_in_plane(p.origin, p.normal()) => {
-                    let d = PlaneOnSurfaces(p);
-                    let stripe = Stripe::new(&d, t);
-                    run_domain_progressive(
-                        &pool, scene, &stripe, params, opts, kernel, field, progress, hooks,
-                    )
-                }
-                (JobDomain::Plane(p), None) => run_domain_progressive(
-                    &pool, scene, p, params, opts, kernel, field, progress, hooks,
-                ),
-                (JobDomain::Plane(p), Some(t)) => {
-                    let stripe = Stripe::new(p, t);
-                    run_domain_progressive(
-                        &pool, scene, &stripe, params, opts, kernel, field, progress, hooks,
-                    )
-                }
-                (JobDomain::Camera(v), None) => run_domain_progressive(
-                    &pool, scene, v, params, opts, kernel, field, progress, hooks,
-                ),
-                (JobDomain::Camera(v), Some(t)) => {
-                    let stripe = Stripe::new(v, t);
-                    run_domain_progressive(
-                        &pool, scene, &stripe, params, opts, kernel, field, progress, hooks,
-                    )
-                }
-            }
-        };
-    let mut stats = run(&mut field, &mut progress, hooks)?;
-    if let Some(t) = job.tile {
-        // Cells outside the stripe were given empty samples: clear them.
-        let samples = stats.samples;
-        t.finish(&mut field, &mut stats, opts.spp);
-        stats.samples = samples.min(field.total_samples());
-    }
+    let on_surfaces;
+    let dom: &dyn Domain = match domain {
+        // A slice through a wall: its points start on the surfaces' front sides.
+        JobDomain::Plane(p) if scene.surface_in_plane(p.origin, p.normal()) => {
+            on_surfaces = PlaneOnSurfaces(p);
+            &on_surfaces
+        }
+        JobDomain::Plane(p) => p,
+        JobDomain::Camera(v) => v,
+    };
+    let stats = run_domain_progressive(
+        &pool,
+        scene,
+        dom,
+        params,
+        opts,
+        &mut field,
+        &mut progress,
+        hooks,
+    )?;
     let error = render::error_stats(&field.cells);
     let partial = !stats.stop.is_complete();
     mark_progress(&mut field, &progress, opts, partial, Some(stats.stop));
@@ -1397,32 +1314,15 @@ pub fn shell_quote(s: &str) -> String {
     }
 }
 
-/// Importance-weighted FTPD over a camera image, with its beauty image (`radiance.R/G/B`).
+/// Importance-weighted FTPD over a camera image (the whole image, or the stripe `opts.tile`), with
+/// its beauty image (`radiance.R/G/B`).
 pub fn run_camera(
     scene: &Scene,
     view: &CameraView,
     params: &Params,
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
-    run_camera_tile(scene, view, params, opts, None)
-}
-
-/// [`run_camera`] over one tile (stripe of image rows; `None`: the whole image).
-pub fn run_camera_tile(
-    scene: &Scene,
-    view: &CameraView,
-    params: &Params,
-    opts: &RenderOptions,
-    tile: Option<Tile>,
-) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain_tile(
-        scene,
-        view,
-        params,
-        opts,
-        kernel_choice(scene, params, true),
-        tile,
-    )?;
+    let (mut field, stats) = run_domain(scene, view, params, opts)?;
     describe_run(&mut field, scene, params, opts, "camera");
     field.meta.extend(camera_meta(view));
     Ok((field, stats))
@@ -1617,12 +1517,11 @@ pub const CALIBRATION_SECONDS: f64 = 0.25;
 /// over random cells (128 per thread to start, so every thread has work), doubling the samples per
 /// cell, then the cells, until a round takes [`CALIBRATION_SECONDS`] (or covers the whole run).
 /// Its samples come from other streams and are thrown away; the run itself is unchanged.
-pub fn estimate_time<D: Domain>(
+pub fn estimate_time(
     scene: &Scene,
-    domain: &D,
+    domain: &dyn Domain,
     params: &Params,
     opts: &RenderOptions,
-    kernel: KernelChoice,
 ) -> anyhow::Result<Eta> {
     let (w, h, d) = domain.dims();
     let total = w * h * d;
@@ -1642,13 +1541,14 @@ pub fn estimate_time<D: Domain>(
     o.batches = 1;
     o.seed = opts.seed ^ 0xCA11_B4A7_E000_0000;
     o.spp = 1;
+    o.tile = None;
     let start = Instant::now();
     loop {
         while subset.cells.len() < want {
             let c = (pick.next_f64() * total as f64) as usize;
             subset.cells.push(c.min(total - 1));
         }
-        let (_, stats) = run_domain_with(scene, &subset, params, &o, kernel)?;
+        let (_, stats) = run_domain(scene, &subset, params, &o)?;
         let whole = o.spp >= opts.spp && want >= total;
         if stats.seconds >= CALIBRATION_SECONDS || whole {
             let rate = stats.samples_per_second();
@@ -1677,11 +1577,9 @@ pub fn run_volume(
     params: &Params,
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
-    let kernel = kernel_choice(scene, params, true);
-    let (mut field, stats) = run_domain_with(scene, volume, params, opts, kernel)?;
+    let (mut field, stats) = run_domain(scene, volume, params, opts)?;
     describe_run(&mut field, scene, params, opts, "volume");
     let m = &mut field.meta;
-    m.insert("kernel".into(), kernel.to_string());
     let (lo, hi) = (volume.origin, volume.max_corner());
     m.insert(
         "volume.box".into(),
@@ -1753,13 +1651,7 @@ pub fn run_volume_job(job: &VolumeJob) -> anyhow::Result<Field> {
     let eta = if job.quiet {
         None
     } else {
-        let e = estimate_time(
-            &scene,
-            &volume,
-            &params,
-            &job.render,
-            kernel_choice(&scene, &params, true),
-        )?;
+        let e = estimate_time(&scene, &volume, &params, &job.render)?;
         say(format!(
             "ETA {:.1} s ({:.3e} samples/s on {} random voxels × {} spp, calibrated in {:.2} s)",
             e.seconds, e.rate, e.cells, e.spp, e.calibration_seconds
@@ -1822,13 +1714,12 @@ pub fn write_volume_outputs(
     Ok(())
 }
 
-/// One benchmark run: the specialised kernel, the all-features kernel and raw Embree rays, on the
-/// same scene, slice, samples and threads.
+/// One benchmark run: the kernel and raw Embree rays, on the same scene, slice, samples and
+/// threads.
 #[derive(Clone, Debug)]
 pub struct BenchReport {
-    pub kernel: KernelChoice,
-    pub specialised: RunStats,
-    pub all_features: RunStats,
+    pub kernel: crate::kernel::KernelChoice,
+    pub run: RunStats,
     pub raw_rays: u64,
     pub raw_seconds: f64,
 }
@@ -1841,31 +1732,21 @@ impl BenchReport {
             0.0
         }
     }
-    /// Specialised kernel rays/s over raw rays/s.
+    /// Kernel rays/s over raw rays/s.
     pub fn ray_ratio(&self) -> f64 {
         let raw = self.raw_rays_per_second();
         if raw > 0.0 {
-            self.specialised.rays_per_second() / raw
-        } else {
-            0.0
-        }
-    }
-    /// Specialised over all-features samples/s.
-    pub fn specialisation_gain(&self) -> f64 {
-        let all = self.all_features.samples_per_second();
-        if all > 0.0 {
-            self.specialised.samples_per_second() / all
+            self.run.rays_per_second() / raw
         } else {
             0.0
         }
     }
 }
 
-/// Runs the specialised FTPD kernel over `plane`, then the all-features kernel on the same samples,
-/// then replays through Embree alone (`rtcIntersect1` / `rtcOccluded1`, nothing else) exactly the
-/// rays the kernel traced, recorded in a separate untimed run, on the same number of threads. Each
-/// part runs `repeats` times, interleaved, and the fastest time of each is kept (shared, noisy
-/// machines).
+/// Runs the FTPD kernel over `plane`, then replays through Embree alone (`rtcIntersect1` /
+/// `rtcOccluded1`, nothing else) exactly the rays the kernel traced, recorded in a separate untimed
+/// run, on the same number of threads. Each part runs `repeats` times, interleaved, and the fastest
+/// time of each is kept (shared, noisy machines).
 pub fn bench_plane(
     scene: &Scene,
     plane: &Plane,
@@ -1874,24 +1755,17 @@ pub fn bench_plane(
     repeats: u32,
 ) -> anyhow::Result<BenchReport> {
     use rayon::prelude::*;
-    let kernel = kernel_choice(scene, params, true);
-    let fastest = |a: Option<RunStats>, b: RunStats| match a {
-        Some(a) if a.seconds <= b.seconds => Some(a),
-        _ => Some(b),
-    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()?;
     let rays = record_rays(scene, plane, params, opts, &pool)?;
     let accel = scene.accel();
-    let (mut spec, mut all, mut raw_seconds) = (None, None, f64::INFINITY);
+    let (mut run, mut raw_seconds) = (None::<RunStats>, f64::INFINITY);
     for _ in 0..repeats.max(1) {
-        spec = fastest(spec, run_plane_with(scene, plane, params, opts, kernel)?.1);
-        let all_kernel = kernel_choice(scene, params, false);
-        all = fastest(
-            all,
-            run_plane_with(scene, plane, params, opts, all_kernel)?.1,
-        );
+        let r = run_plane(scene, plane, params, opts)?.1;
+        if run.as_ref().is_none_or(|a| r.seconds < a.seconds) {
+            run = Some(r);
+        }
         let start = Instant::now();
         let hits: u64 = pool.install(|| {
             rays.par_chunks(4096)
@@ -1912,47 +1786,62 @@ pub fn bench_plane(
         raw_seconds = raw_seconds.min(start.elapsed().as_secs_f64());
     }
     Ok(BenchReport {
-        kernel,
-        specialised: spec.unwrap_or_default(),
-        all_features: all.unwrap_or_default(),
+        kernel: ftpd::kernel_for(params),
+        run: run.unwrap_or_default(),
         raw_rays: rays.len() as u64,
         raw_seconds,
     })
 }
 
-/// Every ray query of one run of the all-features kernel (which makes the same random decisions,
-/// hence the same rays, as the specialised one), gathered from the pool's threads.
+/// Every ray query of one run of the kernel over `plane` (the same random decisions, hence the
+/// same rays, as the timed runs), gathered from the pool's threads.
 fn record_rays(
     scene: &Scene,
     plane: &Plane,
     params: &Params,
     opts: &RenderOptions,
     pool: &rayon::ThreadPool,
-) -> anyhow::Result<Vec<scene::LoggedRay>> {
-    use crate::kernel::{AllButRadiance, AllButRadianceFlat, AllFeatures, AllFeaturesFlat, Record};
-    let mut field = Field::new(plane.width, plane.height, 1);
+) -> anyhow::Result<Vec<crate::transport::trace::LoggedRay>> {
+    struct Recording<'a> {
+        scene: &'a Scene,
+        domain: &'a dyn Domain,
+        params: &'a Params,
+        opts: &'a RenderOptions,
+        pool: &'a rayon::ThreadPool,
+    }
+    impl WithKernel for Recording<'_> {
+        type Output = anyhow::Result<()>;
+        fn run<K: Kernel>(self) -> anyhow::Result<()> {
+            let (w, h, d) = self.domain.dims();
+            let mut field = Field::new(w, h, d);
+            render::run_in(self.pool, &mut field, self.opts, |cell, s: &mut Sampler| {
+                let start = self.domain.start(self.scene, cell, s);
+                ftpd::sample::<K>(self.scene, start, self.params, s)
+            })?;
+            Ok(())
+        }
+    }
     let mut o = opts.clone();
     o.progress = false;
-    let radiance = params.weighting == Weighting::Radiance;
-    let flatland = params.flat.is_some();
-    let on_surfaces = scene.surface_in_plane(plane.origin, plane.normal());
-    render::run_in(pool, &mut field, &o, |cell, s: &mut Sampler| {
-        let x = plane.point(cell, s.next_2d());
-        let x = if on_surfaces {
-            scene.off_surfaces(x)
-        } else {
-            x
-        };
-        match (radiance, flatland) {
-            (true, false) => ftpd::sample_at_k::<Record<AllFeatures>>(scene, x, params, s),
-            (false, false) => ftpd::sample_at_k::<Record<AllButRadiance>>(scene, x, params, s),
-            (true, true) => ftpd::sample_at_k::<Record<AllFeaturesFlat>>(scene, x, params, s),
-            (false, true) => ftpd::sample_at_k::<Record<AllButRadianceFlat>>(scene, x, params, s),
-        }
-    })?;
+    let on_surfaces = PlaneOnSurfaces(plane);
+    let domain: &dyn Domain = if scene.surface_in_plane(plane.origin, plane.normal()) {
+        &on_surfaces
+    } else {
+        plane
+    };
+    kernel::dispatch_recording(
+        ftpd::kernel_for(params),
+        Recording {
+            scene,
+            domain,
+            params,
+            opts: &o,
+            pool,
+        },
+    )?;
     // Gather the logs of every worker of the pool.
     Ok(pool
-        .broadcast(|_| scene::take_ray_log())
+        .broadcast(|_| crate::transport::trace::take_ray_log())
         .into_iter()
         .flatten()
         .collect())

@@ -1,28 +1,25 @@
-//! Kernels specialised per scene feature set ("simulate only what the scene calls for").
+//! The compile-time kernels: specialised only where the mathematics of a sample changes.
 //!
-//! A [`Kernel`] is a type whose associated constants say which effects exist. The sample kernel
-//! (`ftpd::sample_at_k`, `transport::walk::walk_k`, `radiance_k`, `Bsdf::sample_k`, ...) is generic
-//! over it, so code for absent effects is removed at compile time: a diffuse-only scene has no
-//! Fresnel or Phong branch in its walks, an unweighted run no light sampling, a scene without point
-//! lights no Dirac-light handling, a scene without shading normals no normal interpolation. The
-//! kernel is chosen once per run from the scene's [`Features`] and the weighting ([`dispatch`]);
-//! [`AllFeatures`] is the unspecialised kernel every scene may use.
+//! Two axes change the algorithm itself, and only these are type parameters of the sample code
+//! (`ftpd::sample_at`, `transport::walk::walk`, `radiance`, ...):
+//! - `FLATLAND`: directions on the circle of the slice plane, densities per radian, 1/η and 1/dist
+//!   instead of 1/η² and 1/dist² (2D light transport; [`crate::transport::flat`]);
+//! - `RADIANCE`: the radiance estimate (light sampling, next-event estimation, MIS) is compiled in;
+//!   unweighted runs carry none of it.
 //!
-//! `FLATLAND` is not a scene feature but a mode of the run: directions confined to the slice plane
-//! (2D light transport, angle measure; see [`crate::transport::flat`]). 3D kernels compile every
-//! flatland branch out, so the 3D code paths are the same as without it.
+//! That is four kernels, chosen once per run ([`dispatch`]). Everything a scene may or may not have
+//! (glossy, mirror and dielectric materials, point lights, shading normals) is run-time data matched
+//! on closed enums: a branch a scene never takes is always predicted and costs nothing measurable,
+//! and work for an absent effect is still never done (there is no Fresnel term to evaluate where no
+//! material is a dielectric, no light to sample where there is none). What a run simulates and skips
+//! is listed by `--explain` ([`crate::scene::Features`]).
+//!
+//! This module imports nothing from the crate: every layer above may name a kernel.
 
-use crate::ftpd::Weighting;
-use crate::scene::Features;
 use std::fmt;
 
-/// Which effects a kernel simulates.
+/// Which algorithm a kernel runs.
 pub trait Kernel: Send + Sync + 'static {
-    const GLOSSY: bool;
-    const MIRROR: bool;
-    const DIELECTRIC: bool;
-    const POINT_LIGHTS: bool;
-    const SHADING_NORMALS: bool;
     /// Radiance estimates with light sampling and MIS are compiled in (radiance weighting, and
     /// the beauty image of importance-weighted camera runs).
     const RADIANCE: bool;
@@ -34,106 +31,40 @@ pub trait Kernel: Send + Sync + 'static {
 }
 
 /// Kernel `K` that also logs each ray it traces into a per-thread log (see
-/// [`crate::scene::take_ray_log`]), so that a benchmark can replay exactly the same rays through
-/// Embree alone. Other kernels compile the logging out.
+/// [`crate::transport::trace::take_ray_log`]), so that a benchmark can replay exactly the same rays
+/// through Embree alone. Other kernels compile the logging out.
 pub struct Record<K>(std::marker::PhantomData<K>);
 
 impl<K: Kernel> Kernel for Record<K> {
-    const GLOSSY: bool = K::GLOSSY;
-    const MIRROR: bool = K::MIRROR;
-    const DIELECTRIC: bool = K::DIELECTRIC;
-    const POINT_LIGHTS: bool = K::POINT_LIGHTS;
-    const SHADING_NORMALS: bool = K::SHADING_NORMALS;
     const RADIANCE: bool = K::RADIANCE;
     const FLATLAND: bool = K::FLATLAND;
     const RECORD: bool = true;
 }
 
-/// The kernel for one combination of effects.
-pub struct Spec<
-    const G: bool,
-    const M: bool,
-    const D: bool,
-    const P: bool,
-    const N: bool,
-    const R: bool,
-    const F: bool,
->;
+/// The kernel for one combination of the two axes.
+pub struct Spec<const R: bool, const F: bool>;
 
-impl<
-    const G: bool,
-    const M: bool,
-    const D: bool,
-    const P: bool,
-    const N: bool,
-    const R: bool,
-    const F: bool,
-> Kernel for Spec<G, M, D, P, N, R, F>
-{
-    const GLOSSY: bool = G;
-    const MIRROR: bool = M;
-    const DIELECTRIC: bool = D;
-    const POINT_LIGHTS: bool = P;
-    const SHADING_NORMALS: bool = N;
+impl<const R: bool, const F: bool> Kernel for Spec<R, F> {
     const RADIANCE: bool = R;
     const FLATLAND: bool = F;
 }
 
-/// The unspecialised kernel: every effect compiled in (3D).
-pub type AllFeatures = Spec<true, true, true, true, true, true, false>;
-/// Every effect but radiance estimation (for unweighted and importance weighting; 3D).
-pub type AllButRadiance = Spec<true, true, true, true, true, false, false>;
-/// [`AllFeatures`] in flatland.
-pub type AllFeaturesFlat = Spec<true, true, true, true, true, true, true>;
-/// [`AllButRadiance`] in flatland.
-pub type AllButRadianceFlat = Spec<true, true, true, true, true, false, true>;
+/// 3D, with radiance estimates (radiance weighting; camera images with their beauty image).
+pub type Radiance3D = Spec<true, false>;
+/// 3D, no radiance estimate (unweighted slices and volumes).
+pub type Plain3D = Spec<false, false>;
+/// Flatland, with radiance estimates.
+pub type RadianceFlat = Spec<true, true>;
+/// Flatland, no radiance estimate.
+pub type PlainFlat = Spec<false, true>;
 
-/// The effects a run needs: the scene's features plus the weighting.
+/// The kernel a run needs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct KernelChoice {
-    pub glossy: bool,
-    pub mirror: bool,
-    pub dielectric: bool,
-    pub point_lights: bool,
-    pub shading_normals: bool,
+    /// Radiance estimates compiled in.
     pub radiance: bool,
-    /// Directions confined to the slice plane (a mode of the run, not a scene feature).
+    /// Directions confined to the slice plane.
     pub flatland: bool,
-}
-
-impl KernelChoice {
-    pub fn new(f: &Features, has_shading_normals: bool, weighting: Weighting) -> KernelChoice {
-        let radiance = matches!(weighting, Weighting::Radiance | Weighting::Importance);
-        KernelChoice {
-            glossy: f.glossy,
-            mirror: f.mirror,
-            dielectric: f.dielectric,
-            // Point lights only matter where light is sampled.
-            point_lights: f.point_lights && radiance,
-            shading_normals: has_shading_normals,
-            radiance,
-            flatland: false,
-        }
-    }
-
-    /// The kernel with every effect, whatever the scene (radiance estimation as the weighting
-    /// needs it).
-    pub fn all(weighting: Weighting) -> KernelChoice {
-        KernelChoice {
-            glossy: true,
-            mirror: true,
-            dielectric: true,
-            point_lights: true,
-            shading_normals: true,
-            radiance: matches!(weighting, Weighting::Radiance | Weighting::Importance),
-            flatland: false,
-        }
-    }
-
-    /// The same effects in flatland (`true`) or in 3D.
-    pub fn with_flatland(self, flatland: bool) -> KernelChoice {
-        KernelChoice { flatland, ..self }
-    }
 }
 
 impl fmt::Display for KernelChoice {
@@ -141,12 +72,7 @@ impl fmt::Display for KernelChoice {
         let on = |b: bool| if b { "+" } else { "-" };
         write!(
             f,
-            "kernel<{}glossy {}mirror {}dielectric {}point-lights {}shading-normals {}radiance {}flatland>",
-            on(self.glossy),
-            on(self.mirror),
-            on(self.dielectric),
-            on(self.point_lights),
-            on(self.shading_normals),
+            "kernel<{}radiance {}flatland>",
             on(self.radiance),
             on(self.flatland)
         )
@@ -159,83 +85,22 @@ pub trait WithKernel {
     fn run<K: Kernel>(self) -> Self::Output;
 }
 
-/// Calls `f.run::<K>()` with the kernel type matching `c` (128 monomorphised variants).
+/// Calls `f.run::<K>()` with the kernel type matching `c` (four monomorphised variants).
 pub fn dispatch<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
-    fn g<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
-        if c.glossy {
-            m::<F, true>(c, f)
-        } else {
-            m::<F, false>(c, f)
-        }
+    match (c.radiance, c.flatland) {
+        (true, false) => f.run::<Radiance3D>(),
+        (false, false) => f.run::<Plain3D>(),
+        (true, true) => f.run::<RadianceFlat>(),
+        (false, true) => f.run::<PlainFlat>(),
     }
-    fn m<F: WithKernel, const G: bool>(c: KernelChoice, f: F) -> F::Output {
-        if c.mirror {
-            d::<F, G, true>(c, f)
-        } else {
-            d::<F, G, false>(c, f)
-        }
+}
+
+/// [`dispatch`] with every ray logged ([`Record`]): the benchmark's replay.
+pub fn dispatch_recording<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
+    match (c.radiance, c.flatland) {
+        (true, false) => f.run::<Record<Radiance3D>>(),
+        (false, false) => f.run::<Record<Plain3D>>(),
+        (true, true) => f.run::<Record<RadianceFlat>>(),
+        (false, true) => f.run::<Record<PlainFlat>>(),
     }
-    fn d<F: WithKernel, const G: bool, const M: bool>(c: KernelChoice, f: F) -> F::Output {
-        if c.dielectric {
-            p::<F, G, M, true>(c, f)
-        } else {
-            p::<F, G, M, false>(c, f)
-        }
-    }
-    fn p<F: WithKernel, const G: bool, const M: bool, const D: bool>(
-        c: KernelChoice,
-        f: F,
-    ) -> F::Output {
-        if c.point_lights {
-            n::<F, G, M, D, true>(c, f)
-        } else {
-            n::<F, G, M, D, false>(c, f)
-        }
-    }
-    fn n<F: WithKernel, const G: bool, const M: bool, const D: bool, const P: bool>(
-        c: KernelChoice,
-        f: F,
-    ) -> F::Output {
-        if c.shading_normals {
-            r::<F, G, M, D, P, true>(c, f)
-        } else {
-            r::<F, G, M, D, P, false>(c, f)
-        }
-    }
-    fn r<
-        F: WithKernel,
-        const G: bool,
-        const M: bool,
-        const D: bool,
-        const P: bool,
-        const N: bool,
-    >(
-        c: KernelChoice,
-        f: F,
-    ) -> F::Output {
-        if c.radiance {
-            fl::<F, G, M, D, P, N, true>(c, f)
-        } else {
-            fl::<F, G, M, D, P, N, false>(c, f)
-        }
-    }
-    fn fl<
-        F: WithKernel,
-        const G: bool,
-        const M: bool,
-        const D: bool,
-        const P: bool,
-        const N: bool,
-        const R: bool,
-    >(
-        c: KernelChoice,
-        f: F,
-    ) -> F::Output {
-        if c.flatland {
-            f.run::<Spec<G, M, D, P, N, R, true>>()
-        } else {
-            f.run::<Spec<G, M, D, P, N, R, false>>()
-        }
-    }
-    g(c, f)
 }

@@ -420,7 +420,6 @@ impl RunArgs {
             point_lights: self.point_light.clone(),
             estimator: self.estimator(weight),
             render: self.render(),
-            tile: self.tile,
             output: self
                 .output
                 .clone()
@@ -487,6 +486,7 @@ impl RunArgs {
             adaptive: self.adaptive.then_some(Adaptive {
                 max_share: self.adaptive_cap,
             }),
+            tile: self.tile,
         }
     }
 }
@@ -546,9 +546,7 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
         "slice                {} ({}x{}), {} spp, weighting {}, {} threads, best of 3",
         plane.label, plane.width, plane.height, opts.spp, params.weighting, threads
     )?;
-    writeln!(out, "specialised kernel   {}", r.kernel)?;
-    writeln!(out, "{}", line("specialised", &r.specialised))?;
-    writeln!(out, "{}", line("all-features", &r.all_features))?;
+    writeln!(out, "{}", line(&r.kernel.to_string(), &r.run))?;
     writeln!(
         out,
         "raw rtcIntersect1    {:>11} rays in {:>7.3} s = {:.3e} rays/s",
@@ -557,11 +555,6 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
         r.raw_rays_per_second()
     )?;
     writeln!(out, "kernel/raw rays/s    {:.3}", r.ray_ratio())?;
-    writeln!(
-        out,
-        "specialised/all samples/s {:.3}",
-        r.specialisation_gain()
-    )?;
     Ok(())
 }
 
@@ -663,11 +656,20 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         )?;
     }
     match params {
-        Ok(params) => writeln!(
-            out,
-            "kernel     {}",
-            app::kernel_choice(&scene, &params, true)
-        )?,
+        Ok(params) => {
+            writeln!(out, "kernel     {}", ftpd3d::ftpd::kernel_for(&params))?;
+            let effects = ftpd3d::ftpd::effects::effects(&scene, &params);
+            let on: Vec<&str> = effects
+                .iter()
+                .filter(|e| e.simulated)
+                .map(|e| e.name)
+                .collect();
+            writeln!(out, "simulates  {}", on.join(" "))?;
+            for (i, e) in effects.iter().filter(|e| !e.simulated).enumerate() {
+                let head = if i == 0 { "skips" } else { "" };
+                writeln!(out, "{head:<10} {} ({})", e.name, e.why)?;
+            }
+        }
         Err(e) => writeln!(out, "kernel     (none: {e:#})")?,
     }
     Ok(())

@@ -27,6 +27,7 @@
 //! See [`allocate`]: from pass 2 on, each pass distributes its sample budget (the uniform share
 //! times the number of cells) over the cells by their estimated error.
 
+use crate::domain::Tile;
 use crate::field::Field;
 use crate::ftpd::Sample;
 use crate::ftpd::moments::Moments;
@@ -101,6 +102,9 @@ pub struct RenderOptions {
     pub pass_spp: Option<u32>,
     /// Put the samples of later passes where the error is largest.
     pub adaptive: Option<Adaptive>,
+    /// Sample only this stripe of the grid ([`Tile::cells`]); the other cells stay empty and are
+    /// never visited, so tiles merge by addition into the full run.
+    pub tile: Option<Tile>,
 }
 
 impl Default for RenderOptions {
@@ -114,6 +118,7 @@ impl Default for RenderOptions {
             budget: Budget::default(),
             pass_spp: None,
             adaptive: None,
+            tile: None,
         }
     }
 }
@@ -522,10 +527,12 @@ struct Counters {
     samples: AtomicU64,
 }
 
-/// One pass to run: its index, per-cell sizes, the cells that already completed it (resumed
-/// runs) and the stop flag checked between chunks.
+/// One pass to run: its index, the cells it covers, per-cell sizes, the cells that already
+/// completed it (resumed runs) and the stop flag checked between chunks. Per-cell vectors are
+/// indexed over the whole field.
 struct PassJob<'a> {
     seed: u64,
+    cells: std::ops::Range<usize>,
     pass: u32,
     sizes: PassSizes<'a>,
     done: Option<&'a [bool]>,
@@ -547,14 +554,15 @@ where
 {
     let PassJob {
         seed,
+        ref cells,
         pass,
         ref sizes,
         done,
         stop,
     } = *job;
+    let first = cells.start;
     pool.install(|| {
-        field
-            .cells
+        field.cells[cells.clone()]
             .par_chunks_mut(CHUNK)
             .enumerate()
             .map(|(ci, chunk)| {
@@ -563,7 +571,7 @@ where
                 }
                 let (mut r, mut cap, mut cl, mut n) = (0u64, 0u64, 0u64, 0u64);
                 for (k, cell) in chunk.iter_mut().enumerate() {
-                    let idx = ci * CHUNK + k;
+                    let idx = first + ci * CHUNK + k;
                     if done.is_some_and(|d| d[idx]) {
                         continue;
                     }
@@ -642,13 +650,17 @@ pub fn run_progressive<K>(
 where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
-    let cells = field.cells.len() as u64;
+    let active = match opts.tile {
+        Some(t) => t.cells(field.width, field.height, field.depth),
+        None => 0..field.cells.len(),
+    };
+    let cells = active.len() as u64;
     let schedule = Schedule::of(opts);
     let unit = schedule.unit();
     let budget = &opts.budget;
     // Sample cap of the whole field (adaptive runs spend it in units, overshooting by < 1 unit).
     let cap_total = budget.cap_spp.then(|| cells * opts.spp.max(1) as u64);
-    let mut taken: u64 = field.total_samples();
+    let mut taken: u64 = field.cells[active.clone()].iter().map(|c| c.n).sum();
     let bar = progress_bar(opts, cap_total);
     bar.set_position(taken.min(cap_total.unwrap_or(u64::MAX)));
     let counters = Counters::default();
@@ -681,7 +693,7 @@ where
             }
             if let Some(target) = budget.target_error
                 && pass >= 2
-                && error_stats(&field.cells).p95 <= target
+                && error_stats(&field.cells[active.clone()]).p95 <= target
             {
                 break StopReason::TargetError;
             }
@@ -698,7 +710,15 @@ where
             (_, Some(a)) if pass >= 2 => {
                 let left =
                     cap_total.map_or(cells, |c| c.saturating_sub(taken).div_ceil(unit as u64));
-                Some(allocate(&field.cells, unit, left.min(cells), a.max_share))
+                // Indexed over the whole field (the units are stored per cell in checkpoints).
+                let mut units = vec![0; field.cells.len()];
+                units[active.clone()].copy_from_slice(&allocate(
+                    &field.cells[active.clone()],
+                    unit,
+                    left.min(cells),
+                    a.max_share,
+                ));
+                Some(units)
             }
             _ => None,
         };
@@ -710,6 +730,7 @@ where
         let done_before = progress.inflight.as_ref().map(|f| f.done.clone());
         let job = PassJob {
             seed: opts.seed,
+            cells: active.clone(),
             pass,
             sizes,
             done: done_before.as_deref(),
@@ -723,7 +744,7 @@ where
             last_pass = Some(t_pass.elapsed().as_secs_f64());
             progress.elapsed = elapsed0 + start.elapsed().as_secs_f64();
             if opts.progress && !bar.is_hidden() {
-                let e = error_stats(&field.cells);
+                let e = error_stats(&field.cells[active.clone()]);
                 bar.set_message(format!(
                     "pass {}, relative error p95 {:.3}",
                     progress.passes, e.p95
@@ -736,7 +757,10 @@ where
         } else {
             let n = field.cells.len();
             let done: Vec<bool> = (0..n)
-                .map(|i| ran[i / CHUNK] || done_before.as_ref().is_some_and(|d| d[i]))
+                .map(|i| {
+                    (active.contains(&i) && ran[(i - active.start) / CHUNK])
+                        || done_before.as_ref().is_some_and(|d| d[i])
+                })
                 .collect();
             progress.inflight = Some(InFlight {
                 done,

@@ -66,7 +66,7 @@ impl Setup {
         let mut f = Field::new(self.plane.width, self.plane.height, 1);
         app::describe_run(&mut f, &self.scene, &self.params, o, "slice");
         f.meta.extend(app::plane_meta(&self.plane));
-        let k = app::kernel_choice(&self.scene, &self.params, true);
+        let k = ftpd3d::ftpd::kernel_for(&self.params);
         f.meta.insert("kernel".into(), k.to_string());
         f
     }
@@ -78,14 +78,12 @@ impl Setup {
         o: &RenderOptions,
         hooks: Hooks,
     ) -> RunStats {
-        let k = app::kernel_choice(&self.scene, &self.params, true);
         app::run_domain_progressive(
             &pool(),
             &self.scene,
             &self.plane,
             &self.params,
             o,
-            k,
             field,
             progress,
             hooks,
@@ -229,7 +227,7 @@ fn drive<'a>(
                 flag.store(true, Ordering::Relaxed);
             }
             let x = s.plane.point(cell, smp.next_2d());
-            ftpd3d::ftpd::sample_at(&s.scene, x, &s.params, smp)
+            ftpd3d::ftpd::sample_point(&s.scene, x, &s.params, smp)
         },
     )
     .unwrap()

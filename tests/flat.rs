@@ -10,17 +10,17 @@
 
 use crate::bsdf::{chi2_test, gauss_legendre, mean_and_se};
 use crate::geometry::{scene_path, translated};
-use ftpd3d::app::{kernel_choice, load_scene, run_plane_with};
+use ftpd3d::app::{load_scene, run_plane};
 use ftpd3d::domain::Plane;
-use ftpd3d::ftpd::{Params, Weighting, radiance_direction_k, sample_at, sample_at_k};
-use ftpd3d::kernel::{AllButRadianceFlat, AllFeaturesFlat, Record};
+use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_at, sample_point};
+use ftpd3d::kernel::{PlainFlat, RadianceFlat, Record};
 use ftpd3d::math::{Rgb, luminance, reflect};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::{Features, Material, Scene};
 use ftpd3d::transport::bsdf::{Bsdf, Mode, fresnel_dielectric};
 use ftpd3d::transport::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
-use ftpd3d::transport::walk::{RadianceStats, radiance_k, walk_k};
+use ftpd3d::transport::walk::{RadianceStats, radiance, walk};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::path::Path;
@@ -196,8 +196,7 @@ fn point_light_over_a_diffuse_plane_reflects_rho_over_2_times_i_cos_over_d() {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for _ in 0..500 {
             let mut st = RadianceStats::default();
-            let r =
-                radiance_k::<AllFeaturesFlat>(&scene, x, (q - x).normalize(), 32, &mut s, &mut st);
+            let r = radiance::<RadianceFlat>(&scene, x, (q - x).normalize(), 32, &mut s, &mut st);
             assert_eq!(r.direct, Rgb::ZERO);
             let l = r.total();
             assert!(l.x == l.y && l.y == l.z);
@@ -265,7 +264,7 @@ fn point_light_fluence_is_i_over_d_plus_the_reflected_light() {
     let mut s = Sampler::new(42, 0, 0);
     let mut rays = 0;
     for _ in 0..n {
-        let (omega, w) = radiance_direction_k::<AllFeaturesFlat>(&scene, x, 32, &mut s, &mut rays);
+        let (omega, w) = radiance_direction::<RadianceFlat>(&scene, x, 32, &mut s, &mut rays);
         assert!(omega.z == 0.0 && (omega.length() - 1.0).abs() < 1e-15);
         sum += w.x;
         sum2 += w.x * w.x;
@@ -307,9 +306,8 @@ fn empty_flatland_gives_exactly_zero() {
     far.prepare_flatland(fl, "z=0").unwrap();
     for weighting in [Weighting::Unweighted, Weighting::Radiance] {
         let p = params(weighting, fl);
-        let k = kernel_choice(&far, &p, true);
-        assert!(k.flatland);
-        let (field, stats) = run_plane_with(&far, &plane, &p, &opts(32, 3), k).unwrap();
+        let (field, stats) = run_plane(&far, &plane, &p, &opts(32, 3)).unwrap();
+        assert!(field.meta["kernel"].contains("+flatland"));
         assert!(stats.rays > 0);
         for v in field.values() {
             assert!(v.valid, "{weighting}");
@@ -362,7 +360,7 @@ fn flatland_furnace_radiance_and_fluence() {
             for _ in 0..n {
                 let mut st = RadianceStats::default();
                 let l = luminance(
-                    radiance_k::<AllFeaturesFlat>(&scene, x, look, 1000, &mut s, &mut st).total(),
+                    radiance::<RadianceFlat>(&scene, x, look, 1000, &mut s, &mut st).total(),
                 );
                 sum += l;
                 sum2 += l * l;
@@ -377,8 +375,7 @@ fn flatland_furnace_radiance_and_fluence() {
         let (mut sum, mut sum2) = (0.0, 0.0);
         let mut rays = 0;
         for _ in 0..n {
-            let (_, w) =
-                radiance_direction_k::<AllFeaturesFlat>(&scene, x, 1000, &mut s, &mut rays);
+            let (_, w) = radiance_direction::<RadianceFlat>(&scene, x, 1000, &mut s, &mut rays);
             let l = luminance(w);
             sum += l;
             sum2 += l * l;
@@ -895,19 +892,17 @@ fn flatland_directions_stay_in_the_plane() {
         "two triangles of the light + the point"
     );
     let mut s = Sampler::new(9, 0, 0);
-    let _ = ftpd3d::scene::take_ray_log();
+    let _ = ftpd3d::transport::trace::take_ray_log();
     let mut logged = 0;
     for weighting in [Weighting::Radiance, Weighting::Unweighted] {
         let p = params(weighting, pl);
         for _ in 0..20_000 {
             let x = DVec3::new(-2.5 + 5.0 * s.next_f64(), 0.05 + 2.3 * s.next_f64(), 0.0);
             match weighting {
-                Weighting::Radiance => {
-                    sample_at_k::<Record<AllFeaturesFlat>>(&scene, x, &p, &mut s)
-                }
-                _ => sample_at_k::<Record<AllButRadianceFlat>>(&scene, x, &p, &mut s),
+                Weighting::Radiance => sample_at::<Record<RadianceFlat>>(&scene, x, &p, &mut s),
+                _ => sample_at::<Record<PlainFlat>>(&scene, x, &p, &mut s),
             };
-            for r in ftpd3d::scene::take_ray_log() {
+            for r in ftpd3d::transport::trace::take_ray_log() {
                 assert!(r.d.z.abs() < 1e-12 && r.o.z.abs() < 1e-12, "{r:?}");
                 logged += 1;
             }
@@ -922,7 +917,7 @@ fn flatland_directions_stay_in_the_plane() {
     for _ in 0..50_000 {
         let x = in_plane_2d(&pl, -2.5 + 5.0 * s.next_f64(), 0.05 + 2.3 * s.next_f64());
         let dir = pl.sample_circle(s.next_f64());
-        if let Some(w) = walk_k::<AllFeaturesFlat>(&scene, x, dir, 6.0, 32, &mut s) {
+        if let Some(w) = walk::<RadianceFlat>(&scene, x, dir, 6.0, 32, &mut s) {
             assert!(
                 pl.distance(w.end).abs() < 1e-12 * (1.0 + w.end.length()),
                 "{}",
@@ -937,9 +932,11 @@ fn flatland_directions_stay_in_the_plane() {
 // ------------------------------------------------------------------------------------------------
 // Kernels, the mirror, the command line
 
-/// The kernel specialised to a flatland scene gives the all-features flatland result bit for bit.
+/// Flatland runs take the flatland kernels (with radiance estimates exactly when weighted by
+/// radiance), and say so in their metadata; a flatland estimator on a scene prepared for another
+/// plane is refused.
 #[test]
-fn specialised_flatland_kernels_match_all_features_bit_for_bit() {
+fn flatland_runs_use_the_flatland_kernels() {
     let mut mirrors = load_scene(&scene_path("flat_mirrors.obj")).unwrap();
     let plane = Plane::axis_slice(&mirrors.bounds, "z=0".parse().unwrap(), None, 12).unwrap();
     let fl = Flatland::of_plane(&plane);
@@ -948,27 +945,40 @@ fn specialised_flatland_kernels_match_all_features_bit_for_bit() {
     let zplane = Plane::axis_slice(&zs.bounds, "z=0".parse().unwrap(), None, 12).unwrap();
     zs.prepare_flatland(Flatland::of_plane(&zplane), "z=0")
         .unwrap();
-    for (scene, plane, weighting) in [
-        (&mirrors, &plane, Weighting::Radiance),
-        (&zs, &zplane, Weighting::Radiance),
-        (&zs, &zplane, Weighting::Unweighted),
+    for (scene, plane, weighting, kernel) in [
+        (
+            &mirrors,
+            &plane,
+            Weighting::Radiance,
+            "kernel<+radiance +flatland>",
+        ),
+        (
+            &zs,
+            &zplane,
+            Weighting::Radiance,
+            "kernel<+radiance +flatland>",
+        ),
+        (
+            &zs,
+            &zplane,
+            Weighting::Unweighted,
+            "kernel<-radiance +flatland>",
+        ),
     ] {
         let p = params(weighting, Flatland::of_plane(plane));
-        let spec = kernel_choice(scene, &p, true);
-        let all = kernel_choice(scene, &p, false);
-        assert!(spec.flatland && all.flatland);
-        let a = run_plane_with(scene, plane, &p, &opts(8, 2), spec)
-            .unwrap()
-            .0;
-        let b = run_plane_with(scene, plane, &p, &opts(8, 2), all)
-            .unwrap()
-            .0;
-        assert_eq!(a.cells, b.cells, "{spec}");
+        let a = run_plane(scene, plane, &p, &opts(8, 2)).unwrap().0;
         assert_eq!(a.meta["flatland"], "true");
-        assert!(a.meta["kernel"].contains("+flatland"));
-        // A 3D kernel cannot run a flatland estimator.
-        assert!(run_plane_with(scene, plane, &p, &opts(1, 2), spec.with_flatland(false)).is_err());
+        assert_eq!(a.meta["kernel"], kernel);
+        assert!(a.cells.iter().any(|c| c.n > 0));
     }
+    // The mirrors' scene was prepared for z = 0: a flatland run in z = 0.1 is refused.
+    let other = Plane::axis_slice(&mirrors.bounds, "z=0.1".parse().unwrap(), None, 12).unwrap();
+    let p = params(Weighting::Radiance, Flatland::of_plane(&other));
+    let e = run_plane(&mirrors, &other, &p, &opts(1, 2)).unwrap_err();
+    assert!(
+        format!("{e:#}").contains("not prepared for this plane"),
+        "{e:#}"
+    );
 }
 
 /// A planar mirror is an isometry in flatland too: pairs whose walks both reflect (or both go
@@ -988,7 +998,7 @@ fn flatland_mirror_is_an_isometry() {
     let mut s = Sampler::new(11, 0, 0);
     let (mut both, mut worst) = (0, 0.0f64);
     for _ in 0..50_000 {
-        let smp = sample_at(&scene, DVec3::new(0.0, 0.3, 0.0), &p, &mut s);
+        let smp = sample_point(&scene, DVec3::new(0.0, 0.3, 0.0), &p, &mut s);
         if smp.bounces.0 == smp.bounces.1 {
             worst = worst.max(smp.delta.abs());
             both += (smp.bounces == (1, 1)) as u32;

@@ -6,7 +6,7 @@ use ftpd3d::app::{load_scene, run_plane};
 use ftpd3d::domain::Plane;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::moments::Moments;
-use ftpd3d::ftpd::{Params, Weighting, sample_at};
+use ftpd3d::ftpd::{Params, Weighting, sample_point};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::Scene;
@@ -76,7 +76,7 @@ fn pair_deltas(scene: &Scene, h: f64, p: &Params, n: usize) -> Vec<(f64, (u32, u
     let mut s = Sampler::new(11, 0, 0);
     (0..n)
         .map(|_| {
-            let smp = sample_at(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
+            let smp = sample_point(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
             (smp.delta, smp.bounces)
         })
         .collect()
@@ -113,7 +113,7 @@ fn moments_where(
         let mut s = Sampler::new(21, batch, 0);
         let mut b = Moments::default();
         for _ in 0..4000 {
-            let smp = sample_at(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
+            let smp = sample_point(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
             if keep(smp.bounces) {
                 b.add_sample(smp.c, smp.delta, smp.weight);
             }
@@ -243,39 +243,6 @@ fn exr_round_trip_equals_the_field() {
     assert!(valid.iter().all(|v| *v == 0.0 || *v == 1.0));
     assert!(sigma.iter().all(|s| s.is_finite()));
     std::fs::remove_dir_all(&dir).ok();
-}
-
-#[test]
-fn specialised_kernels_give_the_all_features_result_bit_for_bit() {
-    use ftpd3d::app::{kernel_choice, run_plane_with};
-    for (name, weighting) in [
-        ("stair_wall.obj", Weighting::Radiance),
-        ("cornell_mirror.obj", Weighting::Radiance),
-        ("glass_sphere.obj", Weighting::Radiance),
-        ("glossy_panels.obj", Weighting::Unweighted),
-        ("plane_point.toml", Weighting::Radiance),
-    ] {
-        let scene = load_scene(&scene_path(name)).unwrap();
-        let plane = Plane::axis_slice(&scene.bounds, "z=0".parse().unwrap(), None, 12).unwrap();
-        let p = Params {
-            t0: 0.2,
-            t1: 2.0,
-            theta_max: 0.1,
-            weighting,
-            max_bounces: 16,
-            flat: None,
-        };
-        let spec = kernel_choice(&scene, &p, true);
-        let all = kernel_choice(&scene, &p, false);
-        assert_ne!(spec, all, "{name}: a specialised kernel exists");
-        let a = run_plane_with(&scene, &plane, &p, &opts(8, 2, 0), spec)
-            .unwrap()
-            .0;
-        let b = run_plane_with(&scene, &plane, &p, &opts(8, 2, 0), all)
-            .unwrap()
-            .0;
-        assert_eq!(a.cells, b.cells, "{name}: {spec}");
-    }
 }
 
 #[test]

@@ -5,7 +5,7 @@
 use crate::geometry::scene_path;
 use ftpd3d::ftpd::moments::Moments;
 use ftpd3d::ftpd::reference::sample_reference;
-use ftpd3d::ftpd::{Params, Weighting, sample_at};
+use ftpd3d::ftpd::{Params, Weighting, sample_point};
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::{Features, Scene};
 use glam::DVec3;
@@ -66,7 +66,7 @@ fn mis_radiance_weighting_matches_the_reference() {
             let mut s = Sampler::new(100 + k as u64, b, 0);
             let mut m = Moments::default();
             for _ in 0..n {
-                let smp = sample_at(&scene, *x, &p, &mut s);
+                let smp = sample_point(&scene, *x, &p, &mut s);
                 m.add_sample(smp.c, smp.delta, smp.weight);
             }
             m

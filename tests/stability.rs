@@ -10,7 +10,8 @@ use crate::geometry::{scene_path, translated};
 use ftpd3d::app::{load_scene, run_plane};
 use ftpd3d::domain::Plane;
 use ftpd3d::ftpd::moments::{CellValue, Moments};
-use ftpd3d::ftpd::{Params, Weighting, sample_at};
+use ftpd3d::ftpd::{Params, Weighting, sample_point};
+use ftpd3d::kernel::Plain3D;
 use ftpd3d::math::{Rgb, is_finite3};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
@@ -55,7 +56,7 @@ fn run_point(
         let mut s = Sampler::new(seed, batch, 0);
         let mut b = Moments::default();
         for _ in 0..per_batch {
-            let smp = sample_at(scene, x, p, &mut s);
+            let smp = sample_point(scene, x, p, &mut s);
             assert!(
                 smp.c.is_finite()
                     && smp.c >= 0.0
@@ -358,7 +359,7 @@ fn stability_grazing_walks_never_leave_a_closed_room() {
                 for a in [-1e-6f64, -1e-9, 0.0, 1e-9, 1e-6] {
                     let d = (along * a.cos() + n * a.sin()).normalize();
                     for t in [0.5, 3.0, 20.0] {
-                        let Some(w) = walk(&scene, x, d, t, 64, &mut s) else {
+                        let Some(w) = walk::<Plain3D>(&scene, x, d, t, 64, &mut s) else {
                             continue;
                         };
                         walks += 1;
@@ -389,7 +390,7 @@ fn stability_grazing_walks_never_leave_a_closed_room() {
             scene.off_surfaces(DVec3::new(a, b, c))
         };
         let d = ftpd3d::transport::sampling::sample_uniform_sphere(s.next_2d());
-        if let Some(w) = walk(&scene, x, d, 20.0, 64, &mut s) {
+        if let Some(w) = walk::<Plain3D>(&scene, x, d, 20.0, 64, &mut s) {
             assert!(
                 w.end.cmpge(lo - tol).all() && w.end.cmple(hi + tol).all(),
                 "walk from {x} along {d} left the room: {w:?}"
@@ -414,7 +415,7 @@ fn stability_grazing_pairs_match_their_neighbours() {
             let mut s = Sampler::new(seed, batch, 0);
             let mut b = Moments::default();
             for _ in 0..3000 {
-                let smp = pair_from(&scene, x, omega, 1.5, Rgb::ONE, &p, &mut s);
+                let smp = pair_from::<Plain3D>(&scene, x, omega, 1.5, Rgb::ONE, &p, &mut s);
                 assert!(smp.c.is_finite() && smp.delta.is_finite(), "{smp:?}");
                 b.add_sample(smp.c, smp.delta, smp.weight);
             }
@@ -447,8 +448,8 @@ fn stability_grazing_pairs_match_their_neighbours() {
         let omega = DVec3::new(a.cos(), -a.sin(), 0.0);
         let (omega2, chord, r) = perturb(omega, omc, thm, s.next_2d());
         let (Some(wa), Some(wb)) = (
-            walk(&mirror, x, omega, 3.0, 8, &mut s),
-            walk(&mirror, x, omega2, 3.0, 8, &mut s),
+            walk::<Plain3D>(&mirror, x, omega, 3.0, 8, &mut s),
+            walk::<Plain3D>(&mirror, x, omega2, 3.0, 8, &mut s),
         ) else {
             panic!("a mirror walk was absorbed");
         };
@@ -519,7 +520,7 @@ fn stability_thin_double_sided_wall_matches_a_single_plane() {
         let x = DVec3::new(0.2, 10.0 + h, -0.1);
         for _ in 0..20_000 {
             let d = ftpd3d::transport::sampling::sample_uniform_sphere(s.next_2d());
-            if let Some(w) = walk(&slab, x, d, 2.0, 32, &mut s) {
+            if let Some(w) = walk::<Plain3D>(&slab, x, d, 2.0, 32, &mut s) {
                 let side = (w.end.y - 10.0) * h.signum();
                 assert!(
                     side > -1e-4,
@@ -819,7 +820,7 @@ fn stability_translated_by_1e4_equals_the_original() {
         let u = DVec3::new(s.next_f64(), s.next_f64(), s.next_f64());
         let x = lo + (hi - lo) * u;
         let dir = ftpd3d::transport::sampling::sample_uniform_sphere(s.next_2d());
-        if let Some(w) = walk(&far, far.off_surfaces(x), dir, 20.0, 64, &mut s) {
+        if let Some(w) = walk::<Plain3D>(&far, far.off_surfaces(x), dir, 20.0, 64, &mut s) {
             assert!(
                 w.end.cmpge(lo - tol).all() && w.end.cmple(hi + tol).all(),
                 "walk from {x} along {dir} left the translated room: {w:?}"

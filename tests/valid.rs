@@ -9,7 +9,8 @@
 use crate::geometry::scene_path;
 use ftpd3d::app::load_scene;
 use ftpd3d::ftpd::moments::{Moments, sigma_from};
-use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_at};
+use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_point};
+use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::Rgb;
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::{Features, Material, Scene};
@@ -316,7 +317,7 @@ fn valid_furnace_radiance_is_le_over_one_minus_albedo() {
                 let mut st = RadianceStats::default();
                 let mut acc = Acc::default();
                 for _ in 0..n {
-                    let l = radiance(&scene, x, dir, DEEP, &mut s, &mut st).total();
+                    let l = radiance::<Radiance3D>(&scene, x, dir, DEEP, &mut s, &mut st).total();
                     assert_eq!(l.x, l.z);
                     acc.add(l.x);
                 }
@@ -349,7 +350,11 @@ fn valid_furnace_fluence_is_four_pi_le_over_one_minus_albedo() {
             let mut acc = Acc::default();
             let mut rays = 0;
             for _ in 0..n {
-                acc.add(radiance_direction(&scene, x, DEEP, &mut s, &mut rays).1.x);
+                acc.add(
+                    radiance_direction::<Radiance3D>(&scene, x, DEEP, &mut s, &mut rays)
+                        .1
+                        .x,
+                );
             }
             check(
                 &format!("furnace a = {a}, point {pi}: fluence"),
@@ -406,7 +411,9 @@ fn valid_point_light_on_plane_radiance_is_exact() {
         let reference = point_lit_radiance(y);
         let mut worst: f64 = 0.0;
         for _ in 0..256 {
-            let l = radiance(&scene, x, look, DEEP, &mut s, &mut st).total().x;
+            let l = radiance::<Radiance3D>(&scene, x, look, DEEP, &mut s, &mut st)
+                .total()
+                .x;
             worst = worst.max((l / reference - 1.0).abs());
         }
         println!("point light, y = {y}: L = {reference:.9}, worst relative error {worst:.1e}");
@@ -490,7 +497,11 @@ fn valid_point_light_on_plane_fluence_matches_quadrature() {
     let mut acc = Acc::default();
     let mut rays = 0;
     for _ in 0..n {
-        acc.add(radiance_direction(&scene, x, DEEP, &mut s, &mut rays).1.x);
+        acc.add(
+            radiance_direction::<Radiance3D>(&scene, x, DEEP, &mut s, &mut rays)
+                .1
+                .x,
+        );
     }
     // The quadrature error must be negligible against the statistical tolerance.
     assert!((fine - coarse).abs() < 1e-3 * acc.stderr());
@@ -601,7 +612,11 @@ fn valid_area_light_on_plane_matches_lambert_and_quadrature() {
         let mut st = RadianceStats::default();
         let mut acc = Acc::default();
         for _ in 0..n {
-            acc.add(radiance(&scene, x, look, DEEP, &mut s, &mut st).total().x);
+            acc.add(
+                radiance::<Radiance3D>(&scene, x, look, DEEP, &mut s, &mut st)
+                    .total()
+                    .x,
+            );
         }
         check(
             &format!("area light, y = {y}: reflected radiance"),
@@ -843,7 +858,7 @@ fn run_ftpd(
         let mut s = Sampler::new(seed, batch, 0);
         let mut b = Moments::default();
         for _ in 0..per_batch {
-            let smp = sample_at(scene, x, p, &mut s);
+            let smp = sample_point(scene, x, p, &mut s);
             b.add_sample(smp.c, smp.delta, smp.weight);
             run.c.add(smp.c);
         }

@@ -271,7 +271,6 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
         },
         point_lights: vec![],
         flatland: false,
-        tile: None,
         checkpoint_every: None,
         resume: None,
         command: None,

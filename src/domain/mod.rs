@@ -6,21 +6,22 @@ pub mod tile;
 pub mod volume;
 pub use camera::CameraView;
 pub use slice::{Axis, Plane};
-pub use tile::{Stripe, Tile};
+pub use tile::Tile;
 pub use volume::{Volume, VolumeRes};
 
-use crate::ftpd::{self, Params, Sample};
-use crate::kernel::Kernel;
+use crate::ftpd::Start;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 
-/// A grid of cells over which FTPD is estimated (see [`crate::app::run_domain_with`], which
-/// dispatches the kernel once for any domain).
+/// A grid of cells over which FTPD is estimated. Object-safe: the driver runs any domain through
+/// `&dyn Domain`, and only the four kernels ([`crate::kernel`]) are compiled, not one copy per
+/// domain type.
 pub trait Domain: Sync {
     /// Grid size (width, height, depth); cells are numbered x fastest.
     fn dims(&self) -> (usize, usize, usize);
-    /// One sample for `cell` with kernel `K`, drawn from the cell's stream `s`.
-    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample;
+    /// Where one sample for `cell` starts, drawn from the cell's stream `s` (the estimator goes on
+    /// drawing from the same stream).
+    fn start(&self, scene: &Scene, cell: usize, s: &mut Sampler) -> Start;
 }
 
 impl Domain for Plane {
@@ -28,9 +29,8 @@ impl Domain for Plane {
         (self.width, self.height, 1)
     }
     #[inline]
-    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
-        let x = self.point(cell, s.next_2d());
-        ftpd::sample_at_k::<K>(scene, x, p, s)
+    fn start(&self, _scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
+        Start::Point(self.point(cell, s.next_2d()))
     }
 }
 
@@ -44,9 +44,8 @@ impl Domain for PlaneOnSurfaces<'_> {
         self.0.dims()
     }
     #[inline]
-    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
-        let x = scene.off_surfaces(self.0.point(cell, s.next_2d()));
-        ftpd::sample_at_k::<K>(scene, x, p, s)
+    fn start(&self, scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
+        Start::Point(scene.off_surfaces(self.0.point(cell, s.next_2d())))
     }
 }
 
@@ -55,10 +54,9 @@ impl Domain for Volume {
         (self.nx, self.ny, self.nz)
     }
     #[inline]
-    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
+    fn start(&self, _scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
         let (a, b) = s.next_2d();
-        let x = self.point(cell, (a, b, s.next_f64()));
-        ftpd::sample_at_k::<K>(scene, x, p, s)
+        Start::Point(self.point(cell, (a, b, s.next_f64())))
     }
 }
 
@@ -67,25 +65,27 @@ impl Domain for CameraView {
         (self.width, self.height, 1)
     }
     #[inline]
-    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
-        let d = self.direction(cell, s.next_2d());
-        ftpd::sample_camera_k::<K>(scene, self.camera.eye, d, p, s)
+    fn start(&self, _scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
+        Start::Eye {
+            eye: self.camera.eye,
+            dir: self.direction(cell, s.next_2d()),
+        }
     }
 }
 
 /// Some cells of another domain, by index (cell `k` here is cell `cells[k]` there): the ETA
 /// calibration samples a few random voxels of a volume through it.
-pub struct Subset<'a, D> {
-    pub inner: &'a D,
+pub struct Subset<'a> {
+    pub inner: &'a dyn Domain,
     pub cells: Vec<usize>,
 }
 
-impl<D: Domain> Domain for Subset<'_, D> {
+impl Domain for Subset<'_> {
     fn dims(&self) -> (usize, usize, usize) {
         (self.cells.len(), 1, 1)
     }
     #[inline]
-    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
-        self.inner.sample::<K>(scene, self.cells[cell], p, s)
+    fn start(&self, scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
+        self.inner.start(scene, self.cells[cell], s)
     }
 }

@@ -1,22 +1,13 @@
-//! Tiles: one horizontal stripe of a domain's grid, for splitting a run over jobs (`--tile i/N`).
+//! Tiles: one stripe of a domain's grid, for splitting a run over jobs (`--tile i/N`).
 //!
 //! Stripe `i` of `N` holds the rows `⌊i·H/N⌋ .. ⌊(i+1)·H/N⌋` of a grid of height H (field row 0 is the
-//! bottom, v minimal, so stripe 0 is the bottom of the image). A tile run keeps the **full grid**: the
-//! cells of its stripe are sampled with exactly the streams of a full run (a cell's stream is keyed
-//! by its global index), every other cell stays empty (no samples). Tiles therefore merge by plain
-//! addition, and merging all N tiles of one seed gives the full run bit for bit.
-//!
-//! The driver ([`crate::render`]) runs every cell; [`Stripe`] answers cells outside the stripe with
-//! an empty sample (no rays, no random numbers used) and [`Tile::finish`] clears them afterwards.
+//! bottom, v minimal, so stripe 0 is the bottom of the image); for volumes the rows are the z
+//! layers, so a stripe is a slab of whole layers. Either way a stripe is one contiguous range of
+//! cell indices ([`Tile::cells`]), and the driver ([`crate::render`]) samples exactly those cells, with
+//! the streams of a full run (a cell's stream is keyed by its global index). A tile run keeps the
+//! **full grid**, with every other cell empty, so tiles merge by plain addition and merging all N
+//! tiles of one seed gives the full run bit for bit.
 
-use super::Domain;
-use crate::field::Field;
-use crate::ftpd::moments::Moments;
-use crate::ftpd::{Params, Sample};
-use crate::kernel::Kernel;
-use crate::render::RunStats;
-use crate::rng::Sampler;
-use crate::scene::Scene;
 use std::fmt;
 use std::ops::Range;
 use std::str::FromStr;
@@ -71,59 +62,16 @@ impl Tile {
         format!("_tile{}of{}", self.index, self.count)
     }
 
-    /// After a run over `Stripe::new(domain, self)`: empties the cells outside the stripe, counts
-    /// only the stripe's samples and records the tile in the metadata.
-    pub fn finish(&self, field: &mut Field, stats: &mut RunStats, spp: u32) {
-        let rows = self.rows(field.height);
-        let w = field.width;
-        let mut inside = 0u64;
-        for (k, cell) in field.cells.iter_mut().enumerate() {
-            if rows.contains(&((k / w) % field.height)) {
-                inside += 1;
-            } else {
-                *cell = Moments::default();
-            }
-        }
-        stats.samples = inside * spp as u64;
-        field.meta.insert("tile".into(), self.to_string());
-    }
-}
-
-/// A domain restricted to one tile's rows: same grid, same per-cell streams, empty samples outside.
-pub struct Stripe<'a, D> {
-    inner: &'a D,
-    rows: Range<usize>,
-    width: usize,
-    height: usize,
-}
-
-impl<'a, D: Domain> Stripe<'a, D> {
-    pub fn new(inner: &'a D, tile: Tile) -> Self {
-        let (width, height, _) = inner.dims();
-        Stripe {
-            inner,
-            rows: tile.rows(height),
-            width: width.max(1),
-            height: height.max(1),
-        }
-    }
-
-    /// Rows sampled.
-    pub fn rows(&self) -> Range<usize> {
-        self.rows.clone()
-    }
-}
-
-impl<D: Domain> Domain for Stripe<'_, D> {
-    fn dims(&self) -> (usize, usize, usize) {
-        self.inner.dims()
-    }
-    #[inline]
-    fn sample<K: Kernel>(&self, scene: &Scene, cell: usize, p: &Params, s: &mut Sampler) -> Sample {
-        if self.rows.contains(&((cell / self.width) % self.height)) {
-            self.inner.sample::<K>(scene, cell, p, s)
+    /// The cells of a grid of `width` × `height` × `depth` (x fastest) that this tile covers: the
+    /// rows of a 2D grid, the z layers of a volume.
+    pub fn cells(&self, width: usize, height: usize, depth: usize) -> Range<usize> {
+        if depth > 1 {
+            let r = self.rows(depth);
+            let layer = width * height;
+            r.start * layer..r.end * layer
         } else {
-            Sample::default()
+            let r = self.rows(height);
+            r.start * width..r.end * width
         }
     }
 }
@@ -165,6 +113,9 @@ mod tests {
         assert!("0/0".parse::<Tile>().unwrap_err().contains("at least 1"));
         assert!("a/2".parse::<Tile>().is_err());
         assert!("3".parse::<Tile>().is_err());
+        let t = Tile { index: 1, count: 3 };
+        assert_eq!(t.cells(4, 6, 1), 8..16);
+        assert_eq!(t.cells(4, 6, 3), 24..48);
         assert_eq!(
             Tile {
                 index: 3,

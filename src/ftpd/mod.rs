@@ -13,16 +13,18 @@
 //! (density 1/2π), ω' is ω turned by an angle uniform in [−θmax, θmax], and all densities are per
 //! radian ([`crate::transport::flat`]).
 
+pub mod effects;
 pub mod moments;
 pub mod reference;
 
-use crate::kernel::{AllFeatures, Kernel};
+use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
 use crate::math::{Frame, Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::transport::flat::{self, Flatland};
 use crate::transport::sampling::{sample_uniform_cone_1mc, sample_uniform_sphere};
-use crate::transport::walk::{RadianceStats, radiance_k, walk_counted_k};
+use crate::transport::trace;
+use crate::transport::walk::{RadianceStats, radiance, walk_counted};
 use glam::DVec3;
 use std::fmt;
 
@@ -159,19 +161,8 @@ pub const UNIFORM_FRACTION: f64 = 0.5;
 /// - everything else that a path from `x` towards −ω collects (reflected light, including light of
 ///   point lights reflected by the first surface): uniform directions only;
 /// - point lights seen directly: Dirac deltas in ω, produced by light sampling only.
-pub fn radiance_direction(
-    scene: &Scene,
-    x: DVec3,
-    max_bounces: u32,
-    s: &mut Sampler,
-    rays: &mut u32,
-) -> (DVec3, Rgb) {
-    radiance_direction_k::<AllFeatures>(scene, x, max_bounces, s, rays)
-}
-
-/// [`radiance_direction`] for kernel `K`.
 #[inline]
-pub fn radiance_direction_k<K: Kernel>(
+pub fn radiance_direction<K: Kernel>(
     scene: &Scene,
     x: DVec3,
     max_bounces: u32,
@@ -205,15 +196,15 @@ pub fn radiance_direction_k<K: Kernel>(
     if strategy < alpha {
         let omega = uniform(u);
         // Light passing x along ω arrives from −ω.
-        let r = radiance_k::<K>(scene, x, -omega, max_bounces, s, &mut st);
+        let r = radiance::<K>(scene, x, -omega, max_bounces, s, &mut st);
         *rays += st.rays;
         let direct = r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf);
         return (omega, direct + r.rest / p_uniform);
     }
     let sample = if K::FLATLAND {
-        scene.flat().lights.sample_k::<K>(x, u_l, u.0)
+        scene.flat().lights.sample(x, u_l, u.0)
     } else {
-        lights.sample_k::<K>(x, u_l, u)
+        lights.sample(x, u_l, u)
     };
     let Some(ls) = sample else {
         // A light that faces away: this strategy contributes nothing here.
@@ -221,7 +212,7 @@ pub fn radiance_direction_k<K: Kernel>(
     };
     let omega = -ls.wi;
     *rays += 1;
-    if !scene.visible_k::<K>(x, x + ls.wi * ls.dist) {
+    if !trace::visible::<K>(scene, x, x + ls.wi * ls.dist) {
         return (omega, Rgb::ZERO);
     }
     let weight = if ls.delta {
@@ -232,42 +223,73 @@ pub fn radiance_direction_k<K: Kernel>(
     (omega, weight)
 }
 
-/// One FTPD sample at `x` with start direction drawn by the estimator (slice and volume domains).
-/// Uses the unspecialised kernel for the weighting (in flatland when `p.flat` is set); see
-/// [`sample_at_k`]. `x` may lie on a surface (it then starts on the surface's front side,
-/// [`Scene::off_surfaces`]).
-pub fn sample_at(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
-    let x = scene.off_surfaces(x);
-    use crate::kernel::{AllButRadiance, AllButRadianceFlat, AllFeaturesFlat};
-    let radiance = p.weighting == Weighting::Radiance;
-    match (radiance, p.flat.is_some()) {
-        (true, false) => sample_at_k::<AllFeatures>(scene, x, p, s),
-        (false, false) => sample_at_k::<AllButRadiance>(scene, x, p, s),
-        (true, true) => sample_at_k::<AllFeaturesFlat>(scene, x, p, s),
-        (false, true) => sample_at_k::<AllButRadianceFlat>(scene, x, p, s),
+/// Where a sample starts: what a domain gives the estimator for one cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Start {
+    /// A point off every surface; the estimator draws the direction ([`sample_at`]).
+    Point(DVec3),
+    /// A camera: the pair starts at `eye` along `dir` ([`sample_camera`]).
+    Eye { eye: DVec3, dir: DVec3 },
+}
+
+/// One sample from `start` with kernel `K` ([`sample_at`] or [`sample_camera`]).
+#[inline]
+pub fn sample<K: Kernel>(scene: &Scene, start: Start, p: &Params, s: &mut Sampler) -> Sample {
+    match start {
+        Start::Point(x) => sample_at::<K>(scene, x, p, s),
+        Start::Eye { eye, dir } => sample_camera::<K>(scene, eye, dir, p, s),
     }
 }
 
-/// [`sample_at`] for kernel `K`, which must cover the scene's features and `p.weighting`
-/// (radiance weighting exactly when `K::RADIANCE`), and be a flatland kernel exactly when `p.flat`
-/// is set (then `x` lies in that plane and the scene is prepared for it).
+/// The kernel `p` needs: radiance estimates for radiance weighting and for the beauty image of
+/// camera runs, flatland exactly when `p.flat` is set.
+pub fn kernel_for(p: &Params) -> KernelChoice {
+    KernelChoice {
+        radiance: matches!(p.weighting, Weighting::Radiance | Weighting::Importance),
+        flatland: p.flat.is_some(),
+    }
+}
+
+/// One sample at the point `x` with the kernel `p` needs ([`kernel_for`]), for callers that do not
+/// choose a kernel themselves (tests, single points). `x` may lie on a surface: it starts on the
+/// surface's front side ([`Scene::off_surfaces`]).
+pub fn sample_point(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
+    struct Point<'a> {
+        scene: &'a Scene,
+        x: DVec3,
+        p: &'a Params,
+        s: &'a mut Sampler,
+    }
+    impl WithKernel for Point<'_> {
+        type Output = Sample;
+        fn run<K: Kernel>(self) -> Sample {
+            sample_at::<K>(self.scene, self.x, self.p, self.s)
+        }
+    }
+    let x = scene.off_surfaces(x);
+    kernel::dispatch(kernel_for(p), Point { scene, x, p, s })
+}
+
+/// One FTPD sample at `x` with start direction drawn by the estimator (slice and volume domains),
+/// with kernel `K`: radiance weighting needs `K::RADIANCE`, and `K` is a flatland kernel exactly
+/// when `p.flat` is set (then `x` lies in that plane and the scene is prepared for it).
 /// `x` must not lie on a surface (within the float error bound): domains whose points may, move
 /// them first with [`Scene::off_surfaces`].
 #[inline]
-pub fn sample_at_k<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
+pub fn sample_at<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
     debug_assert!(K::RADIANCE || p.weighting != Weighting::Radiance);
     debug_assert_eq!(K::FLATLAND, p.flat.is_some());
     debug_assert!(!K::FLATLAND || p.flat == Some(scene.flat().plane));
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
     let mut rays = 0;
     let (omega, weight) = if K::RADIANCE && p.weighting == Weighting::Radiance {
-        radiance_direction_k::<K>(scene, x, p.max_bounces, s, &mut rays)
+        radiance_direction::<K>(scene, x, p.max_bounces, s, &mut rays)
     } else if K::FLATLAND {
         (flat_plane(p).sample_circle(s.next_2d().0), Rgb::ONE)
     } else {
         (sample_uniform_sphere(s.next_2d()), Rgb::ONE)
     };
-    let mut out = pair_from_k::<K>(scene, x, omega, t, weight, p, s);
+    let mut out = pair_from::<K>(scene, x, omega, t, weight, p, s);
     out.rays += rays;
     out
 }
@@ -276,7 +298,7 @@ pub fn sample_at_k<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampl
 /// along the pixel direction `omega` with weight 1; `weight` of the result carries the radiance
 /// arriving along the same primary ray (a plain path-traced beauty image), not the pair's weight.
 #[inline]
-pub fn sample_camera_k<K: Kernel>(
+pub fn sample_camera<K: Kernel>(
     scene: &Scene,
     eye: DVec3,
     omega: DVec3,
@@ -284,10 +306,10 @@ pub fn sample_camera_k<K: Kernel>(
     s: &mut Sampler,
 ) -> Sample {
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
-    let mut out = pair_from_k::<K>(scene, eye, omega, t, Rgb::ONE, p, s);
+    let mut out = pair_from::<K>(scene, eye, omega, t, Rgb::ONE, p, s);
     if K::RADIANCE {
         let mut st = RadianceStats::default();
-        out.weight = radiance_k::<K>(scene, eye, omega, p.max_bounces, s, &mut st).total();
+        out.weight = radiance::<K>(scene, eye, omega, p.max_bounces, s, &mut st).total();
         out.rays += st.rays;
     } else {
         out.weight = Rgb::ZERO;
@@ -304,21 +326,8 @@ fn flat_plane(p: &Params) -> &Flatland {
 }
 
 /// The deflection pair for a given start point, direction ω, run length and weight.
-pub fn pair_from(
-    scene: &Scene,
-    x: DVec3,
-    omega: DVec3,
-    t: f64,
-    weight: Rgb,
-    p: &Params,
-    s: &mut Sampler,
-) -> Sample {
-    pair_from_k::<AllFeatures>(scene, x, omega, t, weight, p, s)
-}
-
-/// [`pair_from`] for kernel `K`.
 #[inline]
-pub fn pair_from_k<K: Kernel>(
+pub fn pair_from<K: Kernel>(
     scene: &Scene,
     x: DVec3,
     omega: DVec3,
@@ -347,8 +356,8 @@ pub fn pair_from_k<K: Kernel>(
         // No light passes here in this direction: the pair carries no weight; skip tracing it.
         return out;
     }
-    let (a, rays_a) = walk_counted_k::<K>(scene, x, omega, t, p.max_bounces, s);
-    let (b, rays_b) = walk_counted_k::<K>(scene, x, omega2, t, p.max_bounces, s);
+    let (a, rays_a) = walk_counted::<K>(scene, x, omega, t, p.max_bounces, s);
+    let (b, rays_b) = walk_counted::<K>(scene, x, omega2, t, p.max_bounces, s);
     out.rays += rays_a + rays_b;
     let (Some(a), Some(b)) = (a, b) else {
         return out;

@@ -8,6 +8,7 @@
 //! sample, its own deflection pair along its exact direction with weight `I / d² · V`.
 
 use super::{Params, pair_from};
+use crate::kernel::Plain3D;
 use crate::math::Rgb;
 use crate::rng::Sampler;
 use crate::scene::{Light, Scene};
@@ -26,7 +27,7 @@ pub fn sample_reference(
     let omega = sample_uniform_sphere(s.next_2d());
     let l = radiance_plain(scene, x, -omega, p.max_bounces, s);
     let mut out = Vec::new();
-    let smp = pair_from(scene, x, omega, t, l * (4.0 * std::f64::consts::PI), p, s);
+    let smp = pair_from::<Plain3D>(scene, x, omega, t, l * (4.0 * std::f64::consts::PI), p, s);
     out.push((smp.c, smp.delta, smp.weight));
     for light in &scene.lights.lights {
         if let Light::Point {
@@ -43,7 +44,7 @@ pub fn sample_reference(
             } else {
                 Rgb::ZERO
             };
-            let smp = pair_from(scene, x, -wi, t, w, p, s);
+            let smp = pair_from::<Plain3D>(scene, x, -wi, t, w, p, s);
             out.push((smp.c, smp.delta, smp.weight));
         }
     }

@@ -257,18 +257,8 @@ impl LightSet {
 
     /// Samples a light point as seen from `x`. `None` when there are no lights or the point faces
     /// away (back of a one-sided emitter).
-    pub fn sample(&self, x: DVec3, u_light: f64, u: (f64, f64)) -> Option<LightSample> {
-        self.sample_k::<crate::kernel::AllFeatures>(x, u_light, u)
-    }
-
-    /// [`sample`](Self::sample) for kernel `K` (no point-light branch when it has none).
     #[inline]
-    pub fn sample_k<K: crate::kernel::Kernel>(
-        &self,
-        x: DVec3,
-        u_light: f64,
-        u: (f64, f64),
-    ) -> Option<LightSample> {
+    pub fn sample(&self, x: DVec3, u_light: f64, u: (f64, f64)) -> Option<LightSample> {
         let (i, p_choice) = self.choice.pick(u_light)?;
         match &self.lights[i] {
             Light::Triangle {
@@ -285,8 +275,7 @@ impl LightSet {
             Light::Point {
                 position,
                 intensity,
-            } if K::POINT_LIGHTS => connect_point(x, *position, *intensity, p_choice, 3),
-            Light::Point { .. } => None,
+            } => connect_point(x, *position, *intensity, p_choice, 3),
         }
     }
 

@@ -287,62 +287,53 @@ impl Scene {
     /// Closest hit along the ray `o + t d` (d unit) for t in (0, tmax).
     #[inline]
     pub fn intersect(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
-        self.intersect_k::<crate::kernel::AllFeatures>(o, d, tmax)
+        self.intersect_with::<false>(o, d, tmax)
     }
 
-    /// [`intersect`](Self::intersect) for kernel `K` (no shading-normal interpolation when the
-    /// kernel has none).
+    /// [`intersect`](Self::intersect) for flatland: the hit's normals are projected into the plane
+    /// the scene was prepared for ([`prepare_flatland`](Self::prepare_flatland)), so scattered
+    /// directions stay in it.
     #[inline]
-    pub fn intersect_k<K: crate::kernel::Kernel>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmax: f64,
-    ) -> Option<Hit> {
-        if K::RECORD {
-            log_ray(o, d, tmax, false);
-        }
+    pub fn intersect_in_plane(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
+        self.intersect_with::<true>(o, d, tmax)
+    }
+
+    #[inline]
+    fn intersect_with<const FLAT: bool>(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
         let raw = self.accel.intersect(
             o.as_vec3(),
             d.as_vec3(),
             0.0,
             tmax.min(f32::MAX as f64) as f32,
         )?;
-        Some(self.hit_from_raw::<K>(o, d, raw))
+        Some(self.hit_from_raw::<FLAT>(o, d, raw))
+    }
+
+    /// The shadow ray from `o` (a point off any surface, e.g. from [`Hit::spawn_origin`]) to the
+    /// point `target` (e.g. a sampled light point), which may lie on a surface: the ray is aimed at
+    /// `target` itself and stops short of it by its error bound. (Keeping a direction measured from
+    /// an un-offset point would make oblique lights occlude themselves.) `None` when `o` and
+    /// `target` coincide or are not finite: nothing is visible then.
+    #[inline]
+    pub fn shadow_ray(&self, o: DVec3, target: DVec3) -> Option<(DVec3, f64)> {
+        let to = target - o;
+        let len = to.length();
+        if !(len > 0.0) || !len.is_finite() {
+            return None;
+        }
+        Some((to / len, len - self.eps_at(target)))
+    }
+
+    /// True when nothing blocks the segment from `o` to `target` (see [`shadow_ray`](Self::shadow_ray)).
+    #[inline]
+    pub fn visible(&self, o: DVec3, target: DVec3) -> bool {
+        self.shadow_ray(o, target)
+            .is_some_and(|(d, tmax)| !self.occluded(o, d, tmax))
     }
 
     /// True when something blocks the segment from `o` along unit `d` before `tmax`.
     #[inline]
     pub fn occluded(&self, o: DVec3, d: DVec3, tmax: f64) -> bool {
-        self.occluded_k::<crate::kernel::AllFeatures>(o, d, tmax)
-    }
-
-    /// True when nothing blocks the segment from `o` (a point off any surface, e.g. from
-    /// [`Hit::spawn_origin`]) to the point `target` (e.g. a sampled light point), which may lie on
-    /// a surface: the ray is aimed at `target` itself and stops short of it by its error bound.
-    /// (Keeping a direction measured from an un-offset point would make oblique lights occlude
-    /// themselves.)
-    #[inline]
-    pub fn visible_k<K: crate::kernel::Kernel>(&self, o: DVec3, target: DVec3) -> bool {
-        let to = target - o;
-        let len = to.length();
-        if !(len > 0.0) || !len.is_finite() {
-            return false;
-        }
-        !self.occluded_k::<K>(o, to / len, len - self.eps_at(target))
-    }
-
-    /// [`visible_k`](Self::visible_k) with every effect.
-    pub fn visible(&self, o: DVec3, target: DVec3) -> bool {
-        self.visible_k::<crate::kernel::AllFeatures>(o, target)
-    }
-
-    /// [`occluded`](Self::occluded) for kernel `K`.
-    #[inline]
-    pub fn occluded_k<K: crate::kernel::Kernel>(&self, o: DVec3, d: DVec3, tmax: f64) -> bool {
-        if K::RECORD && tmax > 0.0 {
-            log_ray(o, d, tmax, true);
-        }
         tmax > 0.0
             && self.accel.occluded(
                 o.as_vec3(),
@@ -353,7 +344,7 @@ impl Scene {
     }
 
     #[inline]
-    fn hit_from_raw<K: crate::kernel::Kernel>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
+    fn hit_from_raw<const FLAT: bool>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let i = raw.prim as usize;
         let th = &self.tri_hit[i];
         let [pa, pb, pc] = th.p.map(|q| q.as_dvec3());
@@ -391,7 +382,7 @@ impl Scene {
                 (1.0 - u - v) * pa + u * pb + v * pc
             }
         };
-        let ns = if !K::SHADING_NORMALS || self.tri_shading.is_empty() {
+        let ns = if self.tri_shading.is_empty() {
             ng
         } else {
             let [na, nb, nc] = self.tri_shading[i];
@@ -406,7 +397,7 @@ impl Scene {
         };
         // Flatland: normals projected into the plane (the geometric one is in it up to the
         // validated 1e-4; shading normals may point anywhere), so scattered directions stay in it.
-        let (ng, ns) = if K::FLATLAND {
+        let (ng, ns) = if FLAT {
             let pl = &self.flat().plane;
             let ngp = pl.in_plane(ng).unwrap_or(ng);
             let nsp = pl
@@ -731,33 +722,4 @@ impl Scene {
     pub fn accel(&self) -> &Accel {
         &self.accel
     }
-}
-
-/// A ray query as the kernel made it (benchmarks replay these through Embree alone).
-#[derive(Clone, Copy, Debug)]
-pub struct LoggedRay {
-    pub o: Vec3,
-    pub d: Vec3,
-    pub tfar: f32,
-    /// An occlusion (shadow) query rather than a closest-hit query.
-    pub shadow: bool,
-}
-
-thread_local! {
-    static RAY_LOG: std::cell::RefCell<Vec<LoggedRay>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
-fn log_ray(o: DVec3, d: DVec3, tmax: f64, shadow: bool) {
-    let r = LoggedRay {
-        o: o.as_vec3(),
-        d: d.as_vec3(),
-        tfar: tmax.min(f32::MAX as f64) as f32,
-        shadow,
-    };
-    RAY_LOG.with(|l| l.borrow_mut().push(r));
-}
-
-/// Takes this thread's log of rays traced by a recording kernel ([`crate::kernel::Record`]).
-pub fn take_ray_log() -> Vec<LoggedRay> {
-    RAY_LOG.with(|l| std::mem::take(&mut *l.borrow_mut()))
 }

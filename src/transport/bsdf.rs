@@ -167,8 +167,7 @@ impl Bsdf {
     }
 }
 
-/// The Lambertian lobe, shared by the general entry points and the inlined diffuse-only path of
-/// specialised kernels ([`Bsdf::sample_k`]), so that both compute bit-identical results.
+/// The Lambertian lobe.
 impl Bsdf {
     /// `sample` of `Diffuse { kd }`, with the normals already oriented towards `wo`.
     #[inline(always)]
@@ -311,96 +310,4 @@ pub fn refract(wo: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
     }
     let cos_t = safe_sqrt(1.0 - sin2_t);
     Some((-wo / eta + (cos_i / eta - cos_t) * n).normalize())
-}
-
-/// Specialised entry points: arms of effects the kernel `K` lacks are removed at compile time (after
-/// inlining, the compiler knows those variants cannot occur). A kernel is only chosen for a scene
-/// whose materials it covers, so the removed arms are never needed.
-impl Bsdf {
-    #[inline(always)]
-    fn absent_in<K: crate::kernel::Kernel>(&self) -> bool {
-        match self {
-            Bsdf::Glossy { .. } => !K::GLOSSY,
-            Bsdf::Mirror { .. } => !K::MIRROR,
-            Bsdf::Dielectric { .. } => !K::DIELECTRIC,
-            Bsdf::Black | Bsdf::Diffuse { .. } => false,
-        }
-    }
-
-    /// The kernel has no lobe but the Lambertian one: materials are `Diffuse` or `Black`, handled
-    /// inline instead of through the general five-way `sample`/`eval`/`pdf`.
-    #[inline(always)]
-    fn lambertian_only<K: crate::kernel::Kernel>() -> bool {
-        !K::GLOSSY && !K::MIRROR && !K::DIELECTRIC
-    }
-
-    #[inline(always)]
-    pub fn is_delta_k<K: crate::kernel::Kernel>(&self) -> bool {
-        !self.absent_in::<K>() && self.is_delta()
-    }
-
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub fn sample_k<K: crate::kernel::Kernel>(
-        &self,
-        wo: DVec3,
-        ng: DVec3,
-        ns: DVec3,
-        u_lobe: f64,
-        u: (f64, f64),
-        mode: Mode,
-    ) -> Option<BsdfSample> {
-        if Self::lambertian_only::<K>() {
-            let Bsdf::Diffuse { kd } = self else {
-                return None;
-            };
-            let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
-            Self::sample_diffuse(*kd, ng * side, ns * side, u)
-        } else if self.absent_in::<K>() {
-            None
-        } else {
-            self.sample(wo, ng, ns, u_lobe, u, mode)
-        }
-    }
-
-    #[inline(always)]
-    pub fn eval_k<K: crate::kernel::Kernel>(
-        &self,
-        wo: DVec3,
-        wi: DVec3,
-        ng: DVec3,
-        ns: DVec3,
-        mode: Mode,
-    ) -> Rgb {
-        if Self::lambertian_only::<K>() {
-            match (self, Self::cos_i(wo, wi, ng, ns)) {
-                (Bsdf::Diffuse { kd }, Some((_, cos_i))) => *kd * (FRAC_1_PI * cos_i),
-                _ => Rgb::ZERO,
-            }
-        } else if self.absent_in::<K>() {
-            Rgb::ZERO
-        } else {
-            self.eval(wo, wi, ng, ns, mode)
-        }
-    }
-
-    #[inline(always)]
-    pub fn pdf_k<K: crate::kernel::Kernel>(
-        &self,
-        wo: DVec3,
-        wi: DVec3,
-        ng: DVec3,
-        ns: DVec3,
-    ) -> f64 {
-        if Self::lambertian_only::<K>() {
-            match (self, Self::cos_i(wo, wi, ng, ns)) {
-                (Bsdf::Diffuse { .. }, Some((_, cos_i))) => pdf_cosine_hemisphere(cos_i),
-                _ => 0.0,
-            }
-        } else if self.absent_in::<K>() {
-            0.0
-        } else {
-            self.pdf(wo, wi, ng, ns)
-        }
-    }
 }

@@ -26,7 +26,6 @@
 //! kernels do not contain it. [`FlatScene`] holds what a run needs per plane: the validated plane,
 //! the emitters' cross-sections with it, and the 2D form of every material.
 
-use crate::kernel::Kernel;
 use crate::math::{Rgb, luminance, reflect};
 use crate::rng::Sampler;
 use crate::scene::Scene;
@@ -487,7 +486,7 @@ impl FlatLights {
     /// Samples a light point as seen from `x` (in the plane). `pdf` is per radian (the choice
     /// probability for a point light), `li` the radiance arriving along `-wi`, or `I/d`.
     #[inline]
-    pub fn sample_k<K: Kernel>(&self, x: DVec3, u_light: f64, u: f64) -> Option<LightSample> {
+    pub fn sample(&self, x: DVec3, u_light: f64, u: f64) -> Option<LightSample> {
         let (i, p_choice) = self.choice.pick(u_light)?;
         match &self.lights[i] {
             FlatLight::Segment {
@@ -509,12 +508,11 @@ impl FlatLights {
             FlatLight::Point {
                 position,
                 intensity,
-            } if K::POINT_LIGHTS => connect_point(x, *position, *intensity, p_choice, 2),
-            FlatLight::Point { .. } => None,
+            } => connect_point(x, *position, *intensity, p_choice, 2),
         }
     }
 
-    /// Density per radian with which [`sample_k`](Self::sample_k) picks the point `y` of triangle
+    /// Density per radian with which [`sample`](Self::sample) picks the point `y` of triangle
     /// `prim`'s cross-section as seen from `x`; 0 when `prim` has none.
     #[inline]
     pub fn pdf_hit(&self, x: DVec3, prim: u32, y: DVec3) -> f64 {

@@ -2,4 +2,5 @@
 pub mod bsdf;
 pub mod flat;
 pub mod sampling;
+pub mod trace;
 pub mod walk;

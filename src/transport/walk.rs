@@ -9,12 +9,13 @@
 //! Flatland kernels (`K::FLATLAND`) take their BSDFs and lights from [`crate::transport::flat`]
 //! (angle measure, in-plane directions); the rest of both paths is shared with 3D.
 
-use crate::kernel::{AllFeatures, Kernel};
+use crate::kernel::Kernel;
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::transport::bsdf::Mode;
 use crate::transport::flat::FlatBsdf;
+use crate::transport::trace;
 use glam::DVec3;
 
 /// Where a walk ended and what it carried.
@@ -26,26 +27,12 @@ pub struct WalkEnd {
     pub bounces: u32,
     /// The walk reached the bounce cap before using up its length; it ends at the last hit.
     pub capped: bool,
-    /// Rays traced.
-    pub rays: u32,
 }
 
 /// A walk of Euclidean length `t` from `x` along unit `dir`. `None` when the walk is absorbed
 /// (zero throughput: it carries no weight).
-pub fn walk(
-    scene: &Scene,
-    x: DVec3,
-    dir: DVec3,
-    t: f64,
-    max_bounces: u32,
-    s: &mut Sampler,
-) -> Option<WalkEnd> {
-    walk_k::<AllFeatures>(scene, x, dir, t, max_bounces, s)
-}
-
-/// [`walk`] for kernel `K`.
 #[inline]
-pub fn walk_k<K: Kernel>(
+pub fn walk<K: Kernel>(
     scene: &Scene,
     x: DVec3,
     dir: DVec3,
@@ -53,13 +40,13 @@ pub fn walk_k<K: Kernel>(
     max_bounces: u32,
     s: &mut Sampler,
 ) -> Option<WalkEnd> {
-    walk_counted_k::<K>(scene, x, dir, t, max_bounces, s).0
+    walk_counted::<K>(scene, x, dir, t, max_bounces, s).0
 }
 
-/// [`walk_k`] with the number of rays traced, also for walks that were absorbed (whose
+/// [`walk`] with the number of rays traced, also for walks that were absorbed (whose
 /// [`WalkEnd`] is not returned), so that ray counts match the ray queries made.
 #[inline]
-pub fn walk_counted_k<K: Kernel>(
+pub fn walk_counted<K: Kernel>(
     scene: &Scene,
     x: DVec3,
     dir: DVec3,
@@ -79,14 +66,14 @@ pub fn walk_counted_k<K: Kernel>(
     let mut bounces = 0;
     loop {
         rays += 1;
-        let Some(hit) = scene.intersect_k::<K>(origin, d, remaining + (origin - base).length())
+        let Some(hit) =
+            trace::intersect::<K>(scene, origin, d, remaining + (origin - base).length())
         else {
             let end = WalkEnd {
                 end: base + d * remaining,
                 beta,
                 bounces,
                 capped: false,
-                rays,
             };
             return (Some(end), rays);
         };
@@ -97,7 +84,6 @@ pub fn walk_counted_k<K: Kernel>(
                 beta,
                 bounces,
                 capped: false,
-                rays,
             };
             return (Some(end), rays);
         }
@@ -107,7 +93,6 @@ pub fn walk_counted_k<K: Kernel>(
                 beta,
                 bounces,
                 capped: true,
-                rays,
             };
             return (Some(end), rays);
         }
@@ -129,7 +114,7 @@ pub fn walk_counted_k<K: Kernel>(
             scene
                 .material(&hit)
                 .bsdf
-                .sample_k::<K>(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)
+                .sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)
         };
         let Some(bs) = sampled else {
             return (None, rays);
@@ -203,20 +188,8 @@ impl Radiance {
 /// Estimates the radiance arriving at `x` from the direction `look` (unit), i.e. the radiance of the
 /// light that passes `x` travelling along `-look`.
 /// Paths have at most `max_bounces` scattering events; Russian roulette after three.
-pub fn radiance(
-    scene: &Scene,
-    x: DVec3,
-    look: DVec3,
-    max_bounces: u32,
-    s: &mut Sampler,
-    st: &mut RadianceStats,
-) -> Radiance {
-    radiance_k::<AllFeatures>(scene, x, look, max_bounces, s, st)
-}
-
-/// [`radiance`] for kernel `K`.
 #[inline]
-pub fn radiance_k<K: Kernel>(
+pub fn radiance<K: Kernel>(
     scene: &Scene,
     x: DVec3,
     look: DVec3,
@@ -241,7 +214,7 @@ pub fn radiance_k<K: Kernel>(
     let mut depth = 0;
     loop {
         st.rays += 1;
-        let Some(hit) = scene.intersect_k::<K>(origin, d, f64::INFINITY) else {
+        let Some(hit) = trace::intersect::<K>(scene, origin, d, f64::INFINITY) else {
             break;
         };
         if depth == 0 {
@@ -276,31 +249,31 @@ pub fn radiance_k<K: Kernel>(
         let bsdf = &scene.material(&hit).bsdf;
         let wo = -d;
         // Next-event estimation on surfaces with a non-delta lobe.
-        if !bsdf.is_delta_k::<K>() && !lights_empty {
+        if !bsdf.is_delta() && !lights_empty {
             let u_l = s.next_f64();
             let u = s.next_2d();
             let sample = if K::FLATLAND {
-                scene.flat().lights.sample_k::<K>(hit.p, u_l, u.0)
+                scene.flat().lights.sample(hit.p, u_l, u.0)
             } else {
-                lights.sample_k::<K>(hit.p, u_l, u)
+                lights.sample(hit.p, u_l, u)
             };
             if let Some(ls) = sample {
                 let f = if K::FLATLAND {
                     flat_bsdf(scene, &hit).eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance)
                 } else {
-                    bsdf.eval_k::<K>(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance)
+                    bsdf.eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance)
                 };
                 if f != Rgb::ZERO {
                     st.rays += 1;
                     let o = scene.spawn_origin_from(&hit, ls.wi, origin);
-                    if scene.visible_k::<K>(o, hit.p + ls.wi * ls.dist) {
+                    if trace::visible::<K>(scene, o, hit.p + ls.wi * ls.dist) {
                         let w = if ls.delta {
                             1.0
                         } else {
                             let p_bsdf = if K::FLATLAND {
                                 flat_bsdf(scene, &hit).pdf(wo, ls.wi, hit.ng, hit.ns)
                             } else {
-                                bsdf.pdf_k::<K>(wo, ls.wi, hit.ng, hit.ns)
+                                bsdf.pdf(wo, ls.wi, hit.ng, hit.ns)
                             };
                             power_heuristic(ls.pdf, p_bsdf)
                         };
@@ -324,7 +297,7 @@ pub fn radiance_k<K: Kernel>(
                 Mode::Radiance,
             )
         } else {
-            bsdf.sample_k::<K>(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance)
+            bsdf.sample(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance)
         };
         let Some(bs) = sampled else {
             break;
