@@ -355,3 +355,107 @@ fn summary_projects_the_cost_of_the_next_digit() {
     assert!(cost_of_accuracy(1000, 100.0, 0.0, Weighting::Unweighted).is_none());
     assert!(cost_of_accuracy(1000, 100.0, f64::NAN, Weighting::Unweighted).is_none());
 }
+
+/// `--explain` says what each shipped scene's run simulates and skips. The expectations come from
+/// the scene files themselves (their materials, lights and normals), not from the code under test.
+#[test]
+fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
+    let all = [
+        "lambertian-reflection",
+        "phong-lobe",
+        "mirror-reflection",
+        "fresnel-refraction",
+        "shading-normals",
+        "radiance-estimate",
+        "area-lights",
+        "point-lights",
+        "light-sampling",
+        "flatland",
+    ];
+    let lit = "radiance-estimate area-lights light-sampling";
+    let cases: &[(&str, &[&str], String)] = &[
+        (
+            "stair_wall.obj",
+            &[],
+            format!("lambertian-reflection {lit}"),
+        ),
+        (
+            "cornell_mirror.obj",
+            &[],
+            format!("lambertian-reflection mirror-reflection {lit}"),
+        ),
+        (
+            "cornell_mirror.obj",
+            &["--weight", "unweighted"],
+            "lambertian-reflection mirror-reflection".into(),
+        ),
+        (
+            "glass_sphere.obj",
+            &[],
+            format!("lambertian-reflection fresnel-refraction {lit}"),
+        ),
+        (
+            "glossy_panels.obj",
+            &[],
+            format!("lambertian-reflection phong-lobe mirror-reflection {lit}"),
+        ),
+        (
+            "smooth_sphere.obj",
+            &[],
+            format!("lambertian-reflection shading-normals {lit}"),
+        ),
+        (
+            "diffuse_plane.obj",
+            &["--weight", "unweighted"],
+            "lambertian-reflection".into(),
+        ),
+        (
+            "mirror_plane.obj",
+            &["--weight", "unweighted"],
+            "mirror-reflection".into(),
+        ),
+        (
+            "plane_point.toml",
+            &[],
+            "lambertian-reflection radiance-estimate point-lights light-sampling".into(),
+        ),
+        (
+            "cornell_point.gltf",
+            &["--camera"],
+            "lambertian-reflection radiance-estimate point-lights light-sampling".into(),
+        ),
+        (
+            "flat_stair_wall.obj",
+            &["--slice", "z=0", "--flatland"],
+            format!("lambertian-reflection {lit} flatland"),
+        ),
+        (
+            "flat_mirrors.obj",
+            &["--slice", "z=0", "--flatland", "--weight", "unweighted"],
+            "lambertian-reflection mirror-reflection flatland".into(),
+        ),
+    ];
+    for (scene, extra, simulates) in cases {
+        let path = scene_path(scene);
+        let mut args = vec!["--scene", path.to_str().unwrap(), "--explain"];
+        args.extend(extra.iter());
+        let (ok, out, err) = ftpd3d(&args);
+        assert!(ok, "{scene}: {err}");
+        let line = out
+            .lines()
+            .find_map(|l| l.strip_prefix("simulates  "))
+            .unwrap_or_else(|| panic!("{scene}: no 'simulates' line in\n{out}"));
+        assert_eq!(line, simulates, "{scene} {extra:?}");
+        // Every other effect is listed as skipped, with a reason.
+        let on: Vec<&str> = simulates.split(' ').collect();
+        for e in all.iter().filter(|e| !on.contains(e)) {
+            assert!(
+                out.lines().any(|l| l
+                    .trim_start_matches("skips")
+                    .trim_start()
+                    .starts_with(&format!("{e} ("))),
+                "{scene}: {e} is neither simulated nor skipped:\n{out}"
+            );
+        }
+    }
+}

@@ -10,6 +10,7 @@ mod geometry;
 mod gltf;
 mod merge;
 mod mis;
+mod pinned;
 mod stability;
 mod support;
 mod valid;
