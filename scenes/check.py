@@ -47,6 +47,7 @@ EXPECT = {
                           'panel_2_phong1029': 'open', 'strip_2': 'open',
                           'panel_3_mirror': 'open', 'light': 'open'},
     'glass_sphere.obj': {'sphere': 'solid', 'floor': 'open', 'light': 'open'},
+    'smooth_sphere.obj': {'sphere': 'solid', 'floor': 'open', 'light': 'open'},
     'flat_stair_wall.obj': {'stairs': 'solid', 'light': 'open'},
     'flat_mirrors.obj': {'light': 'open', 'mirror_left': 'solid', 'mirror_right': 'solid',
                          'box_left': 'solid', 'box_right': 'solid'},
@@ -161,7 +162,12 @@ def parse_obj(path, errors):
                     obj.tris.append((idx[0], idx[k], idx[k + 1]))
                     obj.tri_mats.append(mat)
             elif kind == 'vn':
-                errors.append('line %d: unexpected vertex normal (flat geometry only)' % lineno)
+                # Shading normals: only smooth_sphere has them, and they must be unit vectors.
+                n = tuple(float(t) for t in tok[1:4])
+                if not os.path.basename(path).startswith('smooth_'):
+                    errors.append('line %d: unexpected vertex normal (flat geometry only)' % lineno)
+                elif abs(math.sqrt(dot(n, n)) - 1.0) > 1e-5:
+                    errors.append('line %d: vertex normal is not unit length' % lineno)
     return verts, objects, mats
 
 

@@ -55,6 +55,8 @@ class Mesh:
         # faces: list of (material, (i0, i1, i2[, i3]))
         self.faces = []
         self.material = material
+        # Optional per-vertex shading normals (one per vertex, written as `vn`).
+        self.normals = None
 
     def vert(self, p):
         self.verts.append(p)
@@ -198,17 +200,25 @@ def write_scene(stem, title, meshes, materials, generator='scenes/generate.py'):
         f.write('# metres, y up, CCW winding = front side\n')
         f.write('mtllib %s.mtl\n' % stem)
         base = 1                      # OBJ indices are 1-based and global
+        nbase = 1
         for m in meshes:
             f.write('\no %s\n' % m.name)
             for p in m.verts:
                 f.write('v %s %s %s\n' % tuple(fmt(c) for c in p))
+            for n in m.normals or []:
+                f.write('vn %s %s %s\n' % tuple(fmt(c) for c in n))
             current = None
             for mat, idx in m.faces:
                 if mat != current:
                     f.write('usemtl %s\n' % mat)
                     current = mat
-                f.write('f %s\n' % ' '.join(str(base + i) for i in idx))
+                if m.normals:
+                    # Vertex and normal lists are parallel: the same index for both.
+                    f.write('f %s\n' % ' '.join('%d//%d' % (base + i, nbase + i) for i in idx))
+                else:
+                    f.write('f %s\n' % ' '.join(str(base + i) for i in idx))
             base += len(m.verts)
+            nbase += len(m.normals or [])
 
 
 def diffuse(r, g=None, b=None):
@@ -341,6 +351,19 @@ def glass_sphere():
                 {'glass': glass(1.5), 'floor': diffuse(0.7), 'light': light(30, 30, 30)})
 
 
+def smooth_sphere():
+    """A coarse diffuse sphere with per-vertex normals (`vn`): smooth shading over 8 x 6 facets,
+    the scene that exercises shading normals."""
+    c, r = (0.0, 0.6, 0.0), 0.5
+    sphere = uv_sphere('sphere', 'white', c, r, n_seg=8, n_ring=6)
+    sphere.normals = [tuple((p[k] - c[k]) / r for k in range(3)) for p in sphere.verts]
+    floor = horizontal_rect('floor', 'floor', (0.0, 0.0, 0.0), 6.0, 6.0, facing_up=True)
+    lamp = horizontal_rect('light', 'light', (-1.0, 2.5, 0.0), 0.3, 0.3, facing_up=False)
+    write_scene('smooth_sphere', 'Coarse diffuse sphere with vertex normals over a floor',
+                [sphere, floor, lamp],
+                {'white': diffuse(0.8), 'floor': diffuse(0.7), 'light': light(30, 30, 30)})
+
+
 def main():
     cornell_mirror()
     stair_wall()
@@ -348,6 +371,7 @@ def main():
     big_plane('diffuse_plane', 'One 20 x 20 m diffuse plane at y = 0 facing +y', diffuse(0.8))
     glossy_panels()
     glass_sphere()
+    smooth_sphere()
 
 
 if __name__ == '__main__':
