@@ -24,8 +24,8 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// Metadata keys that describe what a run estimates: merged fields must agree on every one (absent
-/// on both counts as agreeing), and so must a resumed run with its file (with
-/// [`crate::app::RESUME_KEYS`]).
+/// on both counts as agreeing), and so must a resumed run with its file (which checks a few keys
+/// more).
 pub const MUST_MATCH: &[&str] = &[
     "scene",
     "domain",
@@ -360,7 +360,7 @@ pub fn merge_files(inputs: &[PathBuf], output: &Path, png: bool) -> anyhow::Resu
     if inputs.is_empty() {
         bail!("merge: give the EXR files to merge");
     }
-    crate::app::check_writable(output)?;
+    crate::output::check_writable(output)?;
     let fields = inputs
         .iter()
         .map(|p| {
@@ -371,7 +371,7 @@ pub fn merge_files(inputs: &[PathBuf], output: &Path, png: bool) -> anyhow::Resu
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
     let merged = merge_fields(fields)?;
-    crate::app::write_outputs(&merged.field, output, png)?;
+    crate::output::write_outputs(&merged.field, output, png)?;
     Ok(merged)
 }
 

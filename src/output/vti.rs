@@ -10,7 +10,7 @@
 //!
 //! Point data sit at voxel centres: the image's `Origin` is the centre of voxel (0, 0, 0) and its
 //! `WholeExtent` is `0 nx-1 0 ny-1 0 nz-1`, so each point holds exactly one voxel's estimate (see
-//! [`crate::domain::volume`]). Point `i + nx·(j + ny·k)` is voxel (i, j, k).
+//! `domain::volume`). Point `i + nx·(j + ny·k)` is voxel (i, j, k).
 //!
 //! | array                          | type          | meaning                                         |
 //! |--------------------------------|---------------|-------------------------------------------------|
