@@ -9,6 +9,7 @@ use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::kernel::{self, Kernel, WithKernel};
 use crate::output;
+pub use crate::output::{check_writable, write_outputs, write_outputs_with, write_volume_outputs};
 use crate::render::{
     self, ErrorStats, Hooks, InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason,
 };
@@ -314,34 +315,6 @@ pub fn parse_point_light(s: &str) -> Result<(glam::DVec3, glam::DVec3), String> 
         return Err(format!("'{s}': intensity must be ≥ 0"));
     }
     Ok((pos, int))
-}
-
-/// Fails early when `path`'s directory cannot take a new file (before hours of work).
-pub fn check_writable(path: &Path) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&dir).with_context(|| {
-        format!(
-            "-o {}: cannot create directory {}",
-            path.display(),
-            dir.display()
-        )
-    })?;
-    if path.is_dir() {
-        bail!("-o {}: is a directory", path.display());
-    }
-    let probe = output::temp_path(path);
-    std::fs::write(&probe, b"").with_context(|| {
-        format!(
-            "-o {}: directory {} is not writable",
-            path.display(),
-            dir.display()
-        )
-    })?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
 }
 
 /// Describes the run in the field's metadata (EXR header attributes).
@@ -1328,40 +1301,6 @@ pub fn run_camera(
     Ok((field, stats))
 }
 
-/// Writes the EXR (with the Sobel gradient of σ as `grad.x`/`grad.y`, per cell) and, when asked,
-/// PNG previews next to it: `<name>.png` (σ, equalised CIELAB map) and `<name>.grad.png` (gradient
-/// direction as hue, magnitude as lightness).
-pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()> {
-    write_outputs_with(field, path, png, Vec::new())
-}
-
-/// [`write_outputs`] with extra f32 channels (one value per cell, field order).
-pub fn write_outputs_with(
-    field: &Field,
-    path: &Path,
-    png: bool,
-    mut extra: Vec<(&str, Vec<f64>)>,
-) -> anyhow::Result<()> {
-    let sigma = field.sigma();
-    let valid = field.valid();
-    let (w, h) = (field.width, field.height);
-    let (gx, gy) = output::png::sobel(&sigma, &valid, w, h);
-    extra.insert(0, ("grad.x", gx));
-    extra.insert(1, ("grad.y", gy));
-    output::exr::write_exr(path, field, &extra)?;
-    if png {
-        output::png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
-        output::png::write_gradient_preview(
-            &path.with_extension("grad.png"),
-            &sigma,
-            &valid,
-            w,
-            h,
-        )?;
-    }
-    Ok(())
-}
-
 /// A volume run, validated enough to start (the rest is checked against the loaded scene).
 #[derive(Clone, Debug)]
 pub struct VolumeJob {
@@ -1682,36 +1621,15 @@ pub fn run_volume_job(job: &VolumeJob) -> anyhow::Result<Field> {
     ) {
         say(c);
     }
-    write_volume_outputs(&field, &volume, &job.output, job.png)?;
+    write_volume_outputs(
+        &field,
+        volume.vtk_origin(),
+        volume.spacing,
+        &job.output,
+        job.png,
+    )?;
     say(format!("wrote {}", job.output.display()));
     Ok(field)
-}
-
-/// Writes the `.vti` (see [`output::vti`]) and, when asked, PNG previews of the middle z-slice
-/// (voxel layer `nz / 2`) next to it: `<name>.png` (σ) and `<name>.grad.png` (its gradient).
-pub fn write_volume_outputs(
-    field: &Field,
-    volume: &Volume,
-    path: &Path,
-    png: bool,
-) -> anyhow::Result<()> {
-    output::vti::write_vti(path, field, volume.vtk_origin(), volume.spacing)?;
-    if png {
-        let (w, h) = (field.width, field.height);
-        let layer = &field.cells[(field.depth / 2) * w * h..][..w * h];
-        let vals: Vec<_> = layer.iter().map(|c| c.finalize()).collect();
-        let sigma: Vec<f64> = vals.iter().map(|v| v.sigma).collect();
-        let valid: Vec<bool> = vals.iter().map(|v| v.valid).collect();
-        output::png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
-        output::png::write_gradient_preview(
-            &path.with_extension("grad.png"),
-            &sigma,
-            &valid,
-            w,
-            h,
-        )?;
-    }
-    Ok(())
 }
 
 /// One benchmark run: the kernel and raw Embree rays, on the same scene, slice, samples and

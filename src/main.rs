@@ -38,7 +38,8 @@ struct Cli {
 enum Command {
     /// Kernel rays/s against raw Embree rays/s on the same scene, rays and threads.
     Bench(RunArgs),
-    /// Add fields of the same run computed with other seeds or over other tiles, exactly.
+    /// Add fields (.exr) or volumes (.vti) of the same run computed with other seeds or over other
+    /// tiles, exactly.
     ///
     /// Example: ftpd3d merge part_*.exr -o all.exr
     Merge(MergeArgs),
@@ -50,10 +51,11 @@ enum Command {
 
 #[derive(Args, Debug, Clone)]
 struct MergeArgs {
-    /// EXR fields written by ftpd3d (or by an earlier merge), added in the order given.
-    #[arg(required = true, value_name = "FILE.exr")]
+    /// EXR fields or VTI volumes written by ftpd3d (or by an earlier merge), all of one kind,
+    /// added in the order given.
+    #[arg(required = true, value_name = "FILE.exr|FILE.vti")]
     inputs: Vec<PathBuf>,
-    /// Output EXR (PNG previews are written next to it).
+    /// Output, .exr or .vti as the inputs (PNG previews are written next to it).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
     /// Skip the PNG previews.
@@ -685,10 +687,12 @@ fn merge(args: &MergeArgs) -> anyhow::Result<()> {
         let get = |k: &str| m.get(k).map_or("?", String::as_str);
         let (rel_mean, rel_p95) = app::relative_error_summary(&merged.field);
         eprintln!(
-            "merged {} files: {}x{} cells, seeds {}, parts {}, {} spp; relative error mean {:.3}, p95 {:.3}",
+            "merged {} files: {}, seeds {}, parts {}, {} spp; relative error mean {:.3}, p95 {:.3}",
             args.inputs.len(),
-            merged.field.width,
-            merged.field.height,
+            match merged.field.depth {
+                1 => format!("{}x{} cells", merged.field.width, merged.field.height),
+                d => format!("{}x{}x{d} voxels", merged.field.width, merged.field.height),
+            },
             get("seeds"),
             get("parts"),
             get("spp"),

@@ -15,17 +15,23 @@
 //! Tiles are full-size grids with only their stripe filled ([`crate::domain::tile`]); adding the
 //! empty cells is exact (x + 0 = x), so merging all tiles of one seed reproduces the full run bit
 //! for bit.
+//!
+//! Volumes (`.vti`) merge the same way: they hold the same exact sums, voxel by voxel, and a part's
+//! rows are the rows of every z-layer (volumes are not tiled, so a volume's part is its seed over
+//! all rows). Their grid geometry (`Origin`, `Spacing`) must match as well. Fields and volumes are
+//! not mixed, and the output is written in the inputs' format.
 
 use crate::domain::Tile;
 use crate::field::Field;
+use crate::output::{self, vti::Vti};
 use anyhow::{Context, bail};
 use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// Metadata keys that describe what a run estimates: merged fields must agree on every one (absent
-/// on both counts as agreeing), and so must a resumed run with its file (with
-/// [`crate::app::RESUME_KEYS`]).
+/// on both counts as agreeing), and so must a resumed run with its file (which checks a few keys
+/// more).
 pub const MUST_MATCH: &[&str] = &[
     "scene",
     "domain",
@@ -46,6 +52,7 @@ pub const MUST_MATCH: &[&str] = &[
     "max_bounces",
     "features",
     "point_lights",
+    "volume.box",
 ];
 
 /// Keys the merge writes itself rather than carrying over.
@@ -66,11 +73,9 @@ pub struct Part {
 pub fn check_same_run(a_name: &str, a: &Field, b_name: &str, b: &Field) -> anyhow::Result<()> {
     if (a.width, a.height, a.depth) != (b.width, b.height, b.depth) {
         bail!(
-            "{b_name}: resolution {}x{} differs from {a_name}'s {}x{}",
-            b.width,
-            b.height,
-            a.width,
-            a.height
+            "{b_name}: resolution {} differs from {a_name}'s {}",
+            grid(b),
+            grid(a)
         );
     }
     for key in MUST_MATCH {
@@ -84,6 +89,15 @@ pub fn check_same_run(a_name: &str, a: &Field, b_name: &str, b: &Field) -> anyho
         }
     }
     Ok(())
+}
+
+/// `WxH`, or `WxHxD` for a volume.
+fn grid(f: &Field) -> String {
+    if f.depth == 1 {
+        format!("{}x{}", f.width, f.height)
+    } else {
+        format!("{}x{}x{}", f.width, f.height, f.depth)
+    }
 }
 
 /// The parts of a field: its `parts` attribute, or else its `seed` over its `tile`'s rows (all
@@ -168,12 +182,7 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
     let mut all_parts: Vec<(Part, usize)> = Vec::new();
     for (k, (name, f)) in inputs.iter().enumerate() {
         if f.cells.len() != f.width * f.height * f.depth {
-            bail!(
-                "{name}: {} cells for a {}x{} grid",
-                f.cells.len(),
-                f.width,
-                f.height
-            );
+            bail!("{name}: {} cells for a {} grid", f.cells.len(), grid(f));
         }
         check_same_run(first_name, first, name, f)?;
         let parts = parts_of(name, f)?;
@@ -354,25 +363,138 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
     Ok(Merged { field, warnings })
 }
 
-/// Reads EXR fields, merges them ([`merge_fields`]) and writes the result with fresh σ, standard
-/// error, gradient and (when `png`) previews. Input names in messages are the paths as given.
-pub fn merge_files(inputs: &[PathBuf], output: &Path, png: bool) -> anyhow::Result<Merged> {
-    if inputs.is_empty() {
-        bail!("merge: give the EXR files to merge");
+/// What `merge` reads and writes, by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    /// 2D fields (slices, camera images): OpenEXR.
+    Exr,
+    /// Volumes: VTK XML ImageData.
+    Vti,
+}
+
+impl Format {
+    fn of(path: &Path) -> Option<Format> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("exr") => Some(Format::Exr),
+            Some("vti") => Some(Format::Vti),
+            _ => None,
+        }
     }
-    crate::app::check_writable(output)?;
-    let fields = inputs
-        .iter()
-        .map(|p| {
-            if !p.exists() {
-                bail!("{}: no such file", p.display());
-            }
-            Ok((p.display().to_string(), crate::output::exr::read_exr(p)?))
+
+    fn describe(self) -> &'static str {
+        match self {
+            Format::Exr => "an .exr field",
+            Format::Vti => "a .vti volume",
+        }
+    }
+
+    fn ext(self) -> &'static str {
+        match self {
+            Format::Exr => "exr",
+            Format::Vti => "vti",
+        }
+    }
+}
+
+/// Checks that volume `b` (from `b_name`) lies on the same points as `a`: the same `Origin` and
+/// `Spacing`, exactly (both are written as the shortest decimal that reads back as the same f64).
+fn check_same_grid(a_name: &str, a: &Vti, b_name: &str, b: &Vti) -> anyhow::Result<()> {
+    for (key, x, y) in [
+        ("Origin", a.origin, b.origin),
+        ("Spacing", a.spacing, b.spacing),
+    ] {
+        if x != y {
+            bail!(
+                "{b_name}: {key} {} {} {} differs from {a_name}'s {} {} {}",
+                y.x,
+                y.y,
+                y.z,
+                x.x,
+                x.y,
+                x.z
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Reads EXR fields or VTI volumes (all of one kind, told by the extension), merges them
+/// ([`merge_fields`]) and writes the result in the same format to `output` (whose extension must
+/// match), with fresh σ, standard error, gradient and (when `png`) previews (of the middle z-layer
+/// for volumes). Input names in messages are the paths as given.
+pub fn merge_files(inputs: &[PathBuf], output: &Path, png: bool) -> anyhow::Result<Merged> {
+    let Some(first) = inputs.first() else {
+        bail!("merge: give the .exr fields or .vti volumes to merge");
+    };
+    let format_of = |p: &Path| {
+        Format::of(p).ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: merge reads .exr fields and .vti volumes written by ftpd3d; this name has \
+                 neither extension",
+                p.display()
+            )
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let merged = merge_fields(fields)?;
-    crate::app::write_outputs(&merged.field, output, png)?;
-    Ok(merged)
+    };
+    let format = format_of(first)?;
+    for p in &inputs[1..] {
+        let f = format_of(p)?;
+        if f != format {
+            bail!(
+                "{}: is {}, while {} is {}: fields and volumes cannot be merged together \
+                 (merge the .exr and the .vti files separately)",
+                p.display(),
+                f.describe(),
+                first.display(),
+                format.describe()
+            );
+        }
+    }
+    if Format::of(output) != Some(format) {
+        bail!(
+            "-o {}: the inputs are {} files, so the merged file is one too: name it .{}",
+            output.display(),
+            format.ext(),
+            format.ext()
+        );
+    }
+    output::check_writable(output)?;
+    for p in inputs {
+        if !p.exists() {
+            bail!("{}: no such file", p.display());
+        }
+    }
+    let name = |p: &PathBuf| p.display().to_string();
+    match format {
+        Format::Exr => {
+            let fields = inputs
+                .iter()
+                .map(|p| Ok((name(p), output::exr::read_exr(p)?)))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let merged = merge_fields(fields)?;
+            output::write_outputs(&merged.field, output, png)?;
+            Ok(merged)
+        }
+        Format::Vti => {
+            let volumes = inputs
+                .iter()
+                .map(|p| Ok((name(p), output::vti::read_vti(p)?)))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let (first_name, head) = &volumes[0];
+            for (n, v) in &volumes[1..] {
+                check_same_run(first_name, &head.field, n, &v.field)?;
+                check_same_grid(first_name, head, n, v)?;
+            }
+            let (origin, spacing) = (head.origin, head.spacing);
+            let merged = merge_fields(volumes.into_iter().map(|(n, v)| (n, v.field)).collect())?;
+            output::write_volume_outputs(&merged.field, origin, spacing, output, png)?;
+            Ok(merged)
+        }
+    }
 }
 
 #[cfg(test)]

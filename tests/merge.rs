@@ -485,3 +485,320 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A volume of the Cornell box, unweighted (fast) with 2 samples in 2 batches per voxel, plus
+/// `extra` flags; 6³ voxels unless `extra` has a `--volume`.
+fn run_volume(dir: &Path, extra: &[&str]) {
+    let scene = cornell();
+    let mut args = vec!["--scene", scene.as_str()];
+    if !extra.contains(&"--volume") {
+        args.extend(["--volume", "6"]);
+    }
+    args.extend([
+        "--weight",
+        "unweighted",
+        "--spp",
+        "2",
+        "--batches",
+        "2",
+        "--quiet",
+        "--no-png",
+    ]);
+    args.extend_from_slice(extra);
+    let (ok, err) = ftpd3d_in(dir, &args);
+    assert!(ok, "{extra:?}: {err}");
+}
+
+/// A `.vti` as the independent vtkio reader sees it: extent, origin, spacing and the point arrays
+/// by name.
+struct VtkioImage {
+    extent: vtkio::model::Extent,
+    origin: [f32; 3],
+    spacing: [f32; 3],
+    arrays: Vec<(String, vtkio::model::IOBuffer)>,
+}
+
+fn vtkio_read(path: &Path) -> VtkioImage {
+    use vtkio::model::{Attribute, DataSet, Piece};
+    let vtk = vtkio::Vtk::import(path).expect("vtkio reads the file");
+    let DataSet::ImageData {
+        extent,
+        origin,
+        spacing,
+        pieces,
+        ..
+    } = vtk.data
+    else {
+        panic!("{}: not ImageData", path.display());
+    };
+    let Piece::Inline(piece) = &pieces[0] else {
+        panic!("piece not inline")
+    };
+    let arrays = piece
+        .data
+        .point
+        .iter()
+        .map(|a| match a {
+            Attribute::DataArray(d) => (d.name.clone(), d.data.clone()),
+            Attribute::Field { .. } => panic!("field attribute"),
+        })
+        .collect();
+    VtkioImage {
+        extent,
+        origin,
+        spacing,
+        arrays,
+    }
+}
+
+impl VtkioImage {
+    fn f64s(&self, name: &str) -> &[f64] {
+        match self.arrays.iter().find(|a| a.0 == name) {
+            Some((_, vtkio::model::IOBuffer::F64(v))) => v,
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+    fn u32s(&self, name: &str) -> &[u32] {
+        match self.arrays.iter().find(|a| a.0 == name) {
+            Some((_, vtkio::model::IOBuffer::U32(v))) => v,
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+    fn f32s(&self, name: &str) -> &[f32] {
+        match self.arrays.iter().find(|a| a.0 == name) {
+            Some((_, vtkio::model::IOBuffer::F32(v))) => v,
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+}
+
+/// The `<!-- ftpd3d key=value -->` comments of a `.vti`, read as text.
+fn vti_comments(path: &Path) -> Vec<(String, String)> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter_map(|l| {
+            let kv = l
+                .trim()
+                .strip_prefix("<!-- ftpd3d ")?
+                .strip_suffix(" -->")?;
+            let (k, v) = kv.split_once('=')?;
+            Some((k.to_string(), v.to_string()))
+        })
+        .collect()
+}
+
+#[test]
+fn merging_two_seeds_of_a_volume_adds_their_sums_exactly() {
+    let dir = temp_dir("volume_seeds");
+    run_volume(&dir, &["--seed", "1", "-o", "a.vti"]);
+    run_volume(&dir, &["--seed", "2", "-o", "b.vti"]);
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", "b.vti", "-o", "ab.vti"]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("merged 2 files: 6x6x6 voxels") && err.contains("seeds 1,2"),
+        "{err}"
+    );
+    assert!(dir.join("ab.png").is_file() && dir.join("ab.grad.png").is_file());
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        !names.iter().any(|n| n.ends_with(".tmp")),
+        "no temporary file left: {names:?}"
+    );
+
+    let (a, b, ab) = (
+        vtkio_read(&dir.join("a.vti")),
+        vtkio_read(&dir.join("b.vti")),
+        vtkio_read(&dir.join("ab.vti")),
+    );
+    assert_eq!(ab.extent, a.extent);
+    assert_eq!((ab.origin, ab.spacing), (a.origin, a.spacing));
+    let arrays = |v: &VtkioImage| v.arrays.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
+    assert_eq!(
+        arrays(&ab),
+        arrays(&a),
+        "the same arrays, in the same order"
+    );
+    let n = 216;
+    // Counts and the plain sums add; the weighted sums add with Neumaier compensation, exactly as
+    // Moments::merge does, written out here independently.
+    for name in ["samples", "batches"] {
+        let want: Vec<u32> = (0..n).map(|i| a.u32s(name)[i] + b.u32s(name)[i]).collect();
+        assert_eq!(ab.u32s(name), want.as_slice(), "{name}");
+    }
+    assert!(ab.u32s("samples").iter().all(|&s| s == 4));
+    for name in [
+        "fluence.R",
+        "fluence.G",
+        "fluence.B",
+        "w.w",
+        "w.wd",
+        "w.wd2",
+        "wd.wd",
+        "wd.wd2",
+        "wd2.wd2",
+    ] {
+        let name = format!("exact.sum.{name}");
+        for i in 0..n {
+            let want = a.f64s(&name)[i] + b.f64s(&name)[i];
+            assert_eq!(ab.f64s(&name)[i].to_bits(), want.to_bits(), "{name}[{i}]");
+        }
+    }
+    for name in ["w", "wd", "wd2"] {
+        let (s, c) = (
+            format!("exact.sum.{name}"),
+            format!("exact.sum.{name}.comp"),
+        );
+        for i in 0..n {
+            let (sa, ca, sb, cb) = (a.f64s(&s)[i], a.f64s(&c)[i], b.f64s(&s)[i], b.f64s(&c)[i]);
+            let t = sa + sb;
+            let err = if sa.abs() >= sb.abs() {
+                (sa - t) + sb
+            } else {
+                (sb - t) + sa
+            };
+            let comp = (ca + err) + cb;
+            assert_eq!(ab.f64s(&s)[i].to_bits(), t.to_bits(), "{s}[{i}]");
+            assert_eq!(ab.f64s(&c)[i].to_bits(), comp.to_bits(), "{c}[{i}]");
+        }
+    }
+    assert!(
+        (0..n).any(|i| a.f64s("exact.sum.w")[i] != ab.f64s("exact.sum.w")[i]),
+        "b added something"
+    );
+    // σ is re-finalised from the summed sums: the library's own merge of the two files agrees.
+    let read = |f: &str| ftpd3d::output::vti::read_vti(&dir.join(f)).unwrap();
+    let mut sum = read("a.vti").field;
+    for (c, o) in sum.cells.iter_mut().zip(&read("b.vti").field.cells) {
+        c.merge(o);
+    }
+    let sigma: Vec<u32> = sum
+        .values()
+        .iter()
+        .map(|v| (v.sigma as f32).to_bits())
+        .collect();
+    assert_eq!(f32_bits(ab.f32s("ftpd")), sigma);
+    assert!(sum.values().iter().filter(|v| v.valid).count() > n / 2);
+
+    // The header describes the merged volume.
+    let meta = vti_comments(&dir.join("ab.vti"));
+    let get = |k: &str| meta.iter().find(|m| m.0 == k).map(|m| m.1.as_str());
+    assert_eq!(get("parts"), Some("1@0-6;2@0-6"));
+    assert_eq!(get("seeds"), Some("1,2"));
+    assert_eq!(get("seed"), None, "two seeds: no single seed");
+    assert_eq!(get("spp"), Some("4"));
+    assert_eq!(get("batches"), Some("4"));
+    assert_eq!(get("merged"), Some("a.vti;b.vti"));
+    assert_eq!(get("domain"), Some("volume"));
+    assert_eq!(get("volume.dims"), Some("6,6,6"));
+    let a_meta = vti_comments(&dir.join("a.vti"));
+    let a_get = |k: &str| a_meta.iter().find(|m| m.0 == k).map(|m| m.1.as_str());
+    for key in ["weighting", "t1", "volume.box", "volume.spacing", "scene"] {
+        assert_eq!(get(key), a_get(key), "{key}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn mismatched_volumes_are_refused_naming_the_file_and_the_key() {
+    let dir = temp_dir("volume_mismatch");
+    run_volume(&dir, &["--t1", "1.5", "-o", "a.vti"]);
+    run_volume(&dir, &["--t1", "2", "--seed", "2", "-o", "b.vti"]);
+    run_volume(
+        &dir,
+        &["--t1", "1.5", "--seed", "3", "--volume", "4", "-o", "c.vti"],
+    );
+    run_volume(
+        &dir,
+        &[
+            "--t1",
+            "1.5",
+            "--seed",
+            "4",
+            "--volume",
+            "6,6,6",
+            "--box",
+            "-1,0,-1,1,1.5,1",
+            "-o",
+            "d.vti",
+        ],
+    );
+    // The header's grid moved (its description edited to match otherwise, another seed).
+    let text = std::fs::read_to_string(dir.join("a.vti")).unwrap();
+    let at = text.find("Origin=\"").unwrap() + 8;
+    let end = at + text[at..].find('"').unwrap();
+    let moved = format!("{}0.5 0.5 0.5{}", &text[..at], &text[end..]).replacen(
+        "<!-- ftpd3d seed=1 -->",
+        "<!-- ftpd3d seed=5 -->",
+        1,
+    );
+    assert_ne!(moved, text);
+    std::fs::write(dir.join("e.vti"), moved).unwrap();
+    std::fs::copy(dir.join("a.vti"), dir.join("copy.vti")).unwrap();
+
+    for (other, msg) in [
+        ("b.vti", "b.vti: t1 = 2e0 differs from a.vti's 1.5e0"),
+        (
+            "c.vti",
+            "c.vti: resolution 4x4x4 differs from a.vti's 6x6x6",
+        ),
+        ("d.vti", "d.vti: volume.box = "),
+        ("e.vti", "e.vti: Origin 0.5 0.5 0.5 differs from a.vti's"),
+        ("copy.vti", "copy.vti: seed 1 is also the seed of a.vti"),
+    ] {
+        let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", other, "-o", "x.vti"]);
+        assert!(!ok && err.contains(msg), "{other}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", "d.vti", "-o", "x.vti"]);
+    assert!(!ok && err.contains("differs from a.vti's"), "{err}");
+    // A damaged volume is refused by name.
+    std::fs::write(dir.join("cut.vti"), &text[..text.len() / 2]).unwrap();
+    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", "cut.vti", "-o", "x.vti"]);
+    assert!(!ok && err.contains("cut.vti: truncated"), "{err}");
+    assert!(!dir.join("x.vti").exists(), "nothing written on refusal");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn fields_and_volumes_are_not_mixed() {
+    let dir = temp_dir("mixed");
+    run(&dir, &["-o", "a.exr"]);
+    run_volume(&dir, &["-o", "v.vti"]);
+    run_volume(&dir, &["--seed", "2", "-o", "w.vti"]);
+    for (args, msg) in [
+        (
+            ["a.exr", "v.vti", "-o", "x.exr"],
+            "v.vti: is a .vti volume, while a.exr is an .exr field",
+        ),
+        (
+            ["v.vti", "a.exr", "-o", "x.vti"],
+            "a.exr: is an .exr field, while v.vti is a .vti volume",
+        ),
+        (
+            ["v.vti", "w.vti", "-o", "x.exr"],
+            "-o x.exr: the inputs are vti files, so the merged file is one too: name it .vti",
+        ),
+        (
+            ["a.exr", "a.png", "-o", "x.exr"],
+            "a.png: merge reads .exr fields and .vti volumes",
+        ),
+    ] {
+        let mut all = vec!["merge"];
+        all.extend(args);
+        let (ok, err) = ftpd3d_in(&dir, &all);
+        assert!(!ok && err.contains(msg), "{args:?}: {err}");
+    }
+    assert!(!dir.join("x.exr").exists() && !dir.join("x.vti").exists());
+    // Upper-case extensions are the same formats.
+    std::fs::rename(dir.join("w.vti"), dir.join("W.VTI")).unwrap();
+    let (ok, err) = ftpd3d_in(
+        &dir,
+        &["merge", "v.vti", "W.VTI", "-o", "x.vti", "--no-png"],
+    );
+    assert!(ok, "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -7,8 +7,10 @@ pub mod plot;
 pub mod png;
 pub mod vti;
 
+use crate::field::Field;
 use crate::ftpd::moments::Moments;
-use anyhow::Context;
+use anyhow::{Context, bail};
+use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -64,6 +66,85 @@ pub fn write_atomically(
             Err(e.context(format!("{}: writing failed", path.display())))
         }
     }
+}
+
+/// Fails early when `path`'s directory cannot take a new file (before hours of work).
+pub fn check_writable(path: &Path) -> anyhow::Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).with_context(|| {
+        format!(
+            "-o {}: cannot create directory {}",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    if path.is_dir() {
+        bail!("-o {}: is a directory", path.display());
+    }
+    let probe = temp_path(path);
+    std::fs::write(&probe, b"").with_context(|| {
+        format!(
+            "-o {}: directory {} is not writable",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Writes the EXR (with the Sobel gradient of σ as `grad.x`/`grad.y`, per cell) and, when asked,
+/// PNG previews next to it: `<name>.png` (σ, equalised CIELAB map) and `<name>.grad.png` (gradient
+/// direction as hue, magnitude as lightness).
+pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()> {
+    write_outputs_with(field, path, png, Vec::new())
+}
+
+/// [`write_outputs`] with extra f32 channels (one value per cell, field order).
+pub fn write_outputs_with(
+    field: &Field,
+    path: &Path,
+    png: bool,
+    mut extra: Vec<(&str, Vec<f64>)>,
+) -> anyhow::Result<()> {
+    let sigma = field.sigma();
+    let valid = field.valid();
+    let (w, h) = (field.width, field.height);
+    let (gx, gy) = png::sobel(&sigma, &valid, w, h);
+    extra.insert(0, ("grad.x", gx));
+    extra.insert(1, ("grad.y", gy));
+    exr::write_exr(path, field, &extra)?;
+    if png {
+        png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
+        png::write_gradient_preview(&path.with_extension("grad.png"), &sigma, &valid, w, h)?;
+    }
+    Ok(())
+}
+
+/// Writes the `.vti` (see [`vti`]; `origin` is the centre of voxel (0, 0, 0), `spacing` the voxel
+/// size) and, when asked, PNG previews of the middle z-slice (voxel layer `nz / 2`) next to it:
+/// `<name>.png` (σ) and `<name>.grad.png` (its gradient).
+pub fn write_volume_outputs(
+    field: &Field,
+    origin: DVec3,
+    spacing: DVec3,
+    path: &Path,
+    png: bool,
+) -> anyhow::Result<()> {
+    vti::write_vti(path, field, origin, spacing)?;
+    if png {
+        let (w, h) = (field.width, field.height);
+        let layer = &field.cells[(field.depth / 2) * w * h..][..w * h];
+        let vals: Vec<_> = layer.iter().map(|c| c.finalize()).collect();
+        let sigma: Vec<f64> = vals.iter().map(|v| v.sigma).collect();
+        let valid: Vec<bool> = vals.iter().map(|v| v.valid).collect();
+        png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
+        png::write_gradient_preview(&path.with_extension("grad.png"), &sigma, &valid, w, h)?;
+    }
+    Ok(())
 }
 
 /// The sums every output keeps exactly (EXR as hi/lo u32 pairs, VTI as Float64), by name, with

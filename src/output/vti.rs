@@ -10,7 +10,7 @@
 //!
 //! Point data sit at voxel centres: the image's `Origin` is the centre of voxel (0, 0, 0) and its
 //! `WholeExtent` is `0 nx-1 0 ny-1 0 nz-1`, so each point holds exactly one voxel's estimate (see
-//! [`crate::domain::volume`]). Point `i + nx·(j + ny·k)` is voxel (i, j, k).
+//! `domain::volume`). Point `i + nx·(j + ny·k)` is voxel (i, j, k).
 //!
 //! | array                          | type          | meaning                                         |
 //! |--------------------------------|---------------|-------------------------------------------------|
@@ -460,6 +460,9 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
     let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
     let not_ours =
         |what: &str| anyhow::anyhow!("{}: {what} (not an ftpd3d volume?)", path.display());
+    if !bytes.trim_ascii_end().ends_with(b"</VTKFile>") {
+        bail!(not_ours("truncated: no closing </VTKFile>"));
+    }
     let tag = b"<AppendedData";
     let at = bytes
         .windows(tag.len())
@@ -504,8 +507,20 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
     {
         bail!(not_ours("unexpected WholeExtent, Origin or Spacing"));
     }
+    // Whole, non-negative extents, and no more voxels than the appended data could hold (every
+    // voxel takes bytes in each array): a damaged header is refused before anything is allocated.
+    if [ext[1], ext[3], ext[5]]
+        .iter()
+        .any(|&e| !(0.0..=1e15).contains(&e) || e.fract() != 0.0)
+    {
+        bail!(not_ours("unexpected WholeExtent"));
+    }
     let dims = [ext[1], ext[3], ext[5]].map(|e| e as usize + 1);
-    let n = dims.iter().product::<usize>();
+    let n = dims
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .filter(|&n| n <= data.len())
+        .ok_or_else(|| not_ours("more voxels than the appended data holds"))?;
     let mut field = Field::new(dims[0], dims[1], dims[2]);
     let mut offsets = BTreeMap::new();
     for l in head.lines() {
@@ -540,12 +555,14 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
             bail!(not_ours(&format!("array '{name}' is {t}, expected {ty}")));
         }
         let chars = b64_len(8 + (n * size) as u64) as usize;
-        let decoded = data
-            .get(*off..off + chars)
+        let decoded = off
+            .checked_add(chars)
+            .and_then(|end| data.get(*off..end))
             .and_then(b64_decode)
+            .filter(|d| d.len() == 8 + n * size)
             .ok_or_else(|| not_ours(&format!("array '{name}' is truncated or not base64")))?;
-        let len = u64::from_le_bytes(decoded[..8].try_into().expect("8 bytes")) as usize;
-        if len != n * size {
+        let len = u64::from_le_bytes(decoded[..8].try_into().expect("8 bytes"));
+        if len != (n * size) as u64 {
             bail!(not_ours(&format!(
                 "array '{name}' has {len} bytes, expected {}",
                 n * size
@@ -668,6 +685,74 @@ mod tests {
         e.finish(&mut out);
         assert_eq!(b64_decode(&out).unwrap(), all);
         assert!(b64_decode(b"Zg=").is_none() && b64_decode(b"Z===").is_none());
+    }
+
+    #[test]
+    fn damaged_files_are_refused_without_panicking() {
+        let dir = std::env::temp_dir().join(format!("ftpd3d-vti-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut field = Field::new(3, 2, 2);
+        for (i, c) in field.cells.iter_mut().enumerate() {
+            for k in 0..=i {
+                c.add_sample(0.25 * k as f64, 0.1 + i as f64, DVec3::splat(0.5));
+            }
+            c.batches = 1;
+        }
+        field.meta.insert("seed".into(), "3".into());
+        let good = dir.join("good.vti");
+        write_vti(
+            &good,
+            &field,
+            DVec3::new(0.5, 1.0, -2.0),
+            DVec3::splat(0.25),
+        )
+        .unwrap();
+        let back = read_vti(&good).unwrap();
+        assert_eq!(back.field, field);
+        assert_eq!(back.spacing, DVec3::splat(0.25));
+        let text = std::fs::read_to_string(&good).unwrap();
+        let bad = dir.join("bad.vti");
+        let mut variants: Vec<String> = (0..text.len())
+            .step_by(97)
+            .map(|k| text[..k].to_string())
+            .collect();
+        for (from, to) in [
+            (
+                "WholeExtent=\"0 2 0 1 0 1\"",
+                "WholeExtent=\"0 1e300 0 1 0 1\"",
+            ),
+            (
+                "WholeExtent=\"0 2 0 1 0 1\"",
+                "WholeExtent=\"0 -4 0 1 0 1\"",
+            ),
+            (
+                "WholeExtent=\"0 2 0 1 0 1\"",
+                "WholeExtent=\"0 2.5 0 1 0 1\"",
+            ),
+            (
+                "WholeExtent=\"0 2 0 1 0 1\"",
+                "WholeExtent=\"0 99999999 0 99999999 0 99999999\"",
+            ),
+            ("_", "_AAAAAAAAAA=="),
+            ("encoding=\"base64\"", "encoding=\"raw\""),
+        ] {
+            assert!(text.contains(from), "{from}");
+            variants.push(text.replacen(from, to, 1));
+        }
+        // An offset at the end of the address space, on an array the reader uses.
+        let at = text.find("Name=\"samples\"").unwrap();
+        let (a, b) = text.split_at(at);
+        let q = b.find("offset=\"").unwrap() + 8;
+        let r = q + b[q..].find('"').unwrap();
+        variants.push(format!("{a}{}18446744073709551615{}", &b[..q], &b[r..]));
+        for v in variants {
+            std::fs::write(&bad, &v).unwrap();
+            let Err(e) = read_vti(&bad) else {
+                panic!("damaged file accepted: {v}")
+            };
+            assert!(e.to_string().contains("bad.vti"), "{e}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]
