@@ -40,11 +40,7 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
         ),
         e("phong-lobe", f.glossy, "no glossy material"),
         e("mirror-reflection", f.mirror, "no mirror material"),
-        e(
-            "fresnel-refraction",
-            f.dielectric,
-            "no dielectric material",
-        ),
+        e("fresnel-refraction", f.dielectric, "no dielectric material"),
         e(
             "shading-normals",
             !scene.normals.is_empty(),
@@ -86,10 +82,6 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
                 "no radiance estimate"
             },
         ),
-        e(
-            "flatland",
-            k.flatland,
-            "3D: directions on the sphere",
-        ),
+        e("flatland", k.flatland, "3D: directions on the sphere"),
     ]
 }
