@@ -1,5 +1,6 @@
 //! Where samples start: planar slices (axis-aligned or arbitrary), voxel volumes and camera images.
-//! Each domain is a grid of cells and knows how to draw one FTPD sample for a cell with any kernel.
+//! Each domain is a grid of cells and knows where a sample of a cell starts (a point, or an eye and
+//! a direction); the estimator ([`crate::ftpd::sample`]) does the rest with the run's kernel.
 pub mod camera;
 pub mod slice;
 pub mod tile;
