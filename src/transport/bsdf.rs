@@ -69,7 +69,7 @@ impl Bsdf {
     }
 
     /// Sample `wi` given `wo`. `None` when the path is absorbed or the sample falls on the wrong side.
-    #[inline]
+    #[inline(always)]
     pub fn sample(
         &self,
         wo: DVec3,
@@ -120,7 +120,7 @@ impl Bsdf {
     }
 
     /// `f(wo, wi) |cos θi|` of the non-delta lobes (delta lobes evaluate to zero).
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3, _mode: Mode) -> Rgb {
         let Some((nso, cos_i)) = Self::cos_i(wo, wi, ng, ns) else {
             return Rgb::ZERO;
@@ -145,7 +145,7 @@ impl Bsdf {
     }
 
     /// Solid-angle density with which `sample` produces `wi` through its non-delta lobes.
-    #[inline]
+    #[inline(always)]
     pub fn pdf(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3) -> f64 {
         // `sample` rejects directions below the shading horizon, so none has density there
         // (the Phong lobe around the mirror direction may reach below it when ns ≠ ng).
