@@ -802,3 +802,69 @@ fn fields_and_volumes_are_not_mixed() {
     assert!(ok, "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A tile run interrupted part-way (SIGTERM: it saves the partial field, as a checkpoint would)
+/// holds samples in its own rows only, so it merges with the other tiles. (Tiles used to run empty
+/// samples outside their stripe and clear them only at the end, so a partial tile was refused as
+/// holding samples outside its rows.)
+#[test]
+fn an_interrupted_tile_holds_only_its_rows_and_merges() {
+    let dir = temp_dir("interrupted_tile");
+    let scene = cornell();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .current_dir(&dir)
+        .args([
+            "--scene",
+            scene.as_str(),
+            "--slice",
+            "z=0",
+            "--res",
+            "12",
+            "--spp",
+            "1000000",
+            "--pass-spp",
+            "4",
+            "--time",
+            "60s",
+            "--tile",
+            "1/3",
+            "--quiet",
+            "--no-png",
+            "-o",
+            "t1.exr",
+        ])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    child.wait().unwrap();
+    let t1 = read_exr(&dir.join("t1.exr")).unwrap();
+    assert_eq!(t1.meta["partial"], "true");
+    let rows = 4..8; // tile 1 of 3 of 12 rows
+    for (k, c) in t1.cells.iter().enumerate() {
+        let row = k / t1.width;
+        if rows.contains(&row) {
+            assert!(c.n > 0, "cell {k} (row {row}) of the tile has no samples");
+        } else {
+            assert_eq!(c.n, 0, "cell {k} (row {row}) is outside the tile");
+            assert_eq!(*c, Moments::default());
+        }
+    }
+    run(&dir, &["--tile", "0/3", "-o", "t0.exr"]);
+    run(&dir, &["--tile", "2/3", "-o", "t2.exr"]);
+    let (ok, err) = ftpd3d_in(
+        &dir,
+        &[
+            "merge", "t0.exr", "t1.exr", "t2.exr", "-o", "all.exr", "--no-png",
+        ],
+    );
+    assert!(ok, "{err}");
+    let all = read_exr(&dir.join("all.exr")).unwrap();
+    assert!(all.cells.iter().all(|c| c.n > 0));
+    std::fs::remove_dir_all(&dir).ok();
+}
