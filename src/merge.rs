@@ -57,7 +57,23 @@ pub const MUST_MATCH: &[&str] = &[
 
 /// Keys the merge writes itself rather than carrying over.
 const REWRITTEN: &[&str] = &[
-    "seed", "seeds", "tile", "parts", "spp", "batches", "merged", "tool",
+    "seed",
+    "seeds",
+    "tile",
+    "parts",
+    "spp",
+    "batches",
+    "merged",
+    "tool",
+    // Progress of the run: recomputed for the merged field (totals, not one input's values).
+    "samples",
+    "elapsed",
+    "passes",
+    "partial",
+    "pass.inflight",
+    "remaining.samples",
+    "remaining.time",
+    "stop",
 ];
 
 /// One seed over a range of grid rows.
@@ -359,8 +375,55 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
             .collect::<Vec<_>>()
             .join(";"),
     );
+    progress_totals(&mut meta, &inputs, &field);
     field.meta = meta;
     Ok(Merged { field, warnings })
+}
+
+/// The progress keys of a merged field describe the merged field: `samples` is its total,
+/// `elapsed` the compute seconds of all inputs together, `remaining.samples` what the inputs still
+/// lacked of their budgets (added; `unbounded` if any input had no sample cap), `partial` and
+/// `pass.inflight` true if any input was; `passes` and `stop` are kept only where all inputs agree.
+/// A merged field is not resumable (`--resume` takes one run's file), so nothing else is needed.
+fn progress_totals(meta: &mut BTreeMap<String, String>, inputs: &[(String, Field)], field: &Field) {
+    meta.insert("samples".into(), field.total_samples().to_string());
+    let get = |k: &str| -> Vec<Option<&str>> {
+        inputs
+            .iter()
+            .map(|(_, f)| f.meta.get(k).map(String::as_str))
+            .collect()
+    };
+    let elapsed: Option<f64> = get("elapsed")
+        .into_iter()
+        .map(|v| v.and_then(|v| v.parse::<f64>().ok()))
+        .sum();
+    if let Some(e) = elapsed {
+        meta.insert("elapsed".into(), e.to_string());
+    }
+    let remaining = get("remaining.samples");
+    if remaining.iter().all(Option::is_some) && !remaining.is_empty() {
+        let total: Option<u64> = remaining
+            .iter()
+            .map(|v| v.and_then(|v| v.parse::<u64>().ok()))
+            .sum();
+        meta.insert(
+            "remaining.samples".into(),
+            total.map_or_else(|| "unbounded".into(), |t| t.to_string()),
+        );
+    }
+    for key in ["partial", "pass.inflight"] {
+        let v = get(key);
+        if v.iter().any(Option::is_some) {
+            let any = v.contains(&Some("true"));
+            meta.insert(key.into(), any.to_string());
+        }
+    }
+    for key in ["passes", "stop"] {
+        let v: BTreeSet<Option<&str>> = get(key).into_iter().collect();
+        if let [Some(one)] = v.into_iter().collect::<Vec<_>>()[..] {
+            meta.insert(key.into(), one.to_string());
+        }
+    }
 }
 
 /// What `merge` reads and writes, by file extension.

@@ -116,6 +116,12 @@ fn merging_two_seeds_adds_their_moments_exactly() {
     assert_eq!(m.get("merged").map(String::as_str), Some("a.exr;b.exr"));
     assert_eq!(m.get("weighting"), a.meta.get("weighting"));
     assert_eq!(m.get("t1"), a.meta.get("t1"));
+    // Progress describes the merged field: all samples, both runs' compute time, nothing left.
+    assert_eq!(m["samples"], (144 * 16).to_string());
+    let secs = |f: &Field| f.meta["elapsed"].parse::<f64>().unwrap();
+    assert_eq!(secs(&merged), secs(&a) + secs(&b));
+    assert_eq!(m["remaining.samples"], "0");
+    assert_eq!(m["partial"], "false");
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -204,6 +210,16 @@ fn three_tiles_merge_into_the_full_run_bit_for_bit() {
     assert_eq!(m.get("tile"), None, "all rows covered: no longer a tile");
     assert_eq!(m.get("spp").map(String::as_str), Some("6"));
     assert_eq!(m.get("batches").map(String::as_str), Some("3"));
+    // Each tile says what it took and what its own stripe still lacks (nothing); the merged
+    // field the totals of the full run.
+    for (i, n) in [(0, 5 * 16 * 6), (2, 6 * 16 * 6)] {
+        let t = read_exr(&dir.join(&names[i])).unwrap();
+        assert_eq!(t.meta["samples"], n.to_string(), "tile {i}");
+        assert_eq!(t.meta["remaining.samples"], "0", "tile {i}");
+    }
+    assert_eq!(m["samples"], full.meta["samples"]);
+    assert_eq!(m["remaining.samples"], "0");
+    assert!(m["elapsed"].parse::<f64>().is_ok(), "{}", m["elapsed"]);
 
     // Two of three tiles: a partial field, said so, that still merges with the third.
     let (ok, err) = ftpd3d_in(
