@@ -656,3 +656,31 @@ fn gltf_shipped_cornell_point_scene_loads() {
     assert!(close(cam.up, DVec3::Y));
     assert!((cam.fov_y - 0.9).abs() < 1e-6);
 }
+
+/// A glTF 1.0 document (its meshes and materials are maps keyed by id, as 1.0 has them) is
+/// refused for its version, through the binary, as the `.glb` path refuses binary glTF 1.
+#[test]
+fn gltf_version_1_is_named_as_such() {
+    let dir = temp_dir("version1");
+    let path = dir.0.join("old.gltf");
+    let doc = json!({
+        "asset": {"version": "1.0"},
+        "scene": "defaultScene",
+        "scenes": {"defaultScene": {"nodes": ["node_1"]}},
+        "nodes": {"node_1": {"meshes": ["mesh_1"]}},
+        "meshes": {"mesh_1": {"primitives": []}},
+        "materials": {"mat_1": {"values": {"diffuse": [1, 0, 0, 1]}}}
+    });
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let Err(e) = load_scene(&path) else {
+        panic!("a glTF 1.0 document was loaded");
+    };
+    let want = format!(
+        "{}: glTF version 1.0; only version 2 is supported",
+        path.display()
+    );
+    assert_eq!(format!("{e:#}"), want);
+    let r = crate::support::ftpd3d(None, &["--scene", path.to_str().unwrap(), "--explain"]);
+    assert!(!r.ok);
+    assert_eq!(r.err.trim(), format!("error: {want}"));
+}

@@ -53,6 +53,12 @@ pub const MAX_PHONG_EXPONENT: f64 = 1e6;
 /// Bytes an accessor without a buffer view (all zeros, maybe sparse) may expand to.
 const MAX_IMPLICIT_ACCESSOR_BYTES: usize = 1 << 30;
 
+/// `asset.version` of a JSON glTF document, if it is JSON and says.
+fn json_version(bytes: &[u8]) -> Option<String> {
+    let v: ::gltf::json::Value = ::gltf::json::deserialize::from_slice(bytes).ok()?;
+    Some(v.get("asset")?.get("version")?.as_str()?.to_string())
+}
+
 /// Loads a `.gltf` or `.glb` file (and the buffers it names) into a [`Scene`].
 pub fn load(path: &Path) -> anyhow::Result<Scene> {
     let file = path.display().to_string();
@@ -62,8 +68,15 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     let bytes = std::fs::read(path).with_context(|| format!("{file}: cannot read"))?;
     check_glb_header(&bytes).map_err(|e| anyhow!("{file}: {e}"))?;
     let invalid = |e: &dyn std::fmt::Display| anyhow!("{file}: not a valid glTF 2.0 file: {e}");
-    let ::gltf::Gltf { document, blob } =
-        ::gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| invalid(&e))?;
+    let ::gltf::Gltf { document, blob } = ::gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| match json_version(&bytes) {
+            // glTF 1.0 documents are JSON too, but of another schema: say so, not which field
+            // failed to parse.
+            Some(v) if !v.starts_with('2') => {
+                anyhow!("{file}: glTF version {v}; only version 2 is supported")
+            }
+            _ => invalid(&e),
+        })?;
     drop(bytes);
     let root = document.into_json();
     check_attribute_indices(&root).map_err(|e| invalid(&e))?;
