@@ -109,7 +109,7 @@ pub fn prepare_flatland(
     plane: &Plane,
     args: &EstimatorArgs,
 ) -> anyhow::Result<Params> {
-    let fl = Flatland::of_plane(plane);
+    let fl = plane.flatland();
     scene.prepare_flatland(fl, &plane.label)?;
     let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
     if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {

@@ -62,11 +62,6 @@ impl Flatland {
         }
     }
 
-    /// The plane of a slice domain.
-    pub fn of_plane(p: &crate::domain::Plane) -> Flatland {
-        Flatland::new(p.origin, p.u_axis, p.v_axis)
-    }
-
     /// Signed distance of `p` from the plane.
     #[inline]
     pub fn distance(&self, p: DVec3) -> f64 {
