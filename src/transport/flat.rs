@@ -29,10 +29,9 @@
 use crate::math::{Rgb, luminance, reflect};
 use crate::rng::Sampler;
 use crate::scene::Scene;
-use crate::scene::light::{
-    Light, LightSample, PowerCdf, connect_emitter, connect_point, emitter_pdf,
-};
+use crate::scene::light::{Light, PowerCdf};
 use crate::transport::bsdf::{Bsdf, BsdfSample, Mode, sample_dielectric, sample_mirror_mixture};
+use crate::transport::light::{LightSample, connect_emitter, connect_point, emitter_pdf};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
