@@ -14,8 +14,8 @@ use crate::render::{
     self, ErrorStats, Hooks, InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason,
 };
 use crate::rng::Sampler;
+use crate::scene::flat::Flatland;
 use crate::scene::{self, Scene};
-use crate::transport::flat::Flatland;
 use anyhow::{Context, bail};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

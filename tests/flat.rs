@@ -17,9 +17,9 @@ use ftpd3d::kernel::{PlainFlat, RadianceFlat, Record};
 use ftpd3d::math::{Rgb, luminance, reflect};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
+use ftpd3d::scene::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
 use ftpd3d::scene::{Features, Material, Scene};
 use ftpd3d::transport::bsdf::{Bsdf, Mode, fresnel_dielectric};
-use ftpd3d::transport::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
 use ftpd3d::transport::walk::{RadianceStats, radiance, walk};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -943,8 +943,7 @@ fn flatland_runs_use_the_flatland_kernels() {
     mirrors.prepare_flatland(fl, "z=0").unwrap();
     let mut zs = zoo(&z0());
     let zplane = Plane::axis_slice(&zs.bounds, "z=0".parse().unwrap(), None, 12).unwrap();
-    zs.prepare_flatland(zplane.flatland(), "z=0")
-        .unwrap();
+    zs.prepare_flatland(zplane.flatland(), "z=0").unwrap();
     for (scene, plane, weighting, kernel) in [
         (
             &mirrors,

@@ -6,7 +6,7 @@
 //! in the shipped scenes) is vertical in images whenever the plane contains it.
 
 use crate::scene::Aabb;
-use crate::transport::flat::Flatland;
+use crate::scene::flat::Flatland;
 use anyhow::bail;
 use glam::DVec3;
 use std::fmt;
