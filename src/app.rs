@@ -14,8 +14,8 @@ use crate::render::{
     self, ErrorStats, Hooks, InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason,
 };
 use crate::rng::Sampler;
+use crate::scene::flat::Flatland;
 use crate::scene::{self, Scene};
-use crate::transport::flat::Flatland;
 use anyhow::{Context, bail};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -109,7 +109,7 @@ pub fn prepare_flatland(
     plane: &Plane,
     args: &EstimatorArgs,
 ) -> anyhow::Result<Params> {
-    let fl = Flatland::of_plane(plane);
+    let fl = plane.flatland();
     scene.prepare_flatland(fl, &plane.label)?;
     let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
     if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {

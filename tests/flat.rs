@@ -17,9 +17,9 @@ use ftpd3d::kernel::{PlainFlat, RadianceFlat, Record};
 use ftpd3d::math::{Rgb, luminance, reflect};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
+use ftpd3d::scene::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
 use ftpd3d::scene::{Features, Material, Scene};
 use ftpd3d::transport::bsdf::{Bsdf, Mode, fresnel_dielectric};
-use ftpd3d::transport::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
 use ftpd3d::transport::walk::{RadianceStats, radiance, walk};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -301,7 +301,7 @@ fn empty_flatland_gives_exactly_zero() {
         "z=0".into(),
     )
     .unwrap();
-    let fl = Flatland::of_plane(&plane);
+    let fl = plane.flatland();
     assert_eq!(fl, z0());
     far.prepare_flatland(fl, "z=0").unwrap();
     for weighting in [Weighting::Unweighted, Weighting::Radiance] {
@@ -939,12 +939,11 @@ fn flatland_directions_stay_in_the_plane() {
 fn flatland_runs_use_the_flatland_kernels() {
     let mut mirrors = load_scene(&scene_path("flat_mirrors.obj")).unwrap();
     let plane = Plane::axis_slice(&mirrors.bounds, "z=0".parse().unwrap(), None, 12).unwrap();
-    let fl = Flatland::of_plane(&plane);
+    let fl = plane.flatland();
     mirrors.prepare_flatland(fl, "z=0").unwrap();
     let mut zs = zoo(&z0());
     let zplane = Plane::axis_slice(&zs.bounds, "z=0".parse().unwrap(), None, 12).unwrap();
-    zs.prepare_flatland(Flatland::of_plane(&zplane), "z=0")
-        .unwrap();
+    zs.prepare_flatland(zplane.flatland(), "z=0").unwrap();
     for (scene, plane, weighting, kernel) in [
         (
             &mirrors,
@@ -965,7 +964,7 @@ fn flatland_runs_use_the_flatland_kernels() {
             "kernel<-radiance +flatland>",
         ),
     ] {
-        let p = params(weighting, Flatland::of_plane(plane));
+        let p = params(weighting, plane.flatland());
         let a = run_plane(scene, plane, &p, &opts(8, 2)).unwrap().0;
         assert_eq!(a.meta["flatland"], "true");
         assert_eq!(a.meta["kernel"], kernel);
@@ -973,7 +972,7 @@ fn flatland_runs_use_the_flatland_kernels() {
     }
     // The mirrors' scene was prepared for z = 0: a flatland run in z = 0.1 is refused.
     let other = Plane::axis_slice(&mirrors.bounds, "z=0.1".parse().unwrap(), None, 12).unwrap();
-    let p = params(Weighting::Radiance, Flatland::of_plane(&other));
+    let p = params(Weighting::Radiance, other.flatland());
     let e = run_plane(&mirrors, &other, &p, &opts(1, 2)).unwrap_err();
     assert!(
         format!("{e:#}").contains("not prepared for this plane"),

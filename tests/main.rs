@@ -8,6 +8,7 @@ mod flat;
 mod ftpd;
 mod geometry;
 mod gltf;
+mod layers;
 mod merge;
 mod mis;
 mod pinned;

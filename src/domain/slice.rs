@@ -6,6 +6,7 @@
 //! in the shipped scenes) is vertical in images whenever the plane contains it.
 
 use crate::scene::Aabb;
+use crate::scene::flat::Flatland;
 use anyhow::bail;
 use glam::DVec3;
 use std::fmt;
@@ -178,6 +179,11 @@ impl Plane {
 
     pub fn normal(&self) -> DVec3 {
         self.u_axis.cross(self.v_axis)
+    }
+
+    /// The plane of this slice, for a flatland run.
+    pub fn flatland(&self) -> Flatland {
+        Flatland::new(self.origin, self.u_axis, self.v_axis)
     }
 
     /// Point of cell `idx` (row-major from the bottom row) at offset `jitter` ∈ [0,1)² in the cell.

@@ -2,8 +2,8 @@
 //! set, so a scene never pays for effects it does not have.
 
 use crate::scene::light::{Light, LightSet};
+use crate::scene::material::Bsdf;
 use crate::scene::material::Material;
-use crate::transport::bsdf::Bsdf;
 use std::fmt;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -35,9 +35,9 @@
 //! world −Z with world +Y up, `yfov`, `aspectRatio`); orthographic ones are skipped with a warning.
 
 use crate::math::Rgb;
+use crate::scene::material::Bsdf;
 use crate::scene::material::{Material, conserve_energy};
 use crate::scene::{Camera, Features, LoadReport, Scene};
-use crate::transport::bsdf::Bsdf;
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::khr_lights_punctual::Kind as LightKind;
 use ::gltf::mesh::{Mode, Semantic};

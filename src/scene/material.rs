@@ -1,4 +1,5 @@
-//! Materials: a scattering model ([`Bsdf`]) and an emitted radiance.
+//! Materials: a scattering model ([`Bsdf`]) and an emitted radiance. How a [`Bsdf`] is sampled and
+//! evaluated is light transport (`crate::transport::bsdf`).
 //!
 //! OBJ/MTL mapping (the loader's table, also in the README):
 //!
@@ -16,7 +17,25 @@
 //! warning.
 
 use crate::math::Rgb;
-use crate::transport::bsdf::Bsdf;
+
+/// A surface's scattering model.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Bsdf {
+    /// Absorbs everything (e.g. a pure emitter).
+    Black,
+    /// Lambertian with albedo `kd`.
+    Diffuse { kd: Rgb },
+    /// `kd` Lambertian plus `ks` glossy Phong lobe of exponent `exponent` around the mirror
+    /// direction: `f = ks (n+1)/(2π) cos^n α / max(cos θi, cos θo)`, which is reciprocal, never
+    /// reflects more than `ks`, and tends to the perfect mirror `ks` as n → ∞ (the max-cosine
+    /// denominator of Ashikhmin and Shirley's specular term). The lobe is chosen in proportion to
+    /// the albedos' luminance.
+    Glossy { kd: Rgb, ks: Rgb, exponent: f64 },
+    /// `kd` Lambertian plus a perfect mirror of reflectance `ks`.
+    Mirror { kd: Rgb, ks: Rgb },
+    /// Smooth dielectric of relative index `ior` (inside over outside), transmission tinted by `tint`.
+    Dielectric { ior: f64, tint: Rgb },
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {

@@ -3,6 +3,7 @@
 //! ([`obj`], [`gltf`]), then immutable.
 
 pub mod features;
+pub mod flat;
 pub mod gltf;
 pub mod light;
 pub mod material;
@@ -11,7 +12,7 @@ pub mod sidecar;
 
 use crate::accel::{Accel, RawHit};
 use crate::math::Rgb;
-use crate::transport::flat::{FlatScene, Flatland};
+use crate::scene::flat::{FlatScene, Flatland};
 use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
 

@@ -2,9 +2,9 @@
 //! normals when present, one material per triangle. See [`crate::scene::material`] for the MTL table.
 
 use crate::math::Rgb;
+use crate::scene::material::Bsdf;
 use crate::scene::material::{Material, conserve_energy};
 use crate::scene::{LoadReport, Scene};
-use crate::transport::bsdf::Bsdf;
 use anyhow::{Context, bail};
 use glam::Vec3;
 use std::path::Path;

@@ -8,6 +8,8 @@
 //! includes the probability of the lobe chosen.
 
 use crate::math::{Frame, Rgb, luminance, reflect, safe_sqrt};
+// The enum is scene data; its sampling and evaluation are the `impl Bsdf` blocks below.
+pub use crate::scene::material::Bsdf;
 use crate::transport::sampling::*;
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, TAU};
@@ -18,25 +20,6 @@ use std::f64::consts::{FRAC_1_PI, TAU};
 pub enum Mode {
     Radiance,
     Importance,
-}
-
-/// A surface's scattering model.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Bsdf {
-    /// Absorbs everything (e.g. a pure emitter).
-    Black,
-    /// Lambertian with albedo `kd`.
-    Diffuse { kd: Rgb },
-    /// `kd` Lambertian plus `ks` glossy Phong lobe of exponent `exponent` around the mirror
-    /// direction: `f = ks (n+1)/(2π) cos^n α / max(cos θi, cos θo)`, which is reciprocal, never
-    /// reflects more than `ks`, and tends to the perfect mirror `ks` as n → ∞ (the max-cosine
-    /// denominator of Ashikhmin and Shirley's specular term). The lobe is chosen in proportion to
-    /// the albedos' luminance.
-    Glossy { kd: Rgb, ks: Rgb, exponent: f64 },
-    /// `kd` Lambertian plus a perfect mirror of reflectance `ks`.
-    Mirror { kd: Rgb, ks: Rgb },
-    /// Smooth dielectric of relative index `ior` (inside over outside), transmission tinted by `tint`.
-    Dielectric { ior: f64, tint: Rgb },
 }
 
 /// One sampled direction.

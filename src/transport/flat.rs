@@ -23,72 +23,19 @@
 //! reflected and refracted directions stay in it.
 //!
 //! Everything here is called from `if K::FLATLAND { .. }` branches of the sample kernel, so 3D
-//! kernels do not contain it. [`FlatScene`] holds what a run needs per plane: the validated plane,
-//! the emitters' cross-sections with it, and the 2D form of every material.
+//! kernels do not contain it. [`FlatScene`](crate::scene::flat::FlatScene) (scene data, built
+//! in `crate::scene::flat`) holds what a run needs per plane: the validated plane, the emitters'
+//! cross-sections with it, and the 2D form of every material; this module samples and evaluates them.
 
-use crate::math::{Rgb, luminance, reflect};
+use crate::math::{Rgb, reflect};
 use crate::rng::Sampler;
-use crate::scene::Scene;
-use crate::scene::light::{
-    Light, LightSample, PowerCdf, connect_emitter, connect_point, emitter_pdf,
-};
+use crate::scene::flat::{FlatBsdf, FlatLight, FlatLights, Flatland, PhongLobe};
 use crate::transport::bsdf::{Bsdf, BsdfSample, Mode, sample_dielectric, sample_mirror_mixture};
+use crate::transport::light::{LightSample, connect_emitter, connect_point, emitter_pdf};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-/// The slice plane of a flatland run: `normal · x = offset`, spanned by the orthonormal `e1`, `e2`
-/// (`e1 × e2 = normal`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Flatland {
-    pub normal: DVec3,
-    pub offset: f64,
-    pub e1: DVec3,
-    pub e2: DVec3,
-}
-
-/// Largest |n_g · n_plane| of a triangle crossing the slice plane: its normal may lie at most this
-/// far (as a sine, 1e-4 ≈ 0.006°) out of the plane.
-pub const MAX_NORMAL_OUT_OF_PLANE: f64 = 1e-4;
-
 impl Flatland {
-    /// The plane through `origin` spanned by the orthonormal `u`, `v`.
-    pub fn new(origin: DVec3, u: DVec3, v: DVec3) -> Flatland {
-        let normal = u.cross(v).normalize();
-        Flatland {
-            normal,
-            offset: normal.dot(origin),
-            e1: u,
-            e2: v,
-        }
-    }
-
-    /// The plane of a slice domain.
-    pub fn of_plane(p: &crate::domain::Plane) -> Flatland {
-        Flatland::new(p.origin, p.u_axis, p.v_axis)
-    }
-
-    /// Signed distance of `p` from the plane.
-    #[inline]
-    pub fn distance(&self, p: DVec3) -> f64 {
-        self.normal.dot(p) - self.offset
-    }
-
-    /// `v` without its component along the plane normal, normalised; `None` when nothing is left
-    /// (v along the normal).
-    #[inline]
-    pub fn in_plane(&self, v: DVec3) -> Option<DVec3> {
-        let p = v - self.normal * v.dot(self.normal);
-        let l = p.length();
-        (l > 1e-9 * v.length() && l.is_finite()).then(|| p / l)
-    }
-
-    /// The in-plane unit vector `a` turned by the angle whose cosine and sine are `c`, `s`
-    /// (counter-clockwise about the plane normal).
-    #[inline]
-    pub fn rotate(&self, a: DVec3, c: f64, s: f64) -> DVec3 {
-        a * c + self.normal.cross(a) * s
-    }
-
     /// Uniform direction on the circle of in-plane directions (density 1/2π per radian).
     #[inline]
     pub fn sample_circle(&self, u: f64) -> DVec3 {
@@ -139,98 +86,11 @@ pub fn pdf_cosine(cos_theta: f64) -> f64 {
     }
 }
 
-/// `I(m) = ∫_{−π/2}^{π/2} cos^m α dα = √π Γ((m+1)/2) / Γ(m/2 + 1)` for real m ≥ 0.
-///
-/// Computed without cancellation: from m₀ = m mod 2 (I(0) = π, I(1) = 2 exactly, other m₀ by the
-/// Lanczos Γ) by the recurrence I(m) = (m−1)/m · I(m−2) up to m = 4096, and above that by the
-/// asymptotic series of Γ(a + ½)/Γ(a) with a = (m+1)/2 (relative error < 1e-16 there).
-pub fn cos_power_integral(m: f64) -> f64 {
-    assert!(m >= 0.0 && m.is_finite(), "cos_power_integral({m})");
-    if m > 4096.0 {
-        let a = 0.5 * (m + 1.0);
-        let ia = 1.0 / a;
-        let series = 1.0 - ia / 8.0 + ia * ia / 128.0 + 5.0 * ia.powi(3) / 1024.0
-            - 21.0 * ia.powi(4) / 32768.0;
-        return PI.sqrt() / (a.sqrt() * series);
-    }
-    let k = (0.5 * m).floor();
-    let m0 = m - 2.0 * k;
-    let mut i = if m0 == 0.0 {
-        PI
-    } else if m0 == 1.0 {
-        2.0
-    } else {
-        PI.sqrt() * gamma(0.5 * (m0 + 1.0)) / gamma(0.5 * m0 + 1.0)
-    };
-    let mut mm = m0;
-    for _ in 0..k as u32 {
-        mm += 2.0;
-        i *= (mm - 1.0) / mm;
-    }
-    i
-}
-
-/// Γ(x) for x in [0.5, 2] (Lanczos, g = 7, 9 terms; relative error ~1e-15).
-fn gamma(x: f64) -> f64 {
-    const G: f64 = 7.0;
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    let x = x - 1.0;
-    let mut a = C[0];
-    for (i, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + i as f64);
-    }
-    let t = x + G + 0.5;
-    (TAU).sqrt() * t.powf(x + 0.5) * (-t).exp() * a
-}
-
 /// Proposals tried by the rejection samplers of [`PhongLobe`] before giving up (the acceptance
 /// rate is at least 0.63, so giving up has probability below 1e-27).
 const MAX_TRIES: usize = 64;
 
-/// The 2D normalised Phong lobe of exponent n around the mirror direction r, α the angle to r:
-///
-/// `f = ks · cosⁿα / I(n+1)` with `I(m) = ∫_{−π/2}^{π/2} cos^m α dα` ([`cos_power_integral`]).
-///
-/// The 3D code normalises by (n+2)/2π, which makes the directional albedo exactly ks at normal
-/// incidence (where α is the angle to the normal, so ∫ cosⁿα cos θ dω = 2π/(n+2)). The same
-/// condition in 2D is `∫ f cos θ dθ = ks/I(n+1) · ∫ cos^(n+1) θ dθ = ks`, hence I(n+1). At other
-/// incidences the albedo is smaller (cosⁿ(θ − θr) and cos θ are symmetric and decreasing about
-/// their centres, so their overlap is largest when the centres coincide, and the horizon clips the
-/// lobe), so the lobe never creates energy.
-///
-/// Sampling is ∝ cosⁿα on (−π/2, π/2) (density `cosⁿα / I(n)`), exactly, by rejection: for n ≥ 1
-/// from the Gaussian N(0, 1/n), which bounds it (ln cos α ≤ −α²/2, so cosⁿα ≤ e^(−nα²/2)), accepting
-/// with probability cosⁿα · e^(nα²/2) (acceptance ≥ 0.90 at n = 1, → 1 as n grows); for n < 1 from
-/// the uniform density on (−π/2, π/2), accepting with probability cosⁿα (≥ 2/π).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PhongLobe {
-    pub exponent: f64,
-    /// 1/I(n): the sampling density's normalisation.
-    pub inv_pdf_norm: f64,
-    /// 1/I(n+1): the BRDF's normalisation.
-    pub inv_brdf_norm: f64,
-}
-
 impl PhongLobe {
-    pub fn new(exponent: f64) -> PhongLobe {
-        let n = exponent.max(0.0);
-        PhongLobe {
-            exponent: n,
-            inv_pdf_norm: 1.0 / cos_power_integral(n),
-            inv_brdf_norm: 1.0 / cos_power_integral(n + 1.0),
-        }
-    }
-
     /// `cosⁿα / I(n+1)` (times ks, the BRDF), 0 outside the lobe's half circle.
     #[inline]
     pub fn brdf(&self, cos_a: f64) -> f64 {
@@ -290,26 +150,7 @@ impl PhongLobe {
     }
 }
 
-/// A material's scattering model in flatland: the same [`Bsdf`] with 2D lobes (see the module
-/// table), and for Phong its precomputed normalisation.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FlatBsdf {
-    pub bsdf: Bsdf,
-    lobe: PhongLobe,
-}
-
 impl FlatBsdf {
-    pub fn new(bsdf: &Bsdf) -> FlatBsdf {
-        let exponent = match bsdf {
-            Bsdf::Glossy { exponent, .. } => *exponent,
-            _ => 0.0,
-        };
-        FlatBsdf {
-            bsdf: bsdf.clone(),
-            lobe: PhongLobe::new(exponent),
-        }
-    }
-
     /// Samples `wi` given `wo` (both in the plane, as are `ng`, `ns`). Conventions as
     /// [`Bsdf::sample`]; densities per radian. The Phong lobe's rejection sampler may draw more
     /// numbers from `s`.
@@ -425,64 +266,7 @@ impl FlatBsdf {
     }
 }
 
-/// A light source as flatland sees it.
-#[derive(Clone, Debug, PartialEq)]
-pub enum FlatLight {
-    /// The cross-section of emissive triangle `prim` with the plane: the segment from `a` to `b`,
-    /// emitting radiance `emission` to the side of the in-plane unit `normal`.
-    Segment {
-        prim: u32,
-        a: DVec3,
-        b: DVec3,
-        normal: DVec3,
-        length: f64,
-        emission: Rgb,
-    },
-    /// A point light in the plane, radiant intensity per radian.
-    Point { position: DVec3, intensity: Rgb },
-}
-
-impl FlatLight {
-    /// 2D power (luminance), the selection weight: a one-sided Lambertian segment emits
-    /// `Le · length · ∫ cos θ dθ = 2 Le length`; a point light `2π I`.
-    pub fn power(&self) -> f64 {
-        match self {
-            FlatLight::Segment {
-                length, emission, ..
-            } => 2.0 * length * luminance(*emission).max(0.0),
-            FlatLight::Point { intensity, .. } => TAU * luminance(*intensity).max(0.0),
-        }
-    }
-}
-
-/// The lights of a flatland run: one is chosen in proportion to its 2D power, then a point on a
-/// segment uniformly by length; densities are per radian at the receiving point.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FlatLights {
-    pub lights: Vec<FlatLight>,
-    choice: PowerCdf,
-    /// For each scene triangle, its index in `lights` or `u32::MAX`.
-    light_of_prim: Vec<u32>,
-}
-
 impl FlatLights {
-    /// `light_of_prim[t]` is the index in `lights` of triangle t's cross-section, or `u32::MAX`.
-    fn new(lights: Vec<FlatLight>, light_of_prim: Vec<u32>) -> FlatLights {
-        FlatLights {
-            choice: PowerCdf::new(lights.iter().map(FlatLight::power)),
-            lights,
-            light_of_prim,
-        }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.lights.is_empty() || self.choice.is_empty()
-    }
-
-    pub fn total_power(&self) -> f64 {
-        self.lights.iter().map(FlatLight::power).sum()
-    }
-
     /// Samples a light point as seen from `x` (in the plane). `pdf` is per radian (the choice
     /// probability for a point light), `li` the radiance arriving along `-wi`, or `I/d`.
     #[inline]
@@ -529,218 +313,10 @@ impl FlatLights {
     }
 }
 
-/// How a triangle meets the slice plane.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Section {
-    /// Not at all, or in a single point.
-    None,
-    /// Along a segment; `edge` when that segment is an edge of the triangle (two vertices on the
-    /// plane, the third off it).
-    Segment { a: DVec3, b: DVec3, edge: bool },
-    /// The triangle lies in the plane.
-    Coplanar,
-}
-
-/// The intersection of the triangle `v` with the plane. Vertices within `tol` of the plane count as
-/// on it; segment end points are projected onto the plane.
-pub fn cross_section(pl: &Flatland, v: [DVec3; 3], tol: f64) -> Section {
-    let d = v.map(|p| pl.distance(p));
-    let sign = d.map(|x| {
-        if x > tol {
-            1i8
-        } else if x < -tol {
-            -1
-        } else {
-            0
-        }
-    });
-    let zeros = sign.iter().filter(|s| **s == 0).count();
-    if zeros == 3 {
-        return Section::Coplanar;
-    }
-    let on = |p: DVec3| p - pl.normal * pl.distance(p);
-    let mut pts: Vec<DVec3> = Vec::with_capacity(3);
-    for k in 0..3 {
-        if sign[k] == 0 {
-            pts.push(on(v[k]));
-        }
-    }
-    for (i, j) in [(0, 1), (1, 2), (2, 0)] {
-        if sign[i] * sign[j] < 0 {
-            let t = d[i] / (d[i] - d[j]);
-            pts.push(on(v[i] + (v[j] - v[i]) * t));
-        }
-    }
-    if pts.len() < 2 {
-        return Section::None;
-    }
-    // With two or more points, take the two farthest apart (rounding may add a near-duplicate).
-    let (mut a, mut b, mut best) = (pts[0], pts[1], -1.0);
-    for i in 0..pts.len() {
-        for j in i + 1..pts.len() {
-            let l = (pts[i] - pts[j]).length_squared();
-            if l > best {
-                (a, b, best) = (pts[i], pts[j], l);
-            }
-        }
-    }
-    if !(best > 0.0) {
-        return Section::None;
-    }
-    Section::Segment {
-        a,
-        b,
-        edge: zeros == 2,
-    }
-}
-
-/// What a flatland run needs about its plane: the plane, its label (e.g. `z=0`), the emitters'
-/// cross-sections, and every material in 2D form (indexed like `Scene::materials`).
-#[derive(Clone, Debug)]
-pub struct FlatScene {
-    pub plane: Flatland,
-    pub label: String,
-    pub lights: FlatLights,
-    pub bsdfs: Vec<FlatBsdf>,
-}
-
-impl FlatScene {
-    /// Validates `scene` for flatland on `plane` and precomputes the light cross-sections.
-    ///
-    /// Every triangle that meets the plane along a segment (or lies in it) must have its geometric
-    /// normal in the plane, |n_g · n| ≤ [`MAX_NORMAL_OUT_OF_PLANE`]: the scene must be extruded
-    /// along the plane normal, otherwise in-plane rays would be reflected out of the plane. Point
-    /// lights must lie in the plane. Errors name the scene file, the first offending triangle (its
-    /// index among the loaded triangles and its material) and how many there are.
-    pub fn new(scene: &Scene, plane: Flatland, label: &str) -> anyhow::Result<FlatScene> {
-        let file = scene.source.display();
-        let n_tri = scene.triangles.len();
-        let mut lights = Vec::new();
-        let mut light_of_prim = vec![u32::MAX; n_tri];
-        // Cross-sections that are mesh edges lying in the plane, by their end points' bits: the
-        // triangles on both sides of such an edge share one light (a ray hitting the edge may
-        // report either triangle).
-        let mut edges: std::collections::HashMap<[u64; 6], u32> = Default::default();
-        let mut bad: Vec<(usize, f64)> = Vec::new();
-        for (i, tri) in scene.triangles.iter().enumerate() {
-            let v = tri.map(|k| scene.positions[k as usize].as_dvec3());
-            let mag = v
-                .iter()
-                .map(|p| p.abs().max_element())
-                .fold(plane.offset.abs(), f64::max);
-            let tol = 8.0 * f32::EPSILON as f64 * mag;
-            let section = cross_section(&plane, v, tol);
-            if section == Section::None {
-                continue;
-            }
-            let ng = scene.tri_normals[i];
-            let out = ng.dot(plane.normal).abs();
-            if out > MAX_NORMAL_OUT_OF_PLANE {
-                bad.push((i, out));
-                continue;
-            }
-            let m = &scene.materials[scene.tri_material[i] as usize];
-            if luminance(m.emission) <= 0.0 {
-                continue;
-            }
-            let Section::Segment { a, b, edge } = section else {
-                continue;
-            };
-            let Some(normal) = plane.in_plane(ng) else {
-                continue;
-            };
-            let length = (b - a).length();
-            if !(length > 0.0) {
-                continue;
-            }
-            let (p, q) = if a.to_array() <= b.to_array() {
-                (a, b)
-            } else {
-                (b, a)
-            };
-            let key = [p.x, p.y, p.z, q.x, q.y, q.z].map(f64::to_bits);
-            if edge
-                && let Some(&j) = edges.get(&key)
-                && let FlatLight::Segment {
-                    normal: nj,
-                    emission: ej,
-                    ..
-                } = &lights[j as usize]
-                && nj.dot(normal) > 0.0
-                && *ej == m.emission
-            {
-                light_of_prim[i] = j;
-                continue;
-            }
-            if edge {
-                edges.insert(key, lights.len() as u32);
-            }
-            light_of_prim[i] = lights.len() as u32;
-            lights.push(FlatLight::Segment {
-                prim: i as u32,
-                a,
-                b,
-                normal,
-                length,
-                emission: m.emission,
-            });
-        }
-        if let Some(&(i, out)) = bad.first() {
-            let deg = out.clamp(0.0, 1.0).asin().to_degrees();
-            let deg = if deg >= 1.0 {
-                format!("{deg:.0}")
-            } else {
-                format!("{deg:.2}")
-            };
-            let name = &scene.materials[scene.tri_material[i] as usize].name;
-            let more = match bad.len() {
-                1 => String::new(),
-                k => format!("; {} more triangles do too", k - 1),
-            };
-            anyhow::bail!(
-                "{file}: --flatland needs geometry extruded along the slice normal; triangle {i} \
-                 (material '{name}') crosses {label} with its normal {deg}° out of the plane{more}"
-            );
-        }
-        for l in &scene.lights.lights {
-            if let Light::Point {
-                position,
-                intensity,
-            } = l
-            {
-                let off = plane.distance(*position);
-                if off.abs() > 1e-9 * scene.extent().max(position.abs().max_element()) {
-                    anyhow::bail!(
-                        "{file}: --flatland: the point light at ({}, {}, {}) lies {} off the slice \
-                         plane {label}; in flatland, point lights must lie in the plane",
-                        position.x,
-                        position.y,
-                        position.z,
-                        off.abs()
-                    );
-                }
-                lights.push(FlatLight::Point {
-                    position: *position - plane.normal * off,
-                    intensity: *intensity,
-                });
-            }
-        }
-        Ok(FlatScene {
-            plane,
-            label: label.to_string(),
-            lights: FlatLights::new(lights, light_of_prim),
-            bsdfs: scene
-                .materials
-                .iter()
-                .map(|m| FlatBsdf::new(&m.bsdf))
-                .collect(),
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::flat::cos_power_integral;
 
     #[test]
     fn cos_power_integral_matches_closed_forms_and_quadrature() {
@@ -775,30 +351,5 @@ mod tests {
         assert!((a / 0.039_163_676_357_077_836 - 1.0).abs() < 1e-14, "{a}");
         let r = cos_power_integral(10000.0) / cos_power_integral(9998.0);
         assert!((r - 9999.0 / 10000.0).abs() < 1e-14, "{r}");
-    }
-
-    #[test]
-    fn section_of_an_extruded_quad() {
-        let pl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
-        let v = [
-            DVec3::new(0.0, 0.0, -1.0),
-            DVec3::new(1.0, 0.0, -1.0),
-            DVec3::new(1.0, 0.0, 1.0),
-        ];
-        let Section::Segment { a, b, edge } = cross_section(&pl, v, 1e-12) else {
-            panic!()
-        };
-        assert!(!edge);
-        assert_eq!(a.z, 0.0);
-        assert_eq!(b.z, 0.0);
-        assert!(((a - b).length() - 0.5).abs() < 1e-15);
-        let flat = [DVec3::ZERO, DVec3::X, DVec3::Y];
-        assert_eq!(cross_section(&pl, flat, 1e-12), Section::Coplanar);
-        let touching = [
-            DVec3::ZERO,
-            DVec3::new(1.0, 0.0, 1.0),
-            DVec3::new(0.0, 1.0, 1.0),
-        ];
-        assert_eq!(cross_section(&pl, touching, 1e-12), Section::None);
     }
 }

@@ -13,8 +13,8 @@ use crate::kernel::Kernel;
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
+use crate::scene::flat::FlatBsdf;
 use crate::transport::bsdf::Mode;
-use crate::transport::flat::FlatBsdf;
 use crate::transport::trace;
 use glam::DVec3;
 
