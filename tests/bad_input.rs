@@ -372,3 +372,34 @@ fn bad_input_field_of_the_earlier_format_is_refused_naming_it() {
         "{e}"
     );
 }
+
+/// Dozens of materials with Kd + Ks above 1 give one warning with the count and the first
+/// material, not one warning each.
+#[test]
+fn bad_input_many_bright_materials_give_one_summarised_warning() {
+    let dir = crate::support::temp_dir("bad_input", "bright_materials");
+    let mut mtl = String::new();
+    let mut obj = String::from("mtllib bright.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for i in 0..83 {
+        mtl.push_str(&format!(
+            "newmtl m{i}\nKd 0.8 0.8 0.8\nKs 0.5 0.5 0.5\nNs 20\n"
+        ));
+        obj.push_str(&format!("usemtl m{i}\nf 1 2 3\n"));
+    }
+    // One more with a different note's material kind (a mirror, illum 3) and one that is fine.
+    mtl.push_str(
+        "newmtl mirror\nillum 3\nKd 0.5 0.5 0.5\nKs 0.9 0.9 0.9\nnewmtl ok\nKd 0.5 0.5 0.5\n",
+    );
+    std::fs::write(dir.join("bright.mtl"), mtl).unwrap();
+    let path = dir.join("bright.obj");
+    std::fs::write(&path, obj).unwrap();
+    let scene = load_scene(&path).unwrap();
+    let f = path.display();
+    assert_eq!(
+        scene.report.warnings,
+        vec![format!(
+            "{f}: 84 materials: Kd + Ks exceeds 1; scaled down (the first is 'm0')"
+        )]
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

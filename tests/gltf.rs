@@ -684,3 +684,35 @@ fn gltf_version_1_is_named_as_such() {
     assert!(!r.ok);
     assert_eq!(r.err.trim(), format!("error: {want}"));
 }
+
+/// A glTF scene without triangles (here: only a point light) is refused as empty, naming the
+/// file, through the binary, even with `--window` (which used to fail for lack of bounds).
+#[test]
+fn gltf_without_triangles_is_an_empty_scene() {
+    let dir = temp_dir("no_triangles");
+    let path = dir.0.join("lamp_only.gltf");
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 10.0}
+        ]}},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"translation": [0.0, 1.0, 0.0],
+                   "extensions": {"KHR_lights_punctual": {"light": 0}}}]
+    });
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let want = format!(
+        "error: {}: no geometry: the scene's nodes reference no triangles (primitives of mode \
+         TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN)",
+        path.display()
+    );
+    for extra in [&[][..], &["--window=-1,0,1,2"][..]] {
+        let mut args = vec!["--scene", path.to_str().unwrap(), "--slice", "z=0"];
+        args.extend_from_slice(extra);
+        let r = crate::support::ftpd3d(None, &args);
+        assert!(!r.ok, "{extra:?}");
+        assert_eq!(r.err.trim(), want, "{extra:?}");
+    }
+}

@@ -113,6 +113,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         ..
     } = loader;
     let normals = if any_normals { normals } else { Vec::new() };
+    let n_triangles = triangles.len();
     let mut scene = Scene::build(
         path,
         positions,
@@ -123,6 +124,20 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         report,
     )
     .with_context(|| format!("{file}: building the scene"))?;
+    // As the OBJ loader: a scene without triangles has nothing to deflect light, and no bounds to
+    // place a slice or a camera's run lengths in.
+    if scene.triangles.is_empty() {
+        if n_triangles == 0 {
+            bail!(
+                "{file}: no geometry: the scene's nodes reference no triangles (primitives of \
+                 mode TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN)"
+            );
+        }
+        bail!(
+            "{file}: no geometry: all {n_triangles} triangles are degenerate (zero area or \
+             non-finite coordinates)"
+        );
+    }
     scene.cameras = cameras;
     for (position, intensity) in points {
         scene.lights.add_point(position, intensity);

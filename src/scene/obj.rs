@@ -55,18 +55,35 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     };
     let mtl_notes = mtl_notes.into_inner();
     let mut materials: Vec<Material> = match mtl {
-        Ok(list) => list
-            .iter()
-            .map(|m| {
-                let (mat, warn) = convert_material(m);
-                if let Some(w) = warn {
-                    report
-                        .warnings
-                        .push(format!("{file}: material '{}': {w}", m.name));
-                }
-                mat
-            })
-            .collect(),
+        Ok(list) => {
+            // One warning per kind of conversion note, not per material (a library may have
+            // dozens): the count and the first material it concerns.
+            let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
+            let mats = list
+                .iter()
+                .map(|m| {
+                    let (mat, warn) = convert_material(m);
+                    if let Some(w) = warn {
+                        match notes.iter_mut().find(|(n, _)| *n == w) {
+                            Some((_, names)) => names.push(&m.name),
+                            None => notes.push((w, vec![&m.name])),
+                        }
+                    }
+                    mat
+                })
+                .collect();
+            for (w, names) in notes {
+                report.warnings.push(match names[..] {
+                    [one] => format!("{file}: material '{one}': {w}"),
+                    _ => format!(
+                        "{file}: {} materials: {w} (the first is '{}')",
+                        names.len(),
+                        names[0]
+                    ),
+                });
+            }
+            mats
+        }
         Err(e) => {
             if mtl_notes.is_empty() {
                 report.warnings.push(format!(
