@@ -884,3 +884,71 @@ fn an_interrupted_tile_holds_only_its_rows_and_merges() {
     assert!(all.cells.iter().all(|c| c.n > 0));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Part 0 of an EXR holds only f32 channels (what every EXR reader, FreeImage included, opens as an
+/// image), with the run's metadata; part 1 the exact u32 sums and counts. Read with the exr crate
+/// directly, not with the project's reader.
+#[test]
+fn exr_part_0_is_all_f32_and_part_1_holds_the_exact_sums() {
+    use exr::prelude::*;
+    let dir = temp_dir("parts");
+    run(&dir, &["-o", "a.exr"]);
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(dir.join("a.exr"))
+        .unwrap();
+    let parts = &image.layer_data;
+    assert_eq!(parts.len(), 2);
+    let name = |l: &Layer<AnyChannels<FlatSamples>>| {
+        l.attributes.layer_name.as_ref().map(|t| t.to_string())
+    };
+    assert_eq!(name(&parts[0]).as_deref(), Some("ftpd"));
+    assert_eq!(name(&parts[1]).as_deref(), Some("exact"));
+    let names = |l: &Layer<AnyChannels<FlatSamples>>| -> Vec<String> {
+        l.channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect()
+    };
+    for want in ["ftpd", "ftpd.stderr", "valid", "samples", "fluence.R"] {
+        assert!(
+            names(&parts[0]).iter().any(|n| n == want),
+            "part 0 lacks {want}"
+        );
+    }
+    assert!(
+        parts[0]
+            .channel_data
+            .list
+            .iter()
+            .all(|c| matches!(c.sample_data, FlatSamples::F32(_))),
+        "part 0 must be f32 only: {:?}",
+        names(&parts[0])
+    );
+    assert!(
+        parts[1]
+            .channel_data
+            .list
+            .iter()
+            .all(|c| matches!(c.sample_data, FlatSamples::U32(_)))
+    );
+    for want in ["samples", "batches", "exact.sum.w.hi", "exact.sum.w.lo"] {
+        assert!(
+            names(&parts[1]).iter().any(|n| n == want),
+            "part 1 lacks {want}"
+        );
+    }
+    assert!(
+        parts[0]
+            .attributes
+            .other
+            .keys()
+            .any(|k| k.to_string() == "ftpd3d.weighting")
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

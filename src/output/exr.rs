@@ -1,6 +1,9 @@
-//! OpenEXR output of 2D fields (exr crate): one single-part file, f32 channels named by quantity,
-//! the raw sums kept exact as pairs of u32 channels holding the high and low 32 bits of each f64, and
-//! the run's description as string header attributes.
+//! OpenEXR output of 2D fields (exr crate): a two-part file. Part 0 (`ftpd`) holds only f32 channels
+//! named by quantity and the run's description as string header attributes, so that every EXR
+//! reader (FreeImage, which refuses mixed channel types in a part, Blender, tev, OpenImageIO,
+//! Python OpenEXR) opens it as an image. Part 1 (`exact`) keeps the raw sums exact as pairs of u32
+//! channels holding the high and low 32 bits of each f64, with the exact sample and batch counts:
+//! what merge and resume read. (Files of earlier versions, one part with everything, still read.)
 //!
 //! | channel                      | type | meaning                                                  |
 //! |------------------------------|------|----------------------------------------------------------|
@@ -10,11 +13,16 @@
 //! | `weight`                     | f32  | mean contribution weight ΣP / samples                    |
 //! | `fluence.R/G/B`              | f32  | incident radiance integrated over the sphere (radiance weighting only) |
 //! | `radiance.R/G/B`             | f32  | camera images: a path-traced beauty image along the same pixel rays |
-//! | `samples`                    | u32  | samples taken at the cell                                |
+//! | `samples`, `batches`         | f32  | samples taken at the cell, batches (passes) that sampled it (rounded above 2²⁴) |
 //! | `valid`                      | f32  | 1 where σ is defined (ΣP > 0)                             |
 //! | `sum.w`, `sum.wd`, `sum.wd2` | f32  | ΣP, ΣPΔ, ΣPΔ² rounded, for viewing                        |
+//!
+//! Part 1, `exact`:
+//!
+//! | channel                      | type | meaning                                                  |
+//! |------------------------------|------|----------------------------------------------------------|
+//! | `samples`, `batches`         | u32  | the exact counts                                         |
 //! | `exact.<sum>.hi/.lo`         | u32  | the exact f64 bits of every sum (ΣP, ΣPΔ, ΣPΔ², their compensations, fluence, product sums `sum.w.w` … `sum.wd2.wd2`) |
-//! | `batches`                    | u32  | batches (passes) that sampled the cell                   |
 //!
 //! Image rows run top to bottom, so the first row is the plane's largest v.
 
@@ -73,6 +81,8 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     f32ch("sum.w", per(&|k| field.cells[k].sums().0));
     f32ch("sum.wd", per(&|k| field.cells[k].sums().1));
     f32ch("sum.wd2", per(&|k| field.cells[k].sums().2));
+    f32ch("samples", per(&|k| field.cells[k].n as f64));
+    f32ch("batches", per(&|k| field.cells[k].batches as f64));
     if field.meta.get("domain").is_some_and(|d| d == "camera") {
         // Camera runs keep the beauty image's radiance in the fluence sums.
         let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
@@ -91,8 +101,9 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
         }
         f32ch(name, per(&|k| data[k]));
     }
+    let mut exact_chans: Vec<AnyChannel<FlatSamples>> = Vec::new();
     let mut u32ch = |name: String, data: Vec<u32>| {
-        chans.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)))
+        exact_chans.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)))
     };
     if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
         bail!(
@@ -138,20 +149,29 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
         );
     }
 
-    let mut attrs = LayerAttributes::default();
+    let mut attrs = LayerAttributes::named("ftpd");
     for (k, v) in &field.meta {
         attrs.other.insert(
             Text::from(format!("ftpd3d.{k}").as_str()),
             AttributeValue::Text(Text::from(v.as_str())),
         );
     }
-    let layer = Layer::new(
+    let view = Layer::new(
         (w, h),
         attrs,
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(chans.into()),
     );
-    let image = Image::from_layer(layer);
+    let exact = Layer::new(
+        (w, h),
+        LayerAttributes::named("exact"),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(exact_chans.into()),
+    );
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions((w, h))),
+        vec![view, exact],
+    );
     crate::output::write_atomically(path, |tmp| {
         image
             .write()
@@ -160,26 +180,51 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     })
 }
 
-type AnyImage = Image<Layer<AnyChannels<FlatSamples>>>;
+type AnyImage = Image<Layers<AnyChannels<FlatSamples>>>;
 
-/// The first layer of an EXR file, all channels and attributes.
+/// Every part of an EXR file, all channels and attributes.
 fn read_image(path: &Path) -> anyhow::Result<AnyImage> {
-    read()
+    let image: AnyImage = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
-        .first_valid_layer()
+        .all_layers()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| anyhow::anyhow!("{}: not a readable EXR file ({e})", path.display()))
+        .map_err(|e| anyhow::anyhow!("{}: not a readable EXR file ({e})", path.display()))?;
+    let Some(first) = image.layer_data.first() else {
+        bail!("{}: an EXR file without image parts", path.display());
+    };
+    if image.layer_data.iter().any(|l| l.size != first.size) {
+        bail!(
+            "{}: its parts differ in size (not an ftpd3d field)",
+            path.display()
+        );
+    }
+    Ok(image)
+}
+
+/// The channel `name` of the first part that has it, with a sample type `want` accepts.
+fn find_channel<'a>(
+    image: &'a AnyImage,
+    name: &str,
+    want: impl Fn(&FlatSamples) -> bool,
+) -> Option<&'a FlatSamples> {
+    image.layer_data.iter().find_map(|l| {
+        l.channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq(name) && want(&c.sample_data))
+            .map(|c| &c.sample_data)
+    })
 }
 
 /// Reads a field written by [`write_exr`] back (exact sums, sample counts, metadata).
 pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
     let image = read_image(path)?;
-    let layer = &image.layer_data;
-    let (w, h) = (layer.size.x(), layer.size.y());
-    let has = |name: &str| layer.channel_data.list.iter().any(|c| c.name.eq(name));
+    let size = image.layer_data[0].size;
+    let (w, h) = (size.x(), size.y());
+    let has = |name: &str| find_channel(&image, name, |_| true).is_some();
     if has("exact.batch.sigma.hi") && !has("exact.sum.w.w.hi") {
         bail!(
             "{}: written by an earlier ftpd3d, whose standard error came from batch σ sums; the \
@@ -189,18 +234,12 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
         );
     }
     let chan = |name: &str| -> anyhow::Result<&FlatSamples> {
-        layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.eq(name))
-            .map(|c| &c.sample_data)
-            .with_context(|| {
-                format!(
-                    "{}: channel '{name}' missing (not an ftpd3d field?)",
-                    path.display()
-                )
-            })
+        find_channel(&image, name, |d| matches!(d, FlatSamples::U32(_))).with_context(|| {
+            format!(
+                "{}: channel '{name}' missing (not an ftpd3d field?)",
+                path.display()
+            )
+        })
     };
     let u32s = |name: &str| -> anyhow::Result<Vec<u32>> {
         match chan(name)? {
@@ -238,7 +277,7 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
         }
     }
     let mut meta = BTreeMap::new();
-    for (k, v) in &layer.attributes.other {
+    for (k, v) in image.layer_data.iter().flat_map(|l| &l.attributes.other) {
         if let (Some(key), AttributeValue::Text(t)) = (k.to_string().strip_prefix("ftpd3d."), v) {
             meta.insert(key.to_string(), t.to_string());
         }
@@ -247,18 +286,15 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
     Ok(field)
 }
 
-/// Reads one f32 channel of an EXR in field order (row 0 = bottom), for tests and tools.
+/// Reads one channel of an EXR as f32 in field order (row 0 = bottom), for tests and tools: the
+/// first part that has it (part 0's f32 view before part 1's exact u32 counts).
 pub fn read_channel(path: &Path, name: &str) -> anyhow::Result<(usize, usize, Vec<f32>)> {
     let image = read_image(path)?;
-    let layer = &image.layer_data;
-    let (w, h) = (layer.size.x(), layer.size.y());
-    let c = layer
-        .channel_data
-        .list
-        .iter()
-        .find(|c| c.name.eq(name))
+    let size = image.layer_data[0].size;
+    let (w, h) = (size.x(), size.y());
+    let c = find_channel(&image, name, |_| true)
         .with_context(|| format!("{}: no channel '{name}'", path.display()))?;
-    let v: Vec<f32> = c.sample_data.values_as_f32().collect();
+    let v: Vec<f32> = c.values_as_f32().collect();
     let mut out = vec![0.0; w * h];
     for (e, x) in v.into_iter().enumerate() {
         out[(h - 1 - e / w) * w + e % w] = x;
