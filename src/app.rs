@@ -1,129 +1,27 @@
 //! The validated job and what the command line runs: load, estimate, write, summarise.
-//! `main.rs` parses arguments into a [`Job`] or a [`VolumeJob`]; everything here returns errors,
-//! never panics.
+//! `main.rs` parses arguments into a [`Job`] (slices, planes, camera images and volumes alike);
+//! everything here returns errors, never panics.
 
-use crate::domain::slice::SliceSpec;
+use crate::cli::report::{fmt_duration, human_bytes, scene_line, shell_quote, summary};
+use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::domain::volume::Volume;
-use crate::domain::{CameraView, Domain, Plane, PlaneOnSurfaces, Subset, VolumeRes};
+use crate::domain::{CameraView, Domain, MAX_RES, Plane, PlaneOnSurfaces, VolumeRes};
 use crate::field::Field;
-use crate::ftpd::{self, Params, Weighting};
-use crate::kernel::{self, Kernel, WithKernel};
-use crate::output;
-pub use crate::output::{check_writable, write_outputs, write_outputs_with, write_volume_outputs};
+use crate::ftpd::{self, Params};
+use crate::output::{self, check_writable, write_outputs_with};
 use crate::render::{
     self, ErrorStats, Hooks, InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason,
 };
-use crate::rng::Sampler;
+use crate::run::{
+    EstimatorArgs, camera_meta, check_flatland, describe_run, estimate_time, fmt_vec, plane_meta,
+    prepare_flatland, run_domain_progressive, volume_meta,
+};
+use crate::scene::load::{extension, load_scene_with_lights};
 use crate::scene::{self, Scene};
-use crate::transport::flat::Flatland;
 use anyhow::{Context, bail};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-/// Estimator settings as the user gave them; `None` means "relative to the scene" (see [`resolve`]).
-#[derive(Clone, Debug)]
-pub struct EstimatorArgs {
-    pub weighting: Weighting,
-    pub t0: Option<f64>,
-    pub t1: Option<f64>,
-    /// Perturbation half-angle in degrees.
-    pub angle_deg: f64,
-    pub max_bounces: u32,
-}
-
-/// Default run-length window as fractions of the scene diagonal D: T ∈ [0.1 D, 0.5 D].
-pub const DEFAULT_T0_OF_DIAGONAL: f64 = 0.1;
-pub const DEFAULT_T1_OF_DIAGONAL: f64 = 0.5;
-
-impl EstimatorArgs {
-    /// Checks the values and fills scene-relative defaults.
-    pub fn resolve(&self, scene: &Scene) -> anyhow::Result<Params> {
-        self.resolve_with_extent(scene, scene.extent())
-    }
-
-    /// [`resolve`](Self::resolve) with run-length defaults relative to the length `d` instead of the
-    /// scene diagonal (flatland uses the diagonal of the scene's cross-section).
-    pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> anyhow::Result<Params> {
-        let t0 = self.t0.unwrap_or(DEFAULT_T0_OF_DIAGONAL * d);
-        let t1 = self
-            .t1
-            .unwrap_or(DEFAULT_T1_OF_DIAGONAL * d)
-            .max(if self.t1.is_none() { t0 } else { 0.0 });
-        if !t0.is_finite() || t0 < 0.0 {
-            bail!("--t0 {t0}: the shortest run length must be finite and ≥ 0");
-        }
-        if !t1.is_finite() || t1 <= 0.0 {
-            bail!("--t1 {t1}: the longest run length must be finite and > 0");
-        }
-        if t0 > t1 {
-            bail!("--t0 {t0} is larger than --t1 {t1}: the run-length interval [t0, t1] is empty");
-        }
-        if !(self.angle_deg > 0.0 && self.angle_deg < 90.0) {
-            bail!(
-                "--angle {}: the perturbation half-angle must lie strictly between 0 and 90 degrees",
-                self.angle_deg
-            );
-        }
-        if self.weighting == Weighting::Radiance && scene.lights.is_empty() {
-            bail!(
-                "--weight radiance: {} has no lights (no emissive material, Ke); \
-                 use --weight unweighted or add a light",
-                scene.source.display()
-            );
-        }
-        Ok(Params {
-            t0,
-            t1,
-            theta_max: self.angle_deg.to_radians(),
-            weighting: self.weighting,
-            max_bounces: self.max_bounces,
-            flat: None,
-        })
-    }
-}
-
-/// Diagonal of the bounds projected onto the plane of `fl` (the size of a flatland scene).
-pub fn flat_extent(bounds: &scene::Aabb, fl: &Flatland) -> f64 {
-    if bounds.is_empty() {
-        return 1.0;
-    }
-    let (mut lo, mut hi) = (
-        glam::DVec2::splat(f64::INFINITY),
-        glam::DVec2::splat(f64::NEG_INFINITY),
-    );
-    for c in bounds.corners() {
-        let q = glam::DVec2::new(c.dot(fl.e1), c.dot(fl.e2));
-        lo = lo.min(q);
-        hi = hi.max(q);
-    }
-    let d = (hi - lo).length();
-    if d > 0.0 && d.is_finite() { d } else { 1.0 }
-}
-
-/// Sets up a flatland run on `plane`: validates and prepares the scene
-/// ([`Scene::prepare_flatland`]), resolves the estimator settings with run-length defaults relative
-/// to the cross-section's diagonal, and returns them with [`Params::flat`] set.
-pub fn prepare_flatland(
-    scene: &mut Scene,
-    plane: &Plane,
-    args: &EstimatorArgs,
-) -> anyhow::Result<Params> {
-    let fl = Flatland::of_plane(plane);
-    scene.prepare_flatland(fl, &plane.label)?;
-    let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
-    if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {
-        bail!(
-            "--flatland --weight radiance: no light of {} meets the slice plane {} (emissive \
-             triangles must cross it, point lights lie in it); use --weight unweighted or another \
-             slice",
-            scene.source.display(),
-            plane.label
-        );
-    }
-    params.flat = Some(fl);
-    Ok(params)
-}
 
 /// Where a run's samples start.
 #[derive(Clone, Debug)]
@@ -140,25 +38,12 @@ pub enum DomainArg {
         camera: CameraArg,
         size: (usize, usize),
     },
-}
-
-/// One plane of a slice run.
-#[derive(Clone, Debug)]
-pub enum SliceArg {
-    /// `AXIS=VALUE` or the name of a slice in the scene file.
-    Axis(String),
-    /// `origin=… normal=… [up=…] [size=…]`.
-    Plane(crate::domain::slice::PlaneSpec),
-}
-
-impl SliceArg {
-    /// A short name for file names: `z0.5`, `plane2`.
-    pub fn file_label(&self, index: usize) -> String {
-        match self {
-            SliceArg::Axis(a) => a.replace(['=', '/', ' '], ""),
-            SliceArg::Plane(_) => format!("plane{index}"),
-        }
-    }
+    /// A voxel grid, written as `.vti`: `res` voxels (`--volume`) over `bbox`
+    /// (`--box xmin,ymin,zmin,xmax,ymax,zmax`; `None` = the scene bounds, flat sides padded).
+    Volume {
+        res: VolumeRes,
+        bbox: Option<[f64; 6]>,
+    },
 }
 
 /// The output file of slice `index` of `count`: the job's output itself for a single slice, else
@@ -210,382 +95,6 @@ pub struct Job {
     pub resume: Option<PathBuf>,
     /// The command line that started the job, without any `--resume`, for the resume hint.
     pub command: Option<String>,
-}
-
-/// Largest accepted `--res`.
-pub const MAX_RES: usize = 16384;
-
-/// Loads a scene by its extension: `.obj`, or a sidecar `.toml` naming a mesh plus point lights,
-/// cameras and named slices.
-pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
-    match extension(path).as_deref() {
-        Some("toml") => {
-            let sc = scene::sidecar::read(path)?;
-            let mesh = path.parent().unwrap_or(Path::new(".")).join(&sc.mesh);
-            if extension(&mesh).as_deref() == Some("toml") {
-                bail!(
-                    "{}: mesh = \"{}\" must be a mesh file, not another .toml",
-                    path.display(),
-                    sc.mesh
-                );
-            }
-            let mut scene = load_mesh(&mesh)
-                .with_context(|| format!("{}: loading its mesh", path.display()))?;
-            scene::sidecar::apply(&sc, &mut scene)?;
-            scene.named_slices = sc
-                .slice
-                .iter()
-                .map(|s| (s.name.clone(), s.plane.clone()))
-                .collect();
-            Ok(scene)
-        }
-        _ => load_mesh(path),
-    }
-}
-
-fn extension(path: &Path) -> Option<String> {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-}
-
-fn load_mesh(path: &Path) -> anyhow::Result<Scene> {
-    match extension(path).as_deref() {
-        Some("obj") => scene::obj::load(path),
-        Some("gltf" | "glb") => scene::gltf::load(path),
-        Some(other) => bail!(
-            "{}: unsupported scene format '.{other}' (supported: .obj, .gltf, .glb, .toml)",
-            path.display()
-        ),
-        None => bail!(
-            "{}: no file extension; expected a .obj, .gltf, .glb or .toml scene",
-            path.display()
-        ),
-    }
-}
-
-/// Resolves `--slice`: `AXIS=VALUE`, or the name of a slice in the sidecar scene file.
-pub fn resolve_slice(arg: &str, scene: &Scene) -> anyhow::Result<SliceSpec> {
-    if arg.contains('=') {
-        return arg
-            .parse::<SliceSpec>()
-            .map_err(|e| anyhow::anyhow!("--slice {e}"));
-    }
-    match scene.named_slices.iter().find(|(n, _)| n == arg) {
-        Some((_, plane)) => plane
-            .parse::<SliceSpec>()
-            .map_err(|e| anyhow::anyhow!("--slice {arg}: the scene file's plane {e}")),
-        None if scene.named_slices.is_empty() => {
-            bail!("--slice {arg}: expected AXIS=VALUE such as z=1.2 (the scene names no slices)")
-        }
-        None => bail!(
-            "--slice {arg}: not AXIS=VALUE and not a slice of the scene file (it names: {})",
-            scene
-                .named_slices
-                .iter()
-                .map(|(n, _)| n.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
-    }
-}
-
-/// Parses `--point-light x,y,z:r,g,b` (position, then radiant intensity per steradian).
-pub fn parse_point_light(s: &str) -> Result<(glam::DVec3, glam::DVec3), String> {
-    let (p, i) = s
-        .split_once(':')
-        .ok_or_else(|| format!("'{s}': expected x,y,z:r,g,b"))?;
-    let three = |t: &str, what: &str| -> Result<glam::DVec3, String> {
-        let v: Vec<f64> = t
-            .split(',')
-            .map(|x| {
-                x.trim()
-                    .parse::<f64>()
-                    .map_err(|_| format!("'{s}': {what} '{x}' is not a number"))
-            })
-            .collect::<Result<_, _>>()?;
-        match v.as_slice() {
-            [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok(glam::DVec3::new(*a, *b, *c)),
-            [_, _, _] => Err(format!("'{s}': {what} must be finite")),
-            _ => Err(format!("'{s}': {what} needs 3 comma-separated numbers")),
-        }
-    };
-    let (pos, int) = (three(p, "position")?, three(i, "intensity")?);
-    if int.min_element() < 0.0 {
-        return Err(format!("'{s}': intensity must be ≥ 0"));
-    }
-    Ok((pos, int))
-}
-
-/// Describes the run in the field's metadata (EXR header attributes).
-pub fn describe_run(
-    field: &mut Field,
-    scene: &Scene,
-    params: &Params,
-    opts: &RenderOptions,
-    domain: &str,
-) {
-    let m = &mut field.meta;
-    m.insert(
-        "tool".into(),
-        format!("ftpd3d {}", env!("CARGO_PKG_VERSION")),
-    );
-    m.insert("embree".into(), crate::embree_version().into());
-    m.insert("scene".into(), scene.source.display().to_string());
-    m.insert("domain".into(), domain.into());
-    m.insert("weighting".into(), params.weighting.to_string());
-    m.insert("t0".into(), format!("{:e}", params.t0));
-    m.insert("t1".into(), format!("{:e}", params.t1));
-    m.insert(
-        "angle_deg".into(),
-        format!("{}", params.theta_max.to_degrees()),
-    );
-    m.insert("max_bounces".into(), params.max_bounces.to_string());
-    m.insert("seed".into(), opts.seed.to_string());
-    m.insert(
-        "spp".into(),
-        if opts.budget.cap_spp {
-            opts.spp.to_string()
-        } else {
-            "none".into()
-        },
-    );
-    m.insert("batches".into(), opts.batches.to_string());
-    m.insert("schedule".into(), Schedule::of(opts).key());
-    m.insert(
-        "adaptive".into(),
-        match opts.adaptive {
-            Some(a) => format!("max {}x", a.max_share),
-            None => "off".into(),
-        },
-    );
-    m.insert(
-        "budget.time".into(),
-        opts.budget.time.map_or_else(|| "none".into(), fmt_duration),
-    );
-    m.insert(
-        "budget.target_error".into(),
-        opts.budget
-            .target_error
-            .map_or_else(|| "none".into(), |t| t.to_string()),
-    );
-    m.insert("features".into(), scene.features.to_string());
-    m.insert("flatland".into(), params.flat.is_some().to_string());
-}
-
-/// Runs FTPD over a plane (the whole grid, or the stripe `opts.tile`); the field comes back with
-/// its metadata filled in. A plane with a surface lying in it (a slice through a wall) starts its
-/// points on the surfaces' front sides ([`PlaneOnSurfaces`]).
-pub fn run_plane(
-    scene: &Scene,
-    plane: &Plane,
-    params: &Params,
-    opts: &RenderOptions,
-) -> anyhow::Result<(Field, RunStats)> {
-    check_flatland(scene, plane, params)?;
-    let on_surfaces = PlaneOnSurfaces(plane);
-    let domain: &dyn Domain = if scene.surface_in_plane(plane.origin, plane.normal()) {
-        &on_surfaces
-    } else {
-        plane
-    };
-    let (mut field, stats) = run_domain(scene, domain, params, opts)?;
-    describe_run(&mut field, scene, params, opts, "slice");
-    field.meta.extend(plane_meta(plane));
-    Ok((field, stats))
-}
-
-/// Runs FTPD over any domain (the whole grid, or the stripe `opts.tile`) with the kernel `params`
-/// needs ([`ftpd::kernel_for`]).
-pub fn run_domain(
-    scene: &Scene,
-    domain: &dyn Domain,
-    params: &Params,
-    opts: &RenderOptions,
-) -> anyhow::Result<(Field, RunStats)> {
-    let (w, h, d) = domain.dims();
-    let mut field = Field::new(w, h, d);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads)
-        .build()?;
-    let stats = run_domain_progressive(
-        &pool,
-        scene,
-        domain,
-        params,
-        opts,
-        &mut field,
-        &mut Progress::default(),
-        Hooks::default(),
-    )?;
-    field
-        .meta
-        .insert("kernel".into(), ftpd::kernel_for(params).to_string());
-    if let Some(t) = opts.tile {
-        field.meta.insert("tile".into(), t.to_string());
-    }
-    Ok((field, stats))
-}
-
-/// Runs passes over `field` (new, or resumed at `progress`) with the kernel `params` needs until a
-/// budget of `opts` is reached or `hooks.stop` is set; see [`render::run_progressive`].
-#[allow(clippy::too_many_arguments)]
-pub fn run_domain_progressive(
-    pool: &rayon::ThreadPool,
-    scene: &Scene,
-    domain: &dyn Domain,
-    params: &Params,
-    opts: &RenderOptions,
-    field: &mut Field,
-    progress: &mut Progress,
-    hooks: Hooks,
-) -> anyhow::Result<RunStats> {
-    let dims = domain.dims();
-    if (field.width, field.height, field.depth) != dims {
-        bail!(
-            "the field is {}x{}x{} cells, the domain {}x{}x{}",
-            field.width,
-            field.height,
-            field.depth,
-            dims.0,
-            dims.1,
-            dims.2
-        );
-    }
-    struct DomainRun<'a, 'h> {
-        pool: &'a rayon::ThreadPool,
-        scene: &'a Scene,
-        domain: &'a dyn Domain,
-        params: &'a Params,
-        opts: &'a RenderOptions,
-        field: &'a mut Field,
-        progress: &'a mut Progress,
-        hooks: Hooks<'h>,
-    }
-    impl WithKernel for DomainRun<'_, '_> {
-        type Output = anyhow::Result<RunStats>;
-        fn run<K: Kernel>(self) -> Self::Output {
-            let DomainRun {
-                pool,
-                scene,
-                domain,
-                params,
-                opts,
-                field,
-                progress,
-                hooks,
-            } = self;
-            render::run_progressive(
-                pool,
-                field,
-                opts,
-                progress,
-                hooks,
-                |cell, s: &mut Sampler| {
-                    let start = domain.start(scene, cell, s);
-                    ftpd::sample::<K>(scene, start, params, s)
-                },
-            )
-        }
-    }
-    kernel::dispatch(
-        ftpd::kernel_for(params),
-        DomainRun {
-            pool,
-            scene,
-            domain,
-            params,
-            opts,
-            field,
-            progress,
-            hooks,
-        },
-    )
-}
-
-/// A flatland run needs a flatland kernel, a scene prepared for its plane, and a domain in it.
-fn check_flatland(scene: &Scene, plane: &Plane, params: &Params) -> anyhow::Result<()> {
-    match params.flat {
-        None => Ok(()),
-        Some(fl) => {
-            let prepared = scene.flat.as_ref().map(|f| f.plane);
-            if prepared != Some(fl) {
-                bail!(
-                    "flatland run on {}: the scene was not prepared for this plane \
-                     (Scene::prepare_flatland)",
-                    plane.label
-                );
-            }
-            let tol = 1e-9 * scene.extent().max(plane.origin.abs().max_element());
-            if plane.normal().cross(fl.normal).length() > 1e-12
-                || fl.distance(plane.origin).abs() > tol
-            {
-                bail!(
-                    "flatland run: the domain {} does not lie in the flatland plane",
-                    plane.label
-                );
-            }
-            Ok(())
-        }
-    }
-}
-
-/// The metadata that places a slice.
-pub fn plane_meta(plane: &Plane) -> Vec<(String, String)> {
-    vec![
-        ("plane".into(), plane.label.clone()),
-        ("plane.origin".into(), fmt_vec(plane.origin)),
-        ("plane.u".into(), fmt_vec(plane.u_axis)),
-        ("plane.v".into(), fmt_vec(plane.v_axis)),
-        (
-            "plane.size".into(),
-            format!("{},{}", plane.size.0, plane.size.1),
-        ),
-    ]
-}
-
-/// The metadata that places a camera image.
-pub fn camera_meta(view: &CameraView) -> Vec<(String, String)> {
-    let c = &view.camera;
-    vec![
-        ("camera".into(), c.name.clone()),
-        ("camera.eye".into(), fmt_vec(c.eye)),
-        ("camera.forward".into(), fmt_vec(c.forward)),
-        ("camera.up".into(), fmt_vec(c.up)),
-        (
-            "camera.fov_y_deg".into(),
-            format!("{}", c.fov_y.to_degrees()),
-        ),
-    ]
-}
-
-fn fmt_vec(v: glam::DVec3) -> String {
-    format!("{},{},{}", v.x, v.y, v.z)
-}
-
-/// Mean and 95th percentile of the relative standard error over valid cells with σ > 0 (see
-/// [`render::error_stats`] for the definitions).
-pub fn relative_error_summary(field: &Field) -> (f64, f64) {
-    let e = render::error_stats(&field.cells);
-    (e.mean, e.p95)
-}
-
-/// Loads the job's scene and adds its command-line point lights.
-pub fn load_job_scene(job: &Job) -> anyhow::Result<Scene> {
-    load_scene_with_lights(&job.scene, &job.point_lights)
-}
-
-/// Loads a scene and adds point lights (position, radiant intensity) to it.
-pub fn load_scene_with_lights(
-    path: &Path,
-    point_lights: &[(glam::DVec3, glam::DVec3)],
-) -> anyhow::Result<Scene> {
-    let mut scene = load_scene(path)?;
-    for (p, i) in point_lights {
-        scene.lights.add_point(*p, *i);
-    }
-    scene.features = scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
-    Ok(scene)
 }
 
 /// Resolves the camera of a job against the scene.
@@ -646,69 +155,6 @@ pub struct RunOutcome {
     pub progress: Progress,
 }
 
-/// Parses a duration such as `90s`, `10m`, `1h30m`, `2.5h`, `1d`, `500ms`; a bare number is
-/// seconds.
-pub fn parse_duration(s: &str) -> Result<Duration, String> {
-    let t = s.trim();
-    if t.is_empty() {
-        return Err("empty duration; expected e.g. 90s, 10m or 1h30m".into());
-    }
-    if let Ok(x) = t.parse::<f64>() {
-        return Duration::try_from_secs_f64(x)
-            .map_err(|_| format!("'{s}': a duration must be finite and ≥ 0"));
-    }
-    let mut total = 0.0f64;
-    let mut rest = t;
-    while !rest.is_empty() {
-        let num_len = rest
-            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
-            .unwrap_or(rest.len());
-        if num_len == 0 {
-            return Err(format!(
-                "'{s}': expected a number before '{rest}' (e.g. 90s, 10m, 1h30m)"
-            ));
-        }
-        let x: f64 = rest[..num_len]
-            .parse()
-            .map_err(|_| format!("'{s}': '{}' is not a number", &rest[..num_len]))?;
-        rest = rest[num_len..].trim_start();
-        let unit_len = rest
-            .find(|c: char| !c.is_ascii_alphabetic())
-            .unwrap_or(rest.len());
-        let unit = match &rest[..unit_len] {
-            "ms" => 1e-3,
-            "s" | "sec" | "secs" => 1.0,
-            "m" | "min" | "mins" => 60.0,
-            "h" | "hr" | "hrs" => 3600.0,
-            "d" => 86400.0,
-            "" => {
-                return Err(format!(
-                    "'{s}': a unit must follow '{x}' (ms, s, m, h or d)"
-                ));
-            }
-            u => return Err(format!("'{s}': unknown unit '{u}' (ms, s, m, h or d)")),
-        };
-        total += x * unit;
-        rest = rest[unit_len..].trim_start();
-    }
-    Duration::try_from_secs_f64(total).map_err(|_| format!("'{s}': duration out of range"))
-}
-
-/// `1h02m03s`, `4m05s`, `12.3s`: a duration as [`parse_duration`] reads it back.
-pub fn fmt_duration(d: Duration) -> String {
-    let secs = d.as_secs_f64();
-    if secs < 60.0 {
-        return format!("{}s", (secs * 1000.0).round() / 1000.0);
-    }
-    let s = d.as_secs();
-    let (h, m, sec) = (s / 3600, s / 60 % 60, s % 60);
-    if h > 0 {
-        format!("{h}h{m:02}m{sec:02}s")
-    } else {
-        format!("{m}m{sec:02}s")
-    }
-}
-
 /// Keys of a field's metadata beyond [`crate::merge::MUST_MATCH`] (what the samples estimate)
 /// that must agree for a run to resume from it: which random streams, pass sizes and kernel
 /// produced them. Budgets (spp cap, time, target error) may change between invocations.
@@ -725,13 +171,11 @@ pub fn check_resume(
     let have = (file.width, file.height, file.depth);
     if have != dims {
         bail!(
-            "--resume {}: grid size differs: the file has {}x{} cells, this run {}x{} \
-             (give the --res/--window/--size the run was started with)",
+            "--resume {}: grid size differs: the file has {} cells, this run {} \
+             (give the --res/--window/--size/--volume/--box the run was started with)",
             path.display(),
-            have.0,
-            have.1,
-            dims.0,
-            dims.1
+            grid_text(have),
+            grid_text(dims)
         );
     }
     if !file.meta.contains_key("schedule") {
@@ -754,6 +198,15 @@ pub fn check_resume(
         }
     }
     Ok(())
+}
+
+/// `64x48` for a 2D grid, `6x6x6` for a volume.
+fn grid_text((w, h, d): (usize, usize, usize)) -> String {
+    if d > 1 {
+        format!("{w}x{h}x{d}")
+    } else {
+        format!("{w}x{h}")
+    }
 }
 
 /// Records where a run stands in the field's metadata: `partial`, `passes`, `samples`, `elapsed`
@@ -808,6 +261,30 @@ pub fn write_progress(
     path: &Path,
     png: bool,
 ) -> anyhow::Result<()> {
+    write_outputs_with(field, path, png, progress_arrays(progress))
+}
+
+/// [`write_progress`] for a volume: the `.vti`, whose `pass.done` and `pass.units` arrays are
+/// Float64 (read back by [`read_progress`]).
+pub fn write_volume_progress(
+    field: &Field,
+    progress: &Progress,
+    volume: &Volume,
+    path: &Path,
+    png: bool,
+) -> anyhow::Result<()> {
+    output::write_volume_outputs_with(
+        field,
+        volume.vtk_origin(),
+        volume.spacing,
+        path,
+        png,
+        &progress_arrays(progress),
+    )
+}
+
+/// The per-cell arrays of a pass interrupted part-way (none between passes).
+fn progress_arrays(progress: &Progress) -> Vec<(&'static str, Vec<f64>)> {
     let mut extra = Vec::new();
     if let Some(f) = &progress.inflight {
         extra.push((
@@ -818,13 +295,33 @@ pub fn write_progress(
             extra.push(("pass.units", u.iter().map(|&x| x as f64).collect()));
         }
     }
-    write_outputs_with(field, path, png, extra)
+    extra
 }
 
-/// Reads a field to resume from, with where its run stands (see [`mark_progress`]).
+/// Reads a field (`.exr`) or volume (`.vti`) to resume from, with where its run stands (see
+/// [`mark_progress`]).
 pub fn read_progress(path: &Path) -> anyhow::Result<(Field, Progress)> {
-    let field =
-        output::exr::read_exr(path).with_context(|| format!("--resume {}", path.display()))?;
+    let volume = crate::scene::load::extension(path).as_deref() == Some("vti");
+    let (field, mut arrays) = if volume {
+        let v =
+            output::vti::read_vti(path).with_context(|| format!("--resume {}", path.display()))?;
+        (v.field, v.extra)
+    } else {
+        let f =
+            output::exr::read_exr(path).with_context(|| format!("--resume {}", path.display()))?;
+        (f, BTreeMap::new())
+    };
+    // A pass's progress array, from the volume's arrays or the field's channels.
+    let mut array = |name: &str| -> anyhow::Result<Vec<f64>> {
+        if volume {
+            arrays
+                .remove(name)
+                .with_context(|| format!("--resume {}: no array '{name}'", path.display()))
+        } else {
+            let (_, _, v) = output::exr::read_channel(path, name)?;
+            Ok(v.into_iter().map(f64::from).collect())
+        }
+    };
     let num = |key: &str| -> anyhow::Result<&str> {
         field.meta.get(key).map(String::as_str).with_context(|| {
             format!(
@@ -840,13 +337,22 @@ pub fn read_progress(path: &Path) -> anyhow::Result<(Field, Progress)> {
         .parse()
         .with_context(|| format!("--resume {}: 'elapsed' is not a number", path.display()))?;
     let inflight = if field.meta.get("pass.inflight").is_some_and(|v| v == "true") {
-        let (_, _, done) = output::exr::read_channel(path, "pass.done")?;
+        let done = array("pass.done")?;
         let units = if field.meta.get("adaptive").is_some_and(|a| a != "off") && passes >= 2 {
-            let (_, _, u) = output::exr::read_channel(path, "pass.units")?;
-            Some(u.iter().map(|&x| x as u32).collect())
+            Some(array("pass.units")?.iter().map(|&x| x as u32).collect())
         } else {
             None
         };
+        if done.len() != field.cells.len()
+            || units
+                .as_ref()
+                .is_some_and(|u: &Vec<u32>| u.len() != done.len())
+        {
+            bail!(
+                "--resume {}: the interrupted pass's arrays do not match the grid",
+                path.display()
+            );
+        }
         Some(InFlight {
             done: done.iter().map(|&d| d != 0.0).collect(),
             units,
@@ -868,6 +374,7 @@ pub fn read_progress(path: &Path) -> anyhow::Result<(Field, Progress)> {
 enum JobDomain {
     Plane(Plane),
     Camera(CameraView),
+    Volume(Volume),
 }
 
 /// Runs a job end to end: load the scene once, resolve every plane (or the camera) and check every
@@ -919,6 +426,15 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                 "--flatland works on slices (the plane confines the directions), not camera images"
             )
         }
+        DomainArg::Volume { .. } if job.flatland => {
+            bail!("--flatland works on slices (the plane confines the directions), not volumes")
+        }
+        DomainArg::Volume { .. } if extension(&job.output).as_deref() != Some("vti") => {
+            bail!(
+                "-o {}: a volume is written as VTK ImageData; name the file .vti",
+                job.output.display()
+            )
+        }
         _ => {}
     }
     if let Some(r) = &job.resume
@@ -926,26 +442,18 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
     {
         bail!("--resume {}: no such file", r.display());
     }
-    if matches!(job.domain, DomainArg::Camera { .. }) {
+    if matches!(
+        job.domain,
+        DomainArg::Camera { .. } | DomainArg::Volume { .. }
+    ) {
         check_writable(&job.output)?;
     }
     let t_load = Instant::now();
-    let mut scene = load_job_scene(job)?;
+    let mut scene = load_scene_with_lights(&job.scene, &job.point_lights)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
-    say(
-        job,
-        format!(
-            "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s)",
-            job.scene.display(),
-            scene.triangles.len(),
-            scene.report.degenerate_dropped,
-            scene.lights.lights.len(),
-            scene.features,
-            t_load.elapsed().as_secs_f64()
-        ),
-    );
+    say(job, scene_line(&job.scene, &scene, t_load.elapsed()));
     // Every plane and output is resolved and checked before the first one runs.
     let mut domains = Vec::new();
     match &job.domain {
@@ -955,12 +463,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
             res,
         } => {
             for (k, arg) in slices.iter().enumerate() {
-                let plane = match arg {
-                    SliceArg::Axis(a) => {
-                        Plane::axis_slice(&scene.bounds, resolve_slice(a, &scene)?, *window, *res)?
-                    }
-                    SliceArg::Plane(spec) => Plane::from_spec(&scene.bounds, spec, *res)?,
-                };
+                let plane = resolve_plane(arg, &scene, *window, *res)?;
                 let out = slice_output(&job.output, arg, k, slices.len());
                 check_writable(&out)?;
                 domains.push((JobDomain::Plane(plane), out));
@@ -974,6 +477,30 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                 JobDomain::Camera(resolve_camera(camera, &scene, *size)?),
                 job.output.clone(),
             ));
+        }
+        DomainArg::Volume { res, bbox } => {
+            job.estimator.resolve(&scene)?;
+            let bbox = Volume::resolve_box(&scene.bounds, *bbox)?;
+            // Refused before anything is allocated (the resumed file included).
+            let (available, measured) = available_memory();
+            let dims = check_volume_memory(*res, bbox.max - bbox.min, available, measured)?;
+            let volume = Volume::new(&bbox, dims)?;
+            say(
+                job,
+                format!(
+                    "volume {}x{}x{} voxels over [{}] .. [{}], spacing [{}]; memory {} of {} \
+                     available",
+                    volume.nx,
+                    volume.ny,
+                    volume.nz,
+                    fmt_vec(bbox.min),
+                    fmt_vec(bbox.max),
+                    fmt_vec(volume.spacing),
+                    human_bytes(volume_bytes(dims) as f64),
+                    human_bytes(available as f64),
+                ),
+            );
+            domains.push((JobDomain::Volume(volume), job.output.clone()));
         }
     }
     let mut outcomes = Vec::with_capacity(domains.len());
@@ -1038,10 +565,25 @@ fn run_domain_job(
     let (name, kind) = match domain {
         JobDomain::Plane(p) => (format!("slice {}", p.label), "slice"),
         JobDomain::Camera(v) => (format!("camera '{}'", v.camera.name), "camera"),
+        JobDomain::Volume(_) => ("volume".to_string(), "volume"),
     };
-    let (w, h, d) = match domain {
-        JobDomain::Plane(p) => p.dims(),
-        JobDomain::Camera(v) => v.dims(),
+    let on_surfaces;
+    let dom: &dyn Domain = match domain {
+        // A slice through a wall: its points start on the surfaces' front sides.
+        JobDomain::Plane(p) if scene.surface_in_plane(p.origin, p.normal()) => {
+            on_surfaces = PlaneOnSurfaces(p);
+            &on_surfaces
+        }
+        JobDomain::Plane(p) => p,
+        JobDomain::Camera(v) => v,
+        JobDomain::Volume(v) => v,
+    };
+    let (w, h, d) = dom.dims();
+    // What a tile splits: a 2D grid's rows, a volume's z layers (see `Tile::cells`).
+    let (rows, row_name) = if d > 1 { (d, "z layers") } else { (h, "rows") };
+    let write = |f: &Field, p: &Progress, png: bool| match domain {
+        JobDomain::Volume(v) => write_volume_progress(f, p, v, output, png),
+        _ => write_progress(f, p, output, png),
     };
     let kernel = ftpd::kernel_for(params);
     if let JobDomain::Plane(p) = domain {
@@ -1052,6 +594,7 @@ fn run_domain_job(
     fresh.meta.extend(match domain {
         JobDomain::Plane(p) => plane_meta(p),
         JobDomain::Camera(v) => camera_meta(v),
+        JobDomain::Volume(v) => volume_meta(v),
     });
     fresh.meta.insert("kernel".into(), kernel.to_string());
     annotate_point_lights(&mut fresh, job);
@@ -1093,23 +636,26 @@ fn run_domain_job(
         budget_text.push(format!("target error {e}"));
     }
     let tile_note = match opts.tile {
-        Some(t) if t.rows(h).is_empty() => {
+        Some(t) if t.rows(rows).is_empty() => {
             eprintln!(
-                "warning: --tile {t}: the grid has {h} rows, fewer than {} tiles; this tile is empty",
+                "warning: --tile {t}: the grid has {rows} {row_name}, fewer than {} tiles; this \
+                 tile is empty",
                 t.count
             );
             String::new()
         }
         Some(t) => {
-            let r = t.rows(h);
-            format!(", tile {t} (rows {}..{})", r.start, r.end)
+            let r = t.rows(rows);
+            format!(", tile {t} ({row_name} {}..{})", r.start, r.end)
         }
         None => String::new(),
     };
     say(
         job,
         format!(
-            "{name} → {w}x{h} cells{tile_note}, budget {}, passes: {}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            "{name} → {} {}{tile_note}, budget {}, passes: {}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+            grid_text((w, h, d)),
+            if d > 1 { "voxels" } else { "cells" },
             budget_text.join(" or "),
             Schedule::of(opts).key(),
             match opts.adaptive {
@@ -1122,6 +668,30 @@ fn run_domain_job(
             job.estimator.angle_deg
         ),
     );
+    if let JobDomain::Volume(v) = domain
+        && !job.quiet
+        && opts.budget.cap_spp
+    {
+        // How long the samples still to take (this tile's, after those resumed) should last.
+        let e = estimate_time(scene, v, params, opts)?;
+        let cells = opts.tile.map_or(w * h * d, |t| t.cells(w, h, d).len());
+        let left = (cells as u64 * opts.spp as u64).saturating_sub(field.total_samples());
+        say(
+            job,
+            format!(
+                "ETA {:.1} s ({:.3e} samples/s on {} random voxels × {} spp, calibrated in {:.2} s)",
+                if e.rate > 0.0 {
+                    left as f64 / e.rate
+                } else {
+                    0.0
+                },
+                e.rate,
+                e.cells,
+                e.spp,
+                e.calibration_seconds
+            ),
+        );
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()?;
@@ -1134,7 +704,7 @@ fn run_domain_job(
             return Ok(());
         }
         mark_progress(f, p, opts, true, None);
-        write_progress(f, p, output, false)?;
+        write(f, p, false)?;
         last_checkpoint = Instant::now();
         say(
             job,
@@ -1150,16 +720,6 @@ fn run_domain_job(
         stop: Some(&render::INTERRUPT),
         after_pass: Some(&mut checkpoint),
     };
-    let on_surfaces;
-    let dom: &dyn Domain = match domain {
-        // A slice through a wall: its points start on the surfaces' front sides.
-        JobDomain::Plane(p) if scene.surface_in_plane(p.origin, p.normal()) => {
-            on_surfaces = PlaneOnSurfaces(p);
-            &on_surfaces
-        }
-        JobDomain::Plane(p) => p,
-        JobDomain::Camera(v) => v,
-    };
     let stats = run_domain_progressive(
         &pool,
         scene,
@@ -1174,7 +734,7 @@ fn run_domain_job(
     let partial = !stats.stop.is_complete();
     mark_progress(&mut field, &progress, opts, partial, Some(stats.stop));
     say(job, summary(&field, &stats, &error, params));
-    write_progress(&field, &progress, output, job.png)?;
+    write(&field, &progress, job.png)?;
     say(
         job,
         format!(
@@ -1200,126 +760,6 @@ fn run_domain_job(
     })
 }
 
-/// The run summary: time, rates, passes, why the run stopped, the error, and what was clamped.
-pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Params) -> String {
-    let unestimated = if error.unestimated > 0 {
-        format!(
-            " ({} of {} cells with σ > 0 have no estimate yet)",
-            error.unestimated, error.cells
-        )
-    } else {
-        String::new()
-    };
-    let total = field.total_samples();
-    let earlier = if total > stats.samples {
-        format!(" ({total} in the field with the resumed ones)")
-    } else {
-        String::new()
-    };
-    format!(
-        "stopped after {} passes ({}): {} samples in {:.2} s{earlier}, {:.3e} samples/s, \
-         {:.3e} rays/s; relative error mean {:.4}, p95 {:.4}{unestimated}; {} pairs hit the \
-         bounce cap ({}), {} non-finite samples dropped",
-        stats.passes,
-        stats.stop,
-        stats.samples,
-        stats.seconds,
-        stats.samples_per_second(),
-        stats.rays_per_second(),
-        error.mean,
-        error.p95,
-        stats.capped,
-        params.max_bounces,
-        stats.clamped
-    ) + &cost_of_accuracy(
-        total,
-        stats.samples_per_second(),
-        error.p95,
-        params.weighting,
-    )
-    .map(|c| format!("\n{c}"))
-    .unwrap_or_default()
-}
-
-/// What more accuracy costs, projected from this run: `None` without an error or a rate.
-///
-/// Monte Carlo error falls as samples^−½, so halving the p95 relative error takes 4× the samples
-/// in all and one more digit 100×; the extra time is the samples still missing at the rate just
-/// measured. Radiance weighting is slower than that at first (its contributions are heavy-tailed,
-/// and its estimated error is optimistic at low samples), which the text says.
-pub fn cost_of_accuracy(
-    total_samples: u64,
-    samples_per_second: f64,
-    p95: f64,
-    weighting: Weighting,
-) -> Option<String> {
-    if total_samples == 0 || !(samples_per_second > 0.0) || !(p95 > 0.0 && p95.is_finite()) {
-        return None;
-    }
-    let more = |factor: f64| {
-        let secs = (factor - 1.0) * total_samples as f64 / samples_per_second;
-        Duration::try_from_secs_f64(secs).map_or_else(|_| "forever".into(), fmt_duration)
-    };
-    let caveat = if weighting == Weighting::Radiance {
-        "; radiance weighting converges slower than this at first, `ftpd3d converge` measures it"
-    } else {
-        ""
-    };
-    Some(format!(
-        "cost of accuracy (error ∝ samples^-1/2): p95 {:.3} needs 4x the samples (about {} more \
-         at this rate), p95 {:.4} 100x (about {} more){caveat}",
-        p95 / 2.0,
-        more(4.0),
-        p95 / 10.0,
-        more(100.0)
-    ))
-}
-
-/// `s` quoted for a POSIX shell when it needs it.
-pub fn shell_quote(s: &str) -> String {
-    if !s.is_empty()
-        && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c))
-    {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
-    }
-}
-
-/// Importance-weighted FTPD over a camera image (the whole image, or the stripe `opts.tile`), with
-/// its beauty image (`radiance.R/G/B`).
-pub fn run_camera(
-    scene: &Scene,
-    view: &CameraView,
-    params: &Params,
-    opts: &RenderOptions,
-) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain(scene, view, params, opts)?;
-    describe_run(&mut field, scene, params, opts, "camera");
-    field.meta.extend(camera_meta(view));
-    Ok((field, stats))
-}
-
-/// A volume run, validated enough to start (the rest is checked against the loaded scene).
-#[derive(Clone, Debug)]
-pub struct VolumeJob {
-    pub scene: PathBuf,
-    /// Extra point lights: position, radiant intensity.
-    pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
-    /// `--volume`: voxels along the longest side, or along each axis.
-    pub res: VolumeRes,
-    /// `--box xmin,ymin,zmin,xmax,ymax,zmax`; `None` = the scene bounds (flat sides padded).
-    pub bbox: Option<[f64; 6]>,
-    pub estimator: EstimatorArgs,
-    pub render: RenderOptions,
-    /// The `.vti` to write.
-    pub output: PathBuf,
-    /// Also write PNG previews of the middle z-slice.
-    pub png: bool,
-    pub quiet: bool,
-}
-
 /// Memory assumed when `/proc/meminfo` cannot be read: 8 GiB.
 pub const FALLBACK_MEMORY_BYTES: u64 = 8 << 30;
 
@@ -1334,22 +774,6 @@ pub fn available_memory() -> (u64, bool) {
     match kb {
         Some(kb) => (kb.saturating_mul(1024), true),
         None => (FALLBACK_MEMORY_BYTES, false),
-    }
-}
-
-/// `1.5 GB`, `640 GB`, `3.2 TB` (decimal units).
-pub fn human_bytes(b: f64) -> String {
-    let units = ["B", "kB", "MB", "GB", "TB", "PB", "EB"];
-    let mut x = b;
-    let mut u = 0;
-    while x >= 1000.0 && u + 1 < units.len() {
-        x /= 1000.0;
-        u += 1;
-    }
-    if u == 0 || x >= 100.0 {
-        format!("{x:.0} {}", units[u])
-    } else {
-        format!("{x:.1} {}", units[u])
     }
 }
 
@@ -1433,334 +857,4 @@ pub fn check_volume_memory(
         bail!("--volume {res}: {d} voxels along one axis is more than a VTK image can index");
     }
     Ok(dims)
-}
-
-/// How long a run should take, from a short calibration on a few random cells.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Eta {
-    /// Estimated seconds for the whole run.
-    pub seconds: f64,
-    /// Samples per second measured.
-    pub rate: f64,
-    /// Cells and samples per cell of the last calibration round.
-    pub cells: usize,
-    pub spp: u32,
-    /// Time spent calibrating, all rounds.
-    pub calibration_seconds: f64,
-}
-
-/// Seconds the calibration aims at: its last round runs at least this long (or the whole spp).
-pub const CALIBRATION_SECONDS: f64 = 0.25;
-
-/// Estimates the run time of `domain` at `opts.spp` by running the same kernel on the same threads
-/// over random cells (128 per thread to start, so every thread has work), doubling the samples per
-/// cell, then the cells, until a round takes [`CALIBRATION_SECONDS`] (or covers the whole run).
-/// Its samples come from other streams and are thrown away; the run itself is unchanged.
-pub fn estimate_time(
-    scene: &Scene,
-    domain: &dyn Domain,
-    params: &Params,
-    opts: &RenderOptions,
-) -> anyhow::Result<Eta> {
-    let (w, h, d) = domain.dims();
-    let total = w * h * d;
-    let threads = if opts.threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        opts.threads
-    };
-    let mut pick = Sampler::new(opts.seed, u64::MAX, u64::MAX);
-    let mut subset = Subset {
-        inner: domain,
-        cells: Vec::new(),
-    };
-    let mut want = (128 * threads).min(total);
-    let mut o = opts.clone();
-    o.progress = false;
-    o.batches = 1;
-    o.seed = opts.seed ^ 0xCA11_B4A7_E000_0000;
-    o.spp = 1;
-    o.tile = None;
-    let start = Instant::now();
-    loop {
-        while subset.cells.len() < want {
-            let c = (pick.next_f64() * total as f64) as usize;
-            subset.cells.push(c.min(total - 1));
-        }
-        let (_, stats) = run_domain(scene, &subset, params, &o)?;
-        let whole = o.spp >= opts.spp && want >= total;
-        if stats.seconds >= CALIBRATION_SECONDS || whole {
-            let rate = stats.samples_per_second();
-            let samples = total as f64 * opts.spp as f64;
-            return Ok(Eta {
-                seconds: if rate > 0.0 { samples / rate } else { 0.0 },
-                rate,
-                cells: subset.cells.len(),
-                spp: o.spp,
-                calibration_seconds: start.elapsed().as_secs_f64(),
-            });
-        }
-        if o.spp < opts.spp {
-            o.spp = o.spp.saturating_mul(2).min(opts.spp);
-        } else {
-            want = want.saturating_mul(2).min(total);
-        }
-    }
-}
-
-/// Runs FTPD over a volume with the kernel chosen for the scene; the field (`nx` × `ny` × `nz`
-/// cells) comes back with its metadata filled in.
-pub fn run_volume(
-    scene: &Scene,
-    volume: &Volume,
-    params: &Params,
-    opts: &RenderOptions,
-) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain(scene, volume, params, opts)?;
-    describe_run(&mut field, scene, params, opts, "volume");
-    let m = &mut field.meta;
-    let (lo, hi) = (volume.origin, volume.max_corner());
-    m.insert(
-        "volume.box".into(),
-        format!("{},{},{},{},{},{}", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z),
-    );
-    m.insert(
-        "volume.dims".into(),
-        format!("{},{},{}", volume.nx, volume.ny, volume.nz),
-    );
-    m.insert("volume.spacing".into(), fmt_vec(volume.spacing));
-    Ok((field, stats))
-}
-
-/// Runs a volume job end to end: load, check memory, estimate the time, run, write the `.vti` (and
-/// PNG previews of the middle z-slice), print a summary on stderr.
-pub fn run_volume_job(job: &VolumeJob) -> anyhow::Result<Field> {
-    if job.render.spp == 0 {
-        bail!("--spp 0: at least one sample per cell is needed");
-    }
-    if extension(&job.output).as_deref() != Some("vti") {
-        bail!(
-            "-o {}: a volume is written as VTK ImageData; name the file .vti",
-            job.output.display()
-        );
-    }
-    check_writable(&job.output)?;
-    let t_load = Instant::now();
-    let scene = load_scene_with_lights(&job.scene, &job.point_lights)?;
-    let params = job.estimator.resolve(&scene)?;
-    let bbox = Volume::resolve_box(&scene.bounds, job.bbox)?;
-    let (available, measured) = available_memory();
-    let dims = check_volume_memory(job.res, bbox.max - bbox.min, available, measured)?;
-    let volume = Volume::new(&bbox, dims)?;
-    let say = |s: String| {
-        if !job.quiet {
-            eprintln!("{s}");
-        }
-    };
-    for w in &scene.report.warnings {
-        eprintln!("warning: {w}");
-    }
-    say(format!(
-        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s)",
-        job.scene.display(),
-        scene.triangles.len(),
-        scene.report.degenerate_dropped,
-        scene.lights.lights.len(),
-        scene.features,
-        t_load.elapsed().as_secs_f64()
-    ));
-    say(format!(
-        "volume {}x{}x{} voxels over [{}] .. [{}], spacing [{}], {} spp in {} batches, \
-         weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°; memory {} of {} available",
-        volume.nx,
-        volume.ny,
-        volume.nz,
-        fmt_vec(bbox.min),
-        fmt_vec(bbox.max),
-        fmt_vec(volume.spacing),
-        job.render.spp,
-        job.render.batches,
-        params.weighting,
-        params.t0,
-        params.t1,
-        job.estimator.angle_deg,
-        human_bytes(volume_bytes(dims) as f64),
-        human_bytes(available as f64),
-    ));
-    let eta = if job.quiet {
-        None
-    } else {
-        let e = estimate_time(&scene, &volume, &params, &job.render)?;
-        say(format!(
-            "ETA {:.1} s ({:.3e} samples/s on {} random voxels × {} spp, calibrated in {:.2} s)",
-            e.seconds, e.rate, e.cells, e.spp, e.calibration_seconds
-        ));
-        Some(e)
-    };
-    let (field, stats) = run_volume(&scene, &volume, &params, &job.render)?;
-    let (rel_mean, rel_p95) = relative_error_summary(&field);
-    say(format!(
-        "done in {:.2} s{}: {:.3e} samples/s, {:.3e} rays/s; relative error mean {:.3}, p95 {:.3}; \
-         {} pairs hit the bounce cap ({}), {} non-finite samples dropped",
-        stats.seconds,
-        eta.map(|e| format!(" (ETA was {:.1} s)", e.seconds))
-            .unwrap_or_default(),
-        stats.samples_per_second(),
-        stats.rays_per_second(),
-        rel_mean,
-        rel_p95,
-        stats.capped,
-        params.max_bounces,
-        stats.clamped
-    ));
-    if let Some(c) = cost_of_accuracy(
-        field.total_samples(),
-        stats.samples_per_second(),
-        rel_p95,
-        params.weighting,
-    ) {
-        say(c);
-    }
-    write_volume_outputs(
-        &field,
-        volume.vtk_origin(),
-        volume.spacing,
-        &job.output,
-        job.png,
-    )?;
-    say(format!("wrote {}", job.output.display()));
-    Ok(field)
-}
-
-/// One benchmark run: the kernel and raw Embree rays, on the same scene, slice, samples and
-/// threads.
-#[derive(Clone, Debug)]
-pub struct BenchReport {
-    pub kernel: crate::kernel::KernelChoice,
-    pub run: RunStats,
-    pub raw_rays: u64,
-    pub raw_seconds: f64,
-}
-
-impl BenchReport {
-    pub fn raw_rays_per_second(&self) -> f64 {
-        if self.raw_seconds > 0.0 {
-            self.raw_rays as f64 / self.raw_seconds
-        } else {
-            0.0
-        }
-    }
-    /// Kernel rays/s over raw rays/s.
-    pub fn ray_ratio(&self) -> f64 {
-        let raw = self.raw_rays_per_second();
-        if raw > 0.0 {
-            self.run.rays_per_second() / raw
-        } else {
-            0.0
-        }
-    }
-}
-
-/// Runs the FTPD kernel over `plane`, then replays through Embree alone (`rtcIntersect1` /
-/// `rtcOccluded1`, nothing else) exactly the rays the kernel traced, recorded in a separate untimed
-/// run, on the same number of threads. Each part runs `repeats` times, interleaved, and the fastest
-/// time of each is kept (shared, noisy machines).
-pub fn bench_plane(
-    scene: &Scene,
-    plane: &Plane,
-    params: &Params,
-    opts: &RenderOptions,
-    repeats: u32,
-) -> anyhow::Result<BenchReport> {
-    use rayon::prelude::*;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads)
-        .build()?;
-    let rays = record_rays(scene, plane, params, opts, &pool)?;
-    let accel = scene.accel();
-    let (mut run, mut raw_seconds) = (None::<RunStats>, f64::INFINITY);
-    for _ in 0..repeats.max(1) {
-        let r = run_plane(scene, plane, params, opts)?.1;
-        if run.as_ref().is_none_or(|a| r.seconds < a.seconds) {
-            run = Some(r);
-        }
-        let start = Instant::now();
-        let hits: u64 = pool.install(|| {
-            rays.par_chunks(4096)
-                .map(|chunk| {
-                    let mut h = 0u64;
-                    for r in chunk {
-                        h += if r.shadow {
-                            accel.occluded(r.o, r.d, 0.0, r.tfar) as u64
-                        } else {
-                            accel.intersect(r.o, r.d, 0.0, r.tfar).is_some() as u64
-                        };
-                    }
-                    h
-                })
-                .sum()
-        });
-        std::hint::black_box(hits);
-        raw_seconds = raw_seconds.min(start.elapsed().as_secs_f64());
-    }
-    Ok(BenchReport {
-        kernel: ftpd::kernel_for(params),
-        run: run.unwrap_or_default(),
-        raw_rays: rays.len() as u64,
-        raw_seconds,
-    })
-}
-
-/// Every ray query of one run of the kernel over `plane` (the same random decisions, hence the
-/// same rays, as the timed runs), gathered from the pool's threads.
-fn record_rays(
-    scene: &Scene,
-    plane: &Plane,
-    params: &Params,
-    opts: &RenderOptions,
-    pool: &rayon::ThreadPool,
-) -> anyhow::Result<Vec<crate::transport::trace::LoggedRay>> {
-    struct Recording<'a> {
-        scene: &'a Scene,
-        domain: &'a dyn Domain,
-        params: &'a Params,
-        opts: &'a RenderOptions,
-        pool: &'a rayon::ThreadPool,
-    }
-    impl WithKernel for Recording<'_> {
-        type Output = anyhow::Result<()>;
-        fn run<K: Kernel>(self) -> anyhow::Result<()> {
-            let (w, h, d) = self.domain.dims();
-            let mut field = Field::new(w, h, d);
-            render::run_in(self.pool, &mut field, self.opts, |cell, s: &mut Sampler| {
-                let start = self.domain.start(self.scene, cell, s);
-                ftpd::sample::<K>(self.scene, start, self.params, s)
-            })?;
-            Ok(())
-        }
-    }
-    let mut o = opts.clone();
-    o.progress = false;
-    let on_surfaces = PlaneOnSurfaces(plane);
-    let domain: &dyn Domain = if scene.surface_in_plane(plane.origin, plane.normal()) {
-        &on_surfaces
-    } else {
-        plane
-    };
-    kernel::dispatch_recording(
-        ftpd::kernel_for(params),
-        Recording {
-            scene,
-            domain,
-            params,
-            opts: &o,
-            pool,
-        },
-    )?;
-    // Gather the logs of every worker of the pool.
-    Ok(pool
-        .broadcast(|_| crate::transport::trace::take_ray_log())
-        .into_iter()
-        .flatten()
-        .collect())
 }

@@ -123,6 +123,17 @@ impl Default for RenderOptions {
     }
 }
 
+impl RenderOptions {
+    /// The worker threads a run uses: `threads`, or every core for 0.
+    pub fn thread_count(&self) -> usize {
+        if self.threads == 0 {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        } else {
+            self.threads
+        }
+    }
+}
+
 /// Samples per cell and pass when neither a sample cap nor `pass_spp` says.
 pub const DEFAULT_PASS_SPP: u32 = 8;
 

@@ -5,6 +5,7 @@
 pub mod features;
 pub mod gltf;
 pub mod light;
+pub mod load;
 pub mod material;
 pub mod obj;
 pub mod sidecar;
