@@ -480,20 +480,6 @@ pub fn estimate_time(
     }
 }
 
-/// Runs FTPD over a volume with the kernel chosen for the scene; the field (`nx` × `ny` × `nz`
-/// cells) comes back with its metadata filled in.
-pub fn run_volume(
-    scene: &Scene,
-    volume: &Volume,
-    params: &Params,
-    opts: &RenderOptions,
-) -> anyhow::Result<(Field, RunStats)> {
-    let (mut field, stats) = run_domain(scene, volume, params, opts)?;
-    describe_run(&mut field, scene, params, opts, "volume");
-    field.meta.extend(volume_meta(volume));
-    Ok((field, stats))
-}
-
 /// The metadata that places a volume.
 pub fn volume_meta(volume: &Volume) -> Vec<(String, String)> {
     let (lo, hi) = (volume.origin, volume.max_corner());
