@@ -156,9 +156,10 @@ pub struct RunOutcome {
 }
 
 /// Keys of a field's metadata beyond [`crate::merge::MUST_MATCH`] (what the samples estimate)
-/// that must agree for a run to resume from it: which random streams, pass sizes and kernel
-/// produced them. Budgets (spp cap, time, target error) may change between invocations.
-pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel"];
+/// that must agree for a run to resume from it: which random streams, pass sizes, kernel and
+/// tile produced them (a tile resumed as a whole grid would give its other cells only the later
+/// passes). Budgets (spp cap, time, target error) may change between invocations.
+pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel", "tile"];
 
 /// Checks that the field read from `path` was made by the run described by `meta` on a grid of
 /// `dims`; the error names the first key that differs.

@@ -655,3 +655,22 @@ fn a_volume_checkpoint_resumes() {
     assert_eq!(bits(&resumed), bits(&whole));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_tile_resumes_only_as_the_same_tile() {
+    let dir = temp_dir("tile_resume");
+    let out = dir.join("t.vti");
+    let mut job = small_volume(&out);
+    job.render.tile = Some(ftpd3d::domain::Tile { index: 1, count: 3 });
+    job.render.budget.max_passes = Some(1);
+    run_job(&job).unwrap();
+    let mut whole = small_volume(&out);
+    whole.resume = Some(out.clone());
+    let e = format!("{:#}", run_job(&whole).unwrap_err());
+    assert!(e.contains("tile differs"), "{e}");
+    job.render.budget.max_passes = None;
+    job.resume = Some(out.clone());
+    let done = run_job(&job).unwrap().remove(0);
+    assert!(done.stats.stop.is_complete());
+    std::fs::remove_dir_all(&dir).ok();
+}
