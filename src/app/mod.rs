@@ -2,16 +2,23 @@
 //! `main.rs` parses arguments into a [`Job`] (slices, planes, camera images and volumes alike);
 //! everything here returns errors, never panics.
 
+mod memory;
+mod progress;
+
+pub use memory::{FALLBACK_MEMORY_BYTES, available_memory, check_volume_memory, volume_bytes};
+use progress::grid_text;
+pub use progress::{
+    RESUME_KEYS, check_resume, mark_progress, read_progress, write_progress, write_volume_progress,
+};
+
 use crate::cli::report::{fmt_duration, human_bytes, scene_line, shell_quote, summary};
 use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::domain::volume::Volume;
 use crate::domain::{CameraView, Domain, MAX_RES, Plane, PlaneOnSurfaces, VolumeRes};
 use crate::field::Field;
 use crate::ftpd::{self, Params};
-use crate::output::{self, check_writable, write_outputs_with};
-use crate::render::{
-    self, ErrorStats, Hooks, InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason,
-};
+use crate::output::check_writable;
+use crate::render::{self, ErrorStats, Hooks, Progress, RenderOptions, RunStats, Schedule};
 use crate::run::{
     EstimatorArgs, camera_meta, check_flatland, describe_run, estimate_time, fmt_vec, plane_meta,
     prepare_flatland, run_domain_progressive, volume_meta,
@@ -19,7 +26,6 @@ use crate::run::{
 use crate::scene::load::{extension, load_scene_with_lights};
 use crate::scene::{self, Scene};
 use anyhow::{Context, bail};
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -153,222 +159,6 @@ pub struct RunOutcome {
     pub stats: RunStats,
     pub error: ErrorStats,
     pub progress: Progress,
-}
-
-/// Keys of a field's metadata beyond [`crate::merge::MUST_MATCH`] (what the samples estimate)
-/// that must agree for a run to resume from it: which random streams, pass sizes, kernel and
-/// tile produced them (a tile resumed as a whole grid would give its other cells only the later
-/// passes). Budgets (spp cap, time, target error) may change between invocations.
-pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel", "tile"];
-
-/// Checks that the field read from `path` was made by the run described by `meta` on a grid of
-/// `dims`; the error names the first key that differs.
-pub fn check_resume(
-    path: &Path,
-    file: &Field,
-    meta: &BTreeMap<String, String>,
-    dims: (usize, usize, usize),
-) -> anyhow::Result<()> {
-    let have = (file.width, file.height, file.depth);
-    if have != dims {
-        bail!(
-            "--resume {}: grid size differs: the file has {} cells, this run {} \
-             (give the --res/--window/--size/--volume/--box the run was started with)",
-            path.display(),
-            grid_text(have),
-            grid_text(dims)
-        );
-    }
-    if !file.meta.contains_key("schedule") {
-        bail!(
-            "--resume {}: not a field this version of ftpd3d can resume (no 'schedule' key)",
-            path.display()
-        );
-    }
-    for key in crate::merge::MUST_MATCH.iter().chain(RESUME_KEYS) {
-        let (a, b) = (file.meta.get(*key), meta.get(*key));
-        if a != b {
-            let show = |v: Option<&String>| v.map_or_else(|| "(none)".to_string(), Clone::clone);
-            bail!(
-                "--resume {}: {key} differs: the file has {}, this run {}; a run resumes only with \
-                 the scene, domain, parameters, seed and pass schedule it was started with",
-                path.display(),
-                show(a),
-                show(b)
-            );
-        }
-    }
-    Ok(())
-}
-
-/// `64x48` for a 2D grid, `6x6x6` for a volume.
-fn grid_text((w, h, d): (usize, usize, usize)) -> String {
-    if d > 1 {
-        format!("{w}x{h}x{d}")
-    } else {
-        format!("{w}x{h}")
-    }
-}
-
-/// Records where a run stands in the field's metadata: `partial`, `passes`, `samples`, `elapsed`
-/// (compute seconds so far), `remaining.samples` and `remaining.time` (what is left of the budgets),
-/// `pass.inflight`, and `stop` (why it stopped, when it has).
-pub fn mark_progress(
-    field: &mut Field,
-    progress: &Progress,
-    opts: &RenderOptions,
-    partial: bool,
-    stop: Option<StopReason>,
-) {
-    let samples = field.total_samples();
-    let cells = field.cells.len() as u64;
-    let m = &mut field.meta;
-    m.insert("partial".into(), partial.to_string());
-    m.insert("passes".into(), progress.passes.to_string());
-    m.insert("samples".into(), samples.to_string());
-    m.insert("elapsed".into(), progress.elapsed.to_string());
-    m.insert(
-        "remaining.samples".into(),
-        if opts.budget.cap_spp {
-            (cells * opts.spp as u64)
-                .saturating_sub(samples)
-                .to_string()
-        } else {
-            "unbounded".into()
-        },
-    );
-    m.insert(
-        "remaining.time".into(),
-        opts.budget.time.map_or_else(
-            || "none".into(),
-            |t| fmt_duration(t.saturating_sub(Duration::from_secs_f64(progress.elapsed))),
-        ),
-    );
-    m.insert(
-        "pass.inflight".into(),
-        progress.inflight.is_some().to_string(),
-    );
-    match stop {
-        Some(s) => m.insert("stop".into(), s.to_string()),
-        None => m.remove("stop"),
-    };
-}
-
-/// Writes a field with its progress: for a pass interrupted part-way, the channels `pass.done`
-/// (1 where the cell completed it) and, for adaptive passes, `pass.units` (the pass's allocation).
-pub fn write_progress(
-    field: &Field,
-    progress: &Progress,
-    path: &Path,
-    png: bool,
-) -> anyhow::Result<()> {
-    write_outputs_with(field, path, png, progress_arrays(progress))
-}
-
-/// [`write_progress`] for a volume: the `.vti`, whose `pass.done` and `pass.units` arrays are
-/// Float64 (read back by [`read_progress`]).
-pub fn write_volume_progress(
-    field: &Field,
-    progress: &Progress,
-    volume: &Volume,
-    path: &Path,
-    png: bool,
-) -> anyhow::Result<()> {
-    output::write_volume_outputs_with(
-        field,
-        volume.vtk_origin(),
-        volume.spacing,
-        path,
-        png,
-        &progress_arrays(progress),
-    )
-}
-
-/// The per-cell arrays of a pass interrupted part-way (none between passes).
-fn progress_arrays(progress: &Progress) -> Vec<(&'static str, Vec<f64>)> {
-    let mut extra = Vec::new();
-    if let Some(f) = &progress.inflight {
-        extra.push((
-            "pass.done",
-            f.done.iter().map(|&d| if d { 1.0 } else { 0.0 }).collect(),
-        ));
-        if let Some(u) = &f.units {
-            extra.push(("pass.units", u.iter().map(|&x| x as f64).collect()));
-        }
-    }
-    extra
-}
-
-/// Reads a field (`.exr`) or volume (`.vti`) to resume from, with where its run stands (see
-/// [`mark_progress`]).
-pub fn read_progress(path: &Path) -> anyhow::Result<(Field, Progress)> {
-    let volume = crate::scene::load::extension(path).as_deref() == Some("vti");
-    let (field, mut arrays) = if volume {
-        let v =
-            output::vti::read_vti(path).with_context(|| format!("--resume {}", path.display()))?;
-        (v.field, v.extra)
-    } else {
-        let f =
-            output::exr::read_exr(path).with_context(|| format!("--resume {}", path.display()))?;
-        (f, BTreeMap::new())
-    };
-    // A pass's progress array, from the volume's arrays or the field's channels.
-    let mut array = |name: &str| -> anyhow::Result<Vec<f64>> {
-        if volume {
-            arrays
-                .remove(name)
-                .with_context(|| format!("--resume {}: no array '{name}'", path.display()))
-        } else {
-            let (_, _, v) = output::exr::read_channel(path, name)?;
-            Ok(v.into_iter().map(f64::from).collect())
-        }
-    };
-    let num = |key: &str| -> anyhow::Result<&str> {
-        field.meta.get(key).map(String::as_str).with_context(|| {
-            format!(
-                "--resume {}: no '{key}' in the file (not written by a progressive run?)",
-                path.display()
-            )
-        })
-    };
-    let passes: u32 = num("passes")?
-        .parse()
-        .with_context(|| format!("--resume {}: 'passes' is not a number", path.display()))?;
-    let elapsed: f64 = num("elapsed")?
-        .parse()
-        .with_context(|| format!("--resume {}: 'elapsed' is not a number", path.display()))?;
-    let inflight = if field.meta.get("pass.inflight").is_some_and(|v| v == "true") {
-        let done = array("pass.done")?;
-        let units = if field.meta.get("adaptive").is_some_and(|a| a != "off") && passes >= 2 {
-            Some(array("pass.units")?.iter().map(|&x| x as u32).collect())
-        } else {
-            None
-        };
-        if done.len() != field.cells.len()
-            || units
-                .as_ref()
-                .is_some_and(|u: &Vec<u32>| u.len() != done.len())
-        {
-            bail!(
-                "--resume {}: the interrupted pass's arrays do not match the grid",
-                path.display()
-            );
-        }
-        Some(InFlight {
-            done: done.iter().map(|&d| d != 0.0).collect(),
-            units,
-        })
-    } else {
-        None
-    };
-    Ok((
-        field,
-        Progress {
-            passes,
-            inflight,
-            elapsed,
-        },
-    ))
 }
 
 /// The domain of a job, resolved against its scene.
@@ -759,103 +549,4 @@ fn run_domain_job(
         error,
         progress,
     })
-}
-
-/// Memory assumed when `/proc/meminfo` cannot be read: 8 GiB.
-pub const FALLBACK_MEMORY_BYTES: u64 = 8 << 30;
-
-/// Memory available to a new run: `MemAvailable` from `/proc/meminfo`, and whether it was read
-/// (else [`FALLBACK_MEMORY_BYTES`]).
-pub fn available_memory() -> (u64, bool) {
-    let kb = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
-        s.lines()
-            .find_map(|l| l.strip_prefix("MemAvailable:"))
-            .and_then(|r| r.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-    });
-    match kb {
-        Some(kb) => (kb.saturating_mul(1024), true),
-        None => (FALLBACK_MEMORY_BYTES, false),
-    }
-}
-
-/// Memory a volume of `dims` voxels needs ([`output::vti::bytes_per_voxel`] each), without
-/// overflowing however large the request.
-pub fn volume_bytes(dims: [usize; 3]) -> u128 {
-    dims.iter()
-        .fold(1u128, |a, &d| a.saturating_mul(d as u128))
-        .saturating_mul(output::vti::bytes_per_voxel() as u128)
-}
-
-/// The voxel counts of `res` over a box of `size`, refused (naming `--volume` and the largest grid
-/// of the same shape that would fit) when they need more than `available` bytes. Arithmetic only:
-/// this runs before anything is allocated.
-pub fn check_volume_memory(
-    res: VolumeRes,
-    size: glam::DVec3,
-    available: u64,
-    measured: bool,
-) -> anyhow::Result<[usize; 3]> {
-    let dims = Volume::dims_for(res, size);
-    let need = volume_bytes(dims);
-    let fits = |d: [usize; 3]| volume_bytes(d) <= available as u128;
-    if !fits(dims) {
-        let suggestion = match res {
-            VolumeRes::Longest(n) => {
-                // Largest m < n whose grid fits (the count grows with m).
-                let (mut lo, mut hi) = (0usize, n);
-                while hi - lo > 1 {
-                    let mid = lo + (hi - lo) / 2;
-                    if fits(Volume::dims_for(VolumeRes::Longest(mid), size)) {
-                        lo = mid;
-                    } else {
-                        hi = mid;
-                    }
-                }
-                (lo >= 1).then_some(VolumeRes::Longest(lo))
-            }
-            VolumeRes::Dims(d) => {
-                let mut f = (available as f64 / need as f64).cbrt();
-                let mut best = None;
-                while f > 0.0 {
-                    let e = d.map(|x| ((x as f64 * f).floor() as usize).clamp(1, x));
-                    if fits(e) {
-                        best = Some(VolumeRes::Dims(e));
-                        break;
-                    }
-                    if e == [1, 1, 1] {
-                        break;
-                    }
-                    f *= 0.99;
-                }
-                best
-            }
-        };
-        let voxels = dims.iter().map(|&d| d as f64).product::<f64>();
-        let have = format!(
-            "this machine has {} available{}",
-            human_bytes(available as f64),
-            if measured {
-                ""
-            } else {
-                " (assumed: /proc/meminfo could not be read)"
-            }
-        );
-        let fit = match suggestion {
-            Some(r) => format!("; --volume {r} would fit"),
-            None => String::new(),
-        };
-        bail!(
-            "--volume {res}: {}x{}x{} = {voxels:.1e} voxels need {} of memory ({} bytes each), \
-             {have}{fit}",
-            dims[0],
-            dims[1],
-            dims[2],
-            human_bytes(need as f64),
-            output::vti::bytes_per_voxel()
-        );
-    }
-    if let Some(d) = dims.iter().find(|&&d| d > i32::MAX as usize) {
-        bail!("--volume {res}: {d} voxels along one axis is more than a VTK image can index");
-    }
-    Ok(dims)
 }
