@@ -458,29 +458,29 @@ fn bits(field: &Field) -> Vec<[u64; 17]> {
     field.cells.iter().map(|m| m.bit_pattern()).collect()
 }
 
+/// The binary on a 6³ unweighted volume of the Cornell box written to `out`, with `extra` flags.
+fn small_volume_cli(out: &Path, extra: &[&str]) -> crate::support::Run {
+    let cornell = scene_path("cornell_mirror.obj");
+    let mut args = vec![
+        "--scene",
+        cornell.to_str().unwrap(),
+        "--volume",
+        "6",
+        "--weight",
+        "unweighted",
+        "--no-png",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    crate::support::ftpd3d(None, &args)
+}
+
 #[test]
 fn a_volume_takes_a_time_budget() {
     let dir = temp_dir("time");
     let out = dir.join("t.vti");
-    let cornell = scene_path("cornell_mirror.obj");
-    let r = crate::support::ftpd3d(
-        None,
-        &[
-            "--scene",
-            cornell.to_str().unwrap(),
-            "--volume",
-            "6",
-            "--weight",
-            "unweighted",
-            "--time",
-            "1s",
-            "--pass-spp",
-            "2",
-            "--no-png",
-            "-o",
-            out.to_str().unwrap(),
-        ],
-    );
+    let r = small_volume_cli(&out, &["--time", "1s", "--pass-spp", "2"]);
     assert!(r.ok, "{}", r.err);
     assert!(r.err.contains("budget time 1s"), "{}", r.err);
     let back = ftpd3d::output::vti::read_vti(&out).unwrap();
@@ -604,33 +604,12 @@ fn three_volume_tiles_merge_into_the_full_run_bit_for_bit() {
 fn a_volume_checkpoint_resumes() {
     let dir = temp_dir("checkpoint");
     let out = dir.join("c.vti");
-    let cornell = scene_path("cornell_mirror.obj");
-    let args = |extra: &[&str]| {
-        let mut a = vec![
-            "--scene",
-            cornell.to_str().unwrap(),
-            "--volume",
-            "6",
-            "--weight",
-            "unweighted",
-            "--spp",
-            "8",
-            "--batches",
-            "4",
-            "--seed",
-            "7",
-            "--no-png",
-            "-o",
-        ];
-        a.push(out.to_str().unwrap());
+    let run = |extra: &[&str]| {
+        let mut a = vec!["--spp", "8", "--batches", "4", "--seed", "7"];
         a.extend_from_slice(extra);
-        a.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+        small_volume_cli(&out, &a)
     };
-    let run = |a: Vec<String>| {
-        let a: Vec<&str> = a.iter().map(String::as_str).collect();
-        crate::support::ftpd3d(None, &a)
-    };
-    let r = run(args(&["--checkpoint-every", "1ms"]));
+    let r = run(&["--checkpoint-every", "1ms"]);
     assert!(r.ok, "{}", r.err);
     assert!(
         r.err.contains("checkpoint: ") && r.err.contains("passes written to"),
@@ -644,7 +623,7 @@ fn a_volume_checkpoint_resumes() {
     job.render.budget.max_passes = Some(2);
     job.checkpoint_every = Some(std::time::Duration::from_nanos(1));
     run_job(&job).unwrap();
-    let r = run(args(&["--resume", out.to_str().unwrap()]));
+    let r = run(&["--resume", out.to_str().unwrap()]);
     assert!(r.ok, "{}", r.err);
     assert!(
         r.err.contains("resuming") && r.err.contains("2 passes done"),
