@@ -106,21 +106,8 @@ struct ConvergeArgs {
     /// Passes each run is split into (at most the run's spp).
     #[arg(long, default_value_t = RenderOptions::default().batches)]
     batches: u32,
-    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b; repeatable.
-    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = parse_point_light)]
-    point_light: Vec<(glam::DVec3, glam::DVec3)>,
-    /// Shortest run length T [default: 0.1 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t0: Option<f64>,
-    /// Longest run length T [default: 0.5 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t1: Option<f64>,
-    /// Perturbation cone half-angle, degrees.
-    #[arg(long, default_value_t = EstimatorArgs::default().angle_deg, allow_negative_numbers = true)]
-    angle: f64,
-    /// Cap on scattering events per walk and per radiance path.
-    #[arg(long, default_value_t = EstimatorArgs::default().max_bounces)]
-    max_bounces: u32,
+    #[command(flatten)]
+    estimator: EstimatorFlags,
     /// Seed of the first run; run k uses seed + k (every run independent).
     #[arg(long, default_value_t = RenderOptions::default().seed)]
     seed: u64,
@@ -130,6 +117,38 @@ struct ConvergeArgs {
     /// No per-run lines or summary.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// The estimator's flags, shared by runs and `converge`.
+#[derive(Args, Debug, Clone)]
+struct EstimatorFlags {
+    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
+    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = parse_point_light)]
+    point_light: Vec<(glam::DVec3, glam::DVec3)>,
+    /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
+    #[arg(long, allow_negative_numbers = true)]
+    t0: Option<f64>,
+    /// Longest run length T, scene units [default: 0.5 × scene diagonal].
+    #[arg(long, allow_negative_numbers = true)]
+    t1: Option<f64>,
+    /// Half-angle of the cone the second direction is drawn from, degrees (0 < angle < 90).
+    #[arg(long, default_value_t = EstimatorArgs::default().angle_deg, allow_negative_numbers = true)]
+    angle: f64,
+    /// Cap on scattering events per walk and per radiance path.
+    #[arg(long, default_value_t = EstimatorArgs::default().max_bounces)]
+    max_bounces: u32,
+}
+
+impl EstimatorFlags {
+    fn args(&self, weighting: Weighting) -> EstimatorArgs {
+        EstimatorArgs {
+            weighting,
+            t0: self.t0,
+            t1: self.t1,
+            angle_deg: self.angle,
+            max_bounces: self.max_bounces,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -167,9 +186,6 @@ struct RunArgs {
     /// The box a volume covers [default: the scene bounds, flat sides padded].
     #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", allow_hyphen_values = true, value_parser = ftpd3d::domain::volume::parse_box)]
     bbox: Option<[f64; 6]>,
-    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
-    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = parse_point_light)]
-    point_light: Vec<(glam::DVec3, glam::DVec3)>,
     /// Part of the plane to cover, in plane coordinates u0,v0,u1,v1 [default: the scene bounds].
     #[arg(long, value_name = "U0,V0,U1,V1", value_parser = parse_window)]
     window: Option<[f64; 4]>,
@@ -229,26 +245,16 @@ struct RunArgs {
     /// Camera image size in pixels.
     #[arg(long, value_name = "W,H", value_parser = parse_size, default_value = "512,512")]
     size: (usize, usize),
-    /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t0: Option<f64>,
-    /// Longest run length T, scene units [default: 0.5 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t1: Option<f64>,
-    /// Half-angle of the cone the second direction is drawn from, degrees (0 < angle < 90).
-    #[arg(long, default_value_t = EstimatorArgs::default().angle_deg, allow_negative_numbers = true)]
-    angle: f64,
-    /// Cap on scattering events per walk and per radiance path.
-    #[arg(long, default_value_t = EstimatorArgs::default().max_bounces)]
-    max_bounces: u32,
+    #[command(flatten)]
+    estimator: EstimatorFlags,
     /// Seed of the random streams (same seed, same result, on any number of threads).
     #[arg(long, default_value_t = RenderOptions::default().seed)]
     seed: u64,
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = RenderOptions::default().threads)]
     threads: usize,
-    /// Compute only stripe I of N (grid rows, from the bottom; from 0), with the same per-cell
-    /// random streams as a full run; `merge` the N files afterwards.
+    /// Compute only stripe I of N (grid rows from the bottom, a volume's z layers; from 0), with the
+    /// same per-cell random streams as a full run; `merge` the N files afterwards.
     #[arg(long, value_name = "I/N")]
     tile: Option<Tile>,
     /// Output EXR, or .vti for a volume [default: out/<scene>_<slice>.exr, with _tile<I>of<N> for a
@@ -387,8 +393,8 @@ impl RunArgs {
         Ok(Job {
             scene,
             domain,
-            point_lights: self.point_light.clone(),
-            estimator: self.estimator(weight),
+            point_lights: self.estimator.point_light.clone(),
+            estimator: self.estimator.args(weight.into()),
             render: self.render(),
             output: self
                 .output
@@ -402,16 +408,6 @@ impl RunArgs {
             resume: self.resume.clone(),
             command: Some(command_without_resume()),
         })
-    }
-
-    fn estimator(&self, weight: WeightArg) -> EstimatorArgs {
-        EstimatorArgs {
-            weighting: weight.into(),
-            t0: self.t0,
-            t1: self.t1,
-            angle_deg: self.angle,
-            max_bounces: self.max_bounces,
-        }
     }
 
     fn render(&self) -> RenderOptions {
@@ -508,20 +504,16 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
     let weighting = args.weight.map(Weighting::from);
     let job = ConvergeJob {
         scene: args.scene.clone(),
-        point_lights: args.point_light.clone(),
+        point_lights: args.estimator.point_light.clone(),
         slice: args.slice.clone(),
         window: args.window,
         res: args.res,
         reference: args.reference.clone(),
         out_dir: args.out_dir.clone(),
         weighting,
-        estimator: EstimatorArgs {
-            weighting: weighting.unwrap_or(Weighting::Unweighted),
-            t0: args.t0,
-            t1: args.t1,
-            angle_deg: args.angle,
-            max_bounces: args.max_bounces,
-        },
+        estimator: args
+            .estimator
+            .args(weighting.unwrap_or(Weighting::Unweighted)),
         start_spp: args.start_spp,
         max_spp: args.max_spp,
         batches: args.batches,
