@@ -13,11 +13,12 @@
 //! error for a normal error), and the variance of z = (σ₁ − σ₂) / √(se₁² + se₂²), which is about 1
 //! when the standard errors are right.
 
-use ftpd3d::app::{self, EstimatorArgs};
 use ftpd3d::domain::Plane;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::{self, Adaptive, Budget, RenderOptions, error_stats};
+use ftpd3d::run::{EstimatorArgs, run_plane};
+use ftpd3d::scene::load::load_scene;
 use std::path::Path;
 
 fn main() -> anyhow::Result<()> {
@@ -31,7 +32,7 @@ fn main() -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     for name in ["stair_wall.obj", "cornell_mirror.obj"] {
-        let scene = app::load_scene(&root.join(name))?;
+        let scene = load_scene(&root.join(name))?;
         let params = EstimatorArgs {
             weighting: Weighting::Radiance,
             t0: None,
@@ -69,7 +70,7 @@ fn main() -> anyhow::Result<()> {
                     adaptive: adaptive.then(Adaptive::default),
                     ..RenderOptions::default()
                 };
-                let (field, stats) = app::run_plane(&scene, &plane, &params, &opts)?;
+                let (field, stats) = run_plane(&scene, &plane, &params, &opts)?;
                 assert_eq!(stats.stop, render::StopReason::TargetError);
                 runs.push((stats.seconds, field, stats.passes));
             }
@@ -115,7 +116,7 @@ fn main() -> anyhow::Result<()> {
                     pass_spp: Some(8),
                     ..RenderOptions::default()
                 };
-                app::run_plane(&scene, &plane, &params, &opts).map(|r| r.0)
+                run_plane(&scene, &plane, &params, &opts).map(|r| r.0)
             })
             .collect::<anyhow::Result<_>>()?;
         let (seen, varz) = honesty(&fields.iter().collect::<Vec<_>>());

@@ -12,6 +12,7 @@
 pub mod accel;
 pub mod analysis;
 pub mod app;
+pub mod cli;
 pub mod domain;
 pub mod field;
 pub mod ftpd;
@@ -21,6 +22,7 @@ pub mod merge;
 pub mod output;
 pub mod render;
 pub mod rng;
+pub mod run;
 pub mod scene;
 pub mod transport;
 

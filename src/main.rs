@@ -2,10 +2,16 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use ftpd3d::analysis::converge::{self, ConvergeJob};
-use ftpd3d::app::{self, CameraArg, DomainArg, EstimatorArgs, Job, SliceArg, VolumeJob};
+use ftpd3d::app::{self, CameraArg, DomainArg, Job};
+use ftpd3d::cli::parse::{
+    parse_duration, parse_point_light, parse_size, parse_vec3, parse_volume, parse_window,
+};
+use ftpd3d::cli::{bench, explain, report};
+use ftpd3d::domain::slice::SliceArg;
 use ftpd3d::domain::{Tile, VolumeRes};
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::{Adaptive, Budget, RenderOptions, StopReason};
+use ftpd3d::run::EstimatorArgs;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -98,32 +104,51 @@ struct ConvergeArgs {
     #[arg(long = "weight", value_enum)]
     weight: Option<WeightArg>,
     /// Passes each run is split into (at most the run's spp).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = RenderOptions::default().batches)]
     batches: u32,
-    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b; repeatable.
-    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = app::parse_point_light)]
-    point_light: Vec<(glam::DVec3, glam::DVec3)>,
-    /// Shortest run length T [default: 0.1 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t0: Option<f64>,
-    /// Longest run length T [default: 0.5 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t1: Option<f64>,
-    /// Perturbation cone half-angle, degrees.
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    angle: f64,
-    /// Cap on scattering events per walk and per radiance path.
-    #[arg(long, default_value_t = 32)]
-    max_bounces: u32,
+    #[command(flatten)]
+    estimator: EstimatorFlags,
     /// Seed of the first run; run k uses seed + k (every run independent).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = RenderOptions::default().seed)]
     seed: u64,
     /// Worker threads [default: all cores].
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RenderOptions::default().threads)]
     threads: usize,
     /// No per-run lines or summary.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// The estimator's flags, shared by runs and `converge`.
+#[derive(Args, Debug, Clone)]
+struct EstimatorFlags {
+    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
+    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = parse_point_light)]
+    point_light: Vec<(glam::DVec3, glam::DVec3)>,
+    /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
+    #[arg(long, allow_negative_numbers = true)]
+    t0: Option<f64>,
+    /// Longest run length T, scene units [default: 0.5 × scene diagonal].
+    #[arg(long, allow_negative_numbers = true)]
+    t1: Option<f64>,
+    /// Half-angle of the cone the second direction is drawn from, degrees (0 < angle < 90).
+    #[arg(long, default_value_t = EstimatorArgs::default().angle_deg, allow_negative_numbers = true)]
+    angle: f64,
+    /// Cap on scattering events per walk and per radiance path.
+    #[arg(long, default_value_t = EstimatorArgs::default().max_bounces)]
+    max_bounces: u32,
+}
+
+impl EstimatorFlags {
+    fn args(&self, weighting: Weighting) -> EstimatorArgs {
+        EstimatorArgs {
+            weighting,
+            t0: self.t0,
+            t1: self.t1,
+            angle_deg: self.angle,
+            max_bounces: self.max_bounces,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -153,16 +178,14 @@ struct RunArgs {
     #[arg(long, value_name = "SPEC")]
     plane: Vec<ftpd3d::domain::slice::PlaneSpec>,
     /// A voxel grid instead of a slice, written as VTK ImageData (.vti): N voxels along the longest
-    /// side of the box (the others by aspect), or NX,NY,NZ.
+    /// side of the box (the others by aspect), or NX,NY,NZ. Takes the budget, resume, checkpoint
+    /// and tile flags as slices do (a tile is a slab of whole z layers).
     #[arg(long, value_name = "N|NX,NY,NZ", value_parser = parse_volume,
-          conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland", "tile", "time", "target_error", "adaptive", "resume", "checkpoint_every", "pass_spp"])]
+          conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland"])]
     volume: Option<VolumeRes>,
     /// The box a volume covers [default: the scene bounds, flat sides padded].
     #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", allow_hyphen_values = true, value_parser = ftpd3d::domain::volume::parse_box)]
     bbox: Option<[f64; 6]>,
-    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
-    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = app::parse_point_light)]
-    point_light: Vec<(glam::DVec3, glam::DVec3)>,
     /// Part of the plane to cover, in plane coordinates u0,v0,u1,v1 [default: the scene bounds].
     #[arg(long, value_name = "U0,V0,U1,V1", value_parser = parse_window)]
     window: Option<[f64; 4]>,
@@ -174,10 +197,10 @@ struct RunArgs {
     #[arg(long)]
     spp: Option<u32>,
     /// Passes --spp is split into when no --pass-spp is given (at most --spp).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = RenderOptions::default().batches)]
     batches: u32,
     /// Time budget of the whole run, e.g. 90s, 10m, 1h30m: no pass starts that would end after it.
-    #[arg(long, value_name = "DURATION", value_parser = app::parse_duration)]
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
     time: Option<Duration>,
     /// Stop when 95 % of the cells with σ > 0 have a relative standard error ≤ this (e.g. 0.05).
     #[arg(long, value_name = "REL")]
@@ -189,11 +212,11 @@ struct RunArgs {
     #[arg(long)]
     adaptive: bool,
     /// With --adaptive: at most this many times the uniform share per cell and pass.
-    #[arg(long, value_name = "K", default_value_t = 4, requires = "adaptive")]
+    #[arg(long, value_name = "K", default_value_t = Adaptive::default().max_share, requires = "adaptive")]
     adaptive_cap: u32,
     /// Write the field so far (marked partial, resumable) to the output every DURATION, at pass
     /// boundaries.
-    #[arg(long, value_name = "DURATION", value_parser = app::parse_duration)]
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
     checkpoint_every: Option<Duration>,
     /// Continue the run saved in FILE (a partial or checkpointed output of the same command);
     /// writes to FILE unless -o says otherwise.
@@ -222,26 +245,16 @@ struct RunArgs {
     /// Camera image size in pixels.
     #[arg(long, value_name = "W,H", value_parser = parse_size, default_value = "512,512")]
     size: (usize, usize),
-    /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t0: Option<f64>,
-    /// Longest run length T, scene units [default: 0.5 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t1: Option<f64>,
-    /// Half-angle of the cone the second direction is drawn from, degrees (0 < angle < 90).
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    angle: f64,
-    /// Cap on scattering events per walk and per radiance path.
-    #[arg(long, default_value_t = 32)]
-    max_bounces: u32,
+    #[command(flatten)]
+    estimator: EstimatorFlags,
     /// Seed of the random streams (same seed, same result, on any number of threads).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = RenderOptions::default().seed)]
     seed: u64,
     /// Worker threads [default: all cores].
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RenderOptions::default().threads)]
     threads: usize,
-    /// Compute only stripe I of N (grid rows, from the bottom; from 0), with the same per-cell
-    /// random streams as a full run; `merge` the N files afterwards.
+    /// Compute only stripe I of N (grid rows from the bottom, a volume's z layers; from 0), with the
+    /// same per-cell random streams as a full run; `merge` the N files afterwards.
     #[arg(long, value_name = "I/N")]
     tile: Option<Tile>,
     /// Output EXR, or .vti for a volume [default: out/<scene>_<slice>.exr, with _tile<I>of<N> for a
@@ -272,57 +285,13 @@ fn parse_slices(s: &str) -> Result<SliceRange, String> {
     ftpd3d::domain::slice::parse_slice_range(s).map(SliceRange)
 }
 
-fn parse_vec3(s: &str) -> Result<glam::DVec3, String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("'{t}' is not a number"))
-        })
-        .collect::<Result<_, _>>()?;
-    match v.as_slice() {
-        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok(glam::DVec3::new(*a, *b, *c)),
-        [_, _, _] => Err("values must be finite".into()),
-        _ => Err(format!(
-            "expected 3 comma-separated numbers x,y,z, got {}",
-            v.len()
-        )),
-    }
-}
-
-fn parse_size(s: &str) -> Result<(usize, usize), String> {
-    let (w, h) = s
-        .split_once(',')
-        .ok_or_else(|| format!("'{s}': expected W,H such as 640,480"))?;
-    let p = |t: &str| {
-        t.trim()
-            .parse::<usize>()
-            .map_err(|_| format!("'{t}' is not a whole number"))
-    };
-    Ok((p(w)?, p(h)?))
-}
-
-fn parse_volume(s: &str) -> Result<VolumeRes, String> {
-    s.parse()
-}
-
-fn parse_window(s: &str) -> Result<[f64; 4], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("'{t}' is not a number"))
-        })
-        .collect::<Result<_, _>>()?;
-    match v.as_slice() {
-        [a, b, c, d] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c, *d]),
-        [_, _, _, _] => Err("values must be finite".into()),
-        _ => Err(format!(
-            "expected 4 comma-separated numbers u0,v0,u1,v1, got {}",
-            v.len()
-        )),
+impl From<WeightArg> for Weighting {
+    fn from(w: WeightArg) -> Weighting {
+        match w {
+            WeightArg::Radiance => Weighting::Radiance,
+            WeightArg::Unweighted => Weighting::Unweighted,
+            WeightArg::Importance => Weighting::Importance,
+        }
     }
 }
 
@@ -333,19 +302,10 @@ impl RunArgs {
             .ok_or_else(|| anyhow::anyhow!("--scene FILE is required (try --help)"))
     }
 
-    /// `out/<scene stem>_<suffix>` unless `-o` was given.
-    fn output_or(&self, scene: &std::path::Path, suffix: &str) -> PathBuf {
-        self.output.clone().unwrap_or_else(|| {
-            let stem = scene
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "scene".into());
-            PathBuf::from("out").join(format!("{stem}_{suffix}"))
-        })
-    }
-
     fn job(&self) -> anyhow::Result<Job> {
-        if let Some(b) = self.bbox {
+        if let Some(b) = self.bbox
+            && self.volume.is_none()
+        {
             anyhow::bail!(
                 "--box {}: a box bounds a volume; add --volume N (slices take --window)",
                 b.map(|x| x.to_string()).join(",")
@@ -366,8 +326,16 @@ impl RunArgs {
             (Some(name), _, _) => Some(CameraArg::Scene((!name.is_empty()).then(|| name.clone()))),
             _ => None,
         };
-        let (domain, default_out, default_weight) = match camera {
-            Some(camera) => (
+        let (domain, default_out, default_weight) = match (camera, self.volume) {
+            (_, Some(res)) => (
+                DomainArg::Volume {
+                    res,
+                    bbox: self.bbox,
+                },
+                format!("{stem}_volume.vti"),
+                WeightArg::Radiance,
+            ),
+            (Some(camera), None) => (
                 DomainArg::Camera {
                     camera,
                     size: self.size,
@@ -375,7 +343,7 @@ impl RunArgs {
                 format!("{stem}_camera.exr"),
                 WeightArg::Importance,
             ),
-            None => {
+            (None, None) => {
                 let mut slices: Vec<SliceArg> =
                     self.slice.iter().cloned().map(SliceArg::Axis).collect();
                 slices.extend(
@@ -403,24 +371,30 @@ impl RunArgs {
                 )
             }
         };
-        let default_out = match self.tile {
-            Some(t) => default_out.replace(".exr", &format!("{}.exr", t.suffix())),
-            None => default_out,
+        let default_out = match (self.tile, default_out.rsplit_once('.')) {
+            (Some(t), Some((name, ext))) => format!("{name}{}.{ext}", t.suffix()),
+            _ => default_out,
         };
         let weight = self.weight.unwrap_or(default_weight);
         let camera_run = matches!(domain, DomainArg::Camera { .. });
         if camera_run != matches!(weight, WeightArg::Importance) {
-            anyhow::bail!(if camera_run {
-                "--weight: camera images are importance-weighted (pairs start along the pixel rays)"
-            } else {
-                "--weight importance needs a camera: give --camera [NAME] or --eye/--target"
+            anyhow::bail!(match domain {
+                DomainArg::Camera { .. } => {
+                    "--weight: camera images are importance-weighted (pairs start along the pixel rays)"
+                }
+                DomainArg::Volume { .. } => {
+                    "--weight importance needs a camera; volumes take radiance or unweighted"
+                }
+                DomainArg::Slice { .. } => {
+                    "--weight importance needs a camera: give --camera [NAME] or --eye/--target"
+                }
             });
         }
         Ok(Job {
             scene,
             domain,
-            point_lights: self.point_light.clone(),
-            estimator: self.estimator(weight),
+            point_lights: self.estimator.point_light.clone(),
+            estimator: self.estimator.args(weight.into()),
             render: self.render(),
             output: self
                 .output
@@ -436,44 +410,9 @@ impl RunArgs {
         })
     }
 
-    fn volume_job(&self, res: VolumeRes) -> anyhow::Result<VolumeJob> {
-        let scene = self.scene()?;
-        if matches!(self.weight, Some(WeightArg::Importance)) {
-            anyhow::bail!(
-                "--weight importance needs a camera; volumes take radiance or unweighted"
-            );
-        }
-        let output = self.output_or(&scene, "volume.vti");
-        Ok(VolumeJob {
-            scene,
-            point_lights: self.point_light.clone(),
-            res,
-            bbox: self.bbox,
-            estimator: self.estimator(self.weight.unwrap_or(WeightArg::Radiance)),
-            render: self.render(),
-            output,
-            png: !self.no_png,
-            quiet: self.quiet,
-        })
-    }
-
-    fn estimator(&self, weight: WeightArg) -> EstimatorArgs {
-        EstimatorArgs {
-            weighting: match weight {
-                WeightArg::Radiance => Weighting::Radiance,
-                WeightArg::Unweighted => Weighting::Unweighted,
-                WeightArg::Importance => Weighting::Importance,
-            },
-            t0: self.t0,
-            t1: self.t1,
-            angle_deg: self.angle,
-            max_bounces: self.max_bounces,
-        }
-    }
-
     fn render(&self) -> RenderOptions {
         RenderOptions {
-            spp: self.spp.unwrap_or(64),
+            spp: self.spp.unwrap_or(RenderOptions::default().spp),
             batches: self.batches,
             seed: self.seed,
             threads: self.threads,
@@ -497,10 +436,7 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
     if args.volume.is_some() {
         anyhow::bail!("bench runs on a slice: use --slice instead of --volume");
     }
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
     let job = args.job()?;
-    let mut scene = app::load_job_scene(&job)?;
     let DomainArg::Slice {
         slices,
         window,
@@ -509,172 +445,44 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
     else {
         anyhow::bail!("bench runs on a slice: give --slice");
     };
-    let plane = match slices.first() {
-        Some(SliceArg::Axis(a)) => ftpd3d::domain::Plane::axis_slice(
-            &scene.bounds,
-            app::resolve_slice(a, &scene)?,
-            *window,
-            *res,
-        )?,
-        Some(SliceArg::Plane(spec)) => ftpd3d::domain::Plane::from_spec(&scene.bounds, spec, *res)?,
-        None => anyhow::bail!("bench runs on a slice: give --slice"),
+    let Some(slice) = slices.first() else {
+        anyhow::bail!("bench runs on a slice: give --slice");
     };
-    let params = if job.flatland {
-        app::prepare_flatland(&mut scene, &plane, &job.estimator)?
-    } else {
-        job.estimator.resolve(&scene)?
-    };
-    let mut opts = job.render.clone();
-    opts.progress = false;
-    let r = app::bench_plane(&scene, &plane, &params, &opts, 3)?;
-    let threads = if opts.threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        opts.threads
-    };
-    let line = |name: &str, s: &ftpd3d::render::RunStats| {
-        format!(
-            "{name:<20} {:>11} rays in {:>7.3} s = {:.3e} rays/s, {:.3e} samples/s",
-            s.rays,
-            s.seconds,
-            s.rays_per_second(),
-            s.samples_per_second()
-        )
-    };
-    writeln!(out, "scene                {}", job.scene.display())?;
-    writeln!(out, "features             {}", scene.features)?;
-    writeln!(
-        out,
-        "slice                {} ({}x{}), {} spp, weighting {}, {} threads, best of 3",
-        plane.label, plane.width, plane.height, opts.spp, params.weighting, threads
-    )?;
-    writeln!(out, "{}", line(&r.kernel.to_string(), &r.run))?;
-    writeln!(
-        out,
-        "raw rtcIntersect1    {:>11} rays in {:>7.3} s = {:.3e} rays/s",
-        r.raw_rays,
-        r.raw_seconds,
-        r.raw_rays_per_second()
-    )?;
-    writeln!(out, "kernel/raw rays/s    {:.3}", r.ray_ratio())?;
-    Ok(())
+    bench::bench(
+        &mut std::io::stdout().lock(),
+        &job.scene,
+        &job.point_lights,
+        &job.estimator,
+        (slice, *window, *res),
+        job.flatland,
+        &job.render,
+    )
 }
 
 fn explain(args: &RunArgs) -> anyhow::Result<()> {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    let scene_path = args
-        .scene
-        .clone()
-        .ok_or_else(|| anyhow::anyhow!("--scene FILE is required"))?;
     let mut a = args.clone();
-    if a.camera.is_none() && a.eye.is_none() && a.slice.is_empty() {
+    if a.camera.is_none() && a.eye.is_none() && a.slice.is_empty() && a.volume.is_none() {
         a.slice.push("z=0".into());
     }
-    a.bbox = None;
     let job = a.job()?;
-    let mut scene = app::load_job_scene(&job)?;
-    for w in &scene.report.warnings {
-        eprintln!("warning: {w}");
-    }
-    writeln!(out, "scene      {}", scene_path.display())?;
-    writeln!(
-        out,
-        "geometry   {} triangles ({} degenerate dropped), bounds {:?} .. {:?}, shading normals: {}",
-        scene.triangles.len(),
-        scene.report.degenerate_dropped,
-        scene.bounds.min.to_array(),
-        scene.bounds.max.to_array(),
-        if scene.normals.is_empty() {
-            "no"
-        } else {
-            "yes"
-        }
-    )?;
-    writeln!(out, "materials  {}", scene.materials.len())?;
-    for m in &scene.materials {
-        let emits = if m.emission == ftpd3d::math::Rgb::ZERO {
-            String::new()
-        } else {
-            format!(", emits {:?}", m.emission.to_array())
-        };
-        writeln!(out, "  {:<20} {:?}{emits}", m.name, m.bsdf)?;
-    }
-    let (area, point) = scene
-        .lights
-        .lights
-        .iter()
-        .fold((0, 0), |(a, p), l| match l {
-            ftpd3d::scene::Light::Triangle { .. } => (a + 1, p),
-            ftpd3d::scene::Light::Point { .. } => (a, p + 1),
-        });
-    writeln!(
-        out,
-        "lights     {area} emissive triangles, {point} point lights, total power {:.4}",
-        scene.lights.total_power()
-    )?;
-    writeln!(out, "cameras    {}", scene.cameras.len())?;
-    if !scene.named_slices.is_empty() {
-        let names: Vec<_> = scene
-            .named_slices
-            .iter()
-            .map(|(n, p)| format!("{n} ({p})"))
-            .collect();
-        writeln!(out, "slices     {}", names.join(", "))?;
-    }
-    writeln!(out, "features   {}", scene.features)?;
-    writeln!(out, "weighting  {}", job.estimator.weighting)?;
-    let params = match (&job.domain, job.flatland) {
-        (
-            DomainArg::Slice {
-                slices,
-                window,
-                res,
-            },
-            true,
-        ) => {
-            let plane = match slices.first() {
-                Some(SliceArg::Axis(a)) => app::resolve_slice(a, &scene).and_then(|spec| {
-                    ftpd3d::domain::Plane::axis_slice(&scene.bounds, spec, *window, *res)
-                }),
-                Some(SliceArg::Plane(spec)) => {
-                    ftpd3d::domain::Plane::from_spec(&scene.bounds, spec, *res)
-                }
-                None => Err(anyhow::anyhow!("--flatland needs a slice")),
-            };
-            if let Ok(p) = &plane {
-                writeln!(out, "flatland   in the slice {}", p.label)?;
-            }
-            plane.and_then(|plane| app::prepare_flatland(&mut scene, &plane, &job.estimator))
-        }
-        _ => job.estimator.resolve(&scene),
+    let flatland = match &job.domain {
+        DomainArg::Slice {
+            slices,
+            window,
+            res,
+        } if job.flatland => match slices.first() {
+            Some(s) => Some((s, *window, *res)),
+            None => anyhow::bail!("--flatland needs a slice"),
+        },
+        _ => None,
     };
-    if let Some(f) = &scene.flat {
-        writeln!(
-            out,
-            "           {} light cross-sections, 2D power {:.4}",
-            f.lights.lights.len(),
-            f.lights.total_power()
-        )?;
-    }
-    match params {
-        Ok(params) => {
-            writeln!(out, "kernel     {}", ftpd3d::ftpd::kernel_for(&params))?;
-            let effects = ftpd3d::ftpd::effects::effects(&scene, &params);
-            let on: Vec<&str> = effects
-                .iter()
-                .filter(|e| e.simulated)
-                .map(|e| e.name)
-                .collect();
-            writeln!(out, "simulates  {}", on.join(" "))?;
-            for (i, e) in effects.iter().filter(|e| !e.simulated).enumerate() {
-                let head = if i == 0 { "skips" } else { "" };
-                writeln!(out, "{head:<10} {} ({})", e.name, e.why)?;
-            }
-        }
-        Err(e) => writeln!(out, "kernel     (none: {e:#})")?,
-    }
-    Ok(())
+    explain::explain(
+        &mut std::io::stdout().lock(),
+        &job.scene,
+        &job.point_lights,
+        &job.estimator,
+        flatland,
+    )
 }
 
 fn merge(args: &MergeArgs) -> anyhow::Result<()> {
@@ -683,21 +491,9 @@ fn merge(args: &MergeArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     if !args.quiet {
-        let m = &merged.field.meta;
-        let get = |k: &str| m.get(k).map_or("?", String::as_str);
-        let (rel_mean, rel_p95) = app::relative_error_summary(&merged.field);
         eprintln!(
-            "merged {} files: {}, seeds {}, parts {}, {} spp; relative error mean {:.3}, p95 {:.3}",
-            args.inputs.len(),
-            match merged.field.depth {
-                1 => format!("{}x{} cells", merged.field.width, merged.field.height),
-                d => format!("{}x{}x{d} voxels", merged.field.width, merged.field.height),
-            },
-            get("seeds"),
-            get("parts"),
-            get("spp"),
-            rel_mean,
-            rel_p95
+            "{}",
+            report::merge_summary(args.inputs.len(), &merged.field)
         );
         eprintln!("wrote {}", args.output.display());
     }
@@ -705,27 +501,19 @@ fn merge(args: &MergeArgs) -> anyhow::Result<()> {
 }
 
 fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
-    let weighting = args.weight.map(|w| match w {
-        WeightArg::Radiance => Weighting::Radiance,
-        WeightArg::Unweighted => Weighting::Unweighted,
-        WeightArg::Importance => Weighting::Importance,
-    });
+    let weighting = args.weight.map(Weighting::from);
     let job = ConvergeJob {
         scene: args.scene.clone(),
-        point_lights: args.point_light.clone(),
+        point_lights: args.estimator.point_light.clone(),
         slice: args.slice.clone(),
         window: args.window,
         res: args.res,
         reference: args.reference.clone(),
         out_dir: args.out_dir.clone(),
         weighting,
-        estimator: EstimatorArgs {
-            weighting: weighting.unwrap_or(Weighting::Unweighted),
-            t0: args.t0,
-            t1: args.t1,
-            angle_deg: args.angle,
-            max_bounces: args.max_bounces,
-        },
+        estimator: args
+            .estimator
+            .args(weighting.unwrap_or(Weighting::Unweighted)),
         start_spp: args.start_spp,
         max_spp: args.max_spp,
         batches: args.batches,
@@ -733,19 +521,10 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
         threads: args.threads,
         quiet: args.quiet,
     };
-    let report = converge::run_converge(&job)?;
+    let conv = converge::run_converge(&job)?;
     if !args.quiet {
-        for c in &report.curves {
-            let f = |v: Option<f64>| v.map_or("n/a".to_string(), |x| format!("{x:.3}"));
-            println!(
-                "{:<10} slope vs time {} ± {}, vs spp {} ± {}; time per doubling {}",
-                c.weighting.to_string(),
-                f(c.fit_time.map(|f| f.slope)),
-                f(c.fit_time.and_then(|f| f.slope_se)),
-                f(c.fit_spp.map(|f| f.slope)),
-                f(c.fit_spp.and_then(|f| f.slope_se)),
-                f(c.time_per_doubling)
-            );
+        for c in &conv.curves {
+            println!("{}", report::converge_line(c));
         }
         println!(
             "wrote {}/converge.csv, converge_fit.csv, converge.png",
@@ -760,13 +539,13 @@ fn command_without_resume() -> String {
     let mut out = Vec::new();
     let mut args = std::env::args();
     if let Some(a0) = args.next() {
-        out.push(app::shell_quote(&a0));
+        out.push(report::shell_quote(&a0));
     }
     while let Some(a) = args.next() {
         if a == "--resume" {
             args.next();
         } else if !a.starts_with("--resume=") {
-            out.push(app::shell_quote(&a));
+            out.push(report::shell_quote(&a));
         }
     }
     out.join(" ")
@@ -805,16 +584,10 @@ fn main() -> ExitCode {
         Some(Command::Merge(args)) => merge(args).map(|()| None),
         Some(Command::Converge(args)) => converge(args).map(|()| None),
         None if cli.run.explain => explain(&cli.run).map(|()| None),
-        None => match cli.run.volume {
-            Some(res) => cli
-                .run
-                .volume_job(res)
-                .and_then(|job| app::run_volume_job(&job).map(|_| None)),
-            None => cli.run.job().and_then(|job| {
-                install_signal_handler();
-                app::run_job(&job).map(|o| o.last().map(|o| o.stats.stop))
-            }),
-        },
+        None => cli.run.job().and_then(|job| {
+            install_signal_handler();
+            app::run_job(&job).map(|o| o.last().map(|o| o.stats.stop))
+        }),
     };
     let result = result.map(|stop| match stop {
         Some(StopReason::Interrupted) => ExitCode::from(EXIT_INTERRUPTED),

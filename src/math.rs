@@ -1,5 +1,5 @@
-//! Small numeric helpers shared by every module: guarded square roots and divisions, orthonormal
-//! frames, colour luminance. Geometry handed to Embree is f32; everything here is f64.
+//! Small numeric helpers shared by every module: guarded square roots, orthonormal frames, colour
+//! luminance, comma-separated numbers. Geometry handed to Embree is f32; everything here is f64.
 
 use glam::DVec3;
 
@@ -13,23 +13,33 @@ pub fn safe_sqrt(x: f64) -> f64 {
     x.max(0.0).sqrt()
 }
 
-/// `acos` clamped to its domain.
-#[inline]
-pub fn safe_acos(x: f64) -> f64 {
-    x.clamp(-1.0, 1.0).acos()
-}
-
-/// `a / b`, or `fallback` when the quotient would not be finite.
-#[inline]
-pub fn safe_div(a: f64, b: f64, fallback: f64) -> f64 {
-    let q = a / b;
-    if q.is_finite() { q } else { fallback }
-}
-
 /// Rec. 709 luminance of a linear RGB value.
 #[inline]
 pub fn luminance(c: Rgb) -> f64 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// Exactly `N` comma-separated finite numbers, e.g. `1,2.5,-3`; `names` says what they are
+/// (`x,y,z`) in the error, which callers prefix with the flag or key.
+pub fn parse_floats<const N: usize>(s: &str, names: &str) -> Result<[f64; N], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{}' is not a number", t.trim()))
+        })
+        .collect::<Result<_, _>>()?;
+    let a: [f64; N] = v.as_slice().try_into().map_err(|_| {
+        format!(
+            "expected {N} comma-separated numbers {names}, got {}",
+            v.len()
+        )
+    })?;
+    if !a.iter().all(|x| x.is_finite()) {
+        return Err("values must be finite".into());
+    }
+    Ok(a)
 }
 
 /// True when every component is finite.

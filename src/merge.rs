@@ -16,9 +16,9 @@
 //! empty cells is exact (x + 0 = x), so merging all tiles of one seed reproduces the full run bit
 //! for bit.
 //!
-//! Volumes (`.vti`) merge the same way: they hold the same exact sums, voxel by voxel, and a part's
-//! rows are the rows of every z-layer (volumes are not tiled, so a volume's part is its seed over
-//! all rows). Their grid geometry (`Origin`, `Spacing`) must match as well. Fields and volumes are
+//! Volumes (`.vti`) merge the same way: they hold the same exact sums, voxel by voxel, and their
+//! tiles are slabs of whole z layers, so a volume's "rows" are its z layers ([`rows`]). Their grid
+//! geometry (`Origin`, `Spacing`) must match as well. Fields and volumes are
 //! not mixed, and the output is written in the inputs' format.
 
 use crate::domain::Tile;
@@ -116,6 +116,21 @@ fn grid(f: &Field) -> String {
     }
 }
 
+/// The rows tiles and parts count in: a 2D grid's rows, a volume's z layers (as
+/// [`Tile::cells`] splits them).
+pub fn rows(f: &Field) -> usize {
+    if f.depth > 1 { f.depth } else { f.height }
+}
+
+/// The row ([`rows`]) of cell `k`.
+fn row_of(f: &Field, k: usize) -> usize {
+    if f.depth > 1 {
+        k / (f.width * f.height)
+    } else {
+        (k / f.width) % f.height
+    }
+}
+
 /// The parts of a field: its `parts` attribute, or else its `seed` over its `tile`'s rows (all
 /// rows without a tile).
 pub fn parts_of(name: &str, f: &Field) -> anyhow::Result<Vec<Part>> {
@@ -137,8 +152,8 @@ pub fn parts_of(name: &str, f: &Field) -> anyhow::Result<Vec<Part>> {
         Some(t) => t
             .parse::<Tile>()
             .map_err(|e| anyhow::anyhow!("{name}: tile {e}"))?
-            .rows(f.height),
-        None => 0..f.height,
+            .rows(rows(f)),
+        None => 0..rows(f),
     };
     Ok(vec![Part { seed, rows }])
 }
@@ -203,26 +218,24 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
         check_same_run(first_name, first, name, f)?;
         let parts = parts_of(name, f)?;
         // Cells outside the rows the file claims must be empty, or its metadata lies.
-        let mut covered = vec![false; f.height];
+        let mut covered = vec![false; rows(f)];
         for p in &parts {
-            if p.rows.end > f.height {
+            if p.rows.end > rows(f) {
                 bail!(
                     "{name}: part {}@{}-{} lies outside its {} rows",
                     p.seed,
                     p.rows.start,
                     p.rows.end,
-                    f.height
+                    rows(f)
                 );
             }
             covered[p.rows.clone()].iter_mut().for_each(|c| *c = true);
         }
-        if let Some(k) =
-            (0..f.cells.len()).find(|&k| f.cells[k].n > 0 && !covered[(k / f.width) % f.height])
-        {
+        if let Some(k) = (0..f.cells.len()).find(|&k| f.cells[k].n > 0 && !covered[row_of(f, k)]) {
             bail!(
                 "{name}: cell {k} (row {}) holds samples outside the rows its seed/tile/parts \
                  attributes name: its header does not describe its contents",
-                (k / f.width) % f.height
+                row_of(f, k)
             );
         }
         for p in parts {
@@ -230,7 +243,7 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
                 q.seed == p.seed && q.rows.start.max(p.rows.start) < q.rows.end.min(p.rows.end)
             }) {
                 let other = &inputs[*j].0;
-                if q.rows == (0..f.height) && p.rows == (0..f.height) {
+                if q.rows == (0..rows(f)) && p.rows == (0..rows(f)) {
                     bail!(
                         "{name}: seed {} is also the seed of {other}: the same seed repeats the \
                          same random streams, so merging would count the same samples twice \
@@ -306,7 +319,7 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
         meta.insert("seed".into(), seeds.iter().next().expect("one").to_string());
     }
     meta.insert("parts".into(), fmt_parts(&parts));
-    let h = field.height;
+    let h = rows(&field);
     let mut covered = vec![false; h];
     for p in &parts {
         covered[p.rows.clone()].iter_mut().for_each(|c| *c = true);

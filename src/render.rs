@@ -123,6 +123,17 @@ impl Default for RenderOptions {
     }
 }
 
+impl RenderOptions {
+    /// The worker threads a run uses: `threads`, or every core for 0.
+    pub fn thread_count(&self) -> usize {
+        if self.threads == 0 {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        } else {
+            self.threads
+        }
+    }
+}
+
 /// Samples per cell and pass when neither a sample cap nor `pass_spp` says.
 pub const DEFAULT_PASS_SPP: u32 = 8;
 
@@ -485,18 +496,8 @@ pub fn allocate(cells: &[Moments], unit: u32, budget: u64, max_share: u32) -> Ve
     out
 }
 
-/// Runs `kernel(cell, sampler)` `opts.spp` times for every cell of `field`, adding to its sums.
-pub fn run<K>(field: &mut Field, opts: &RenderOptions, kernel: K) -> anyhow::Result<RunStats>
-where
-    K: Fn(usize, &mut Sampler) -> Sample + Sync,
-{
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads)
-        .build()?;
-    run_in(&pool, field, opts, kernel)
-}
-
-/// [`run`] on a given thread pool (its size overrides `opts.threads`).
+/// Runs `kernel(cell, sampler)` `opts.spp` times for every cell of `field`, adding to its sums, on
+/// `pool` (its size overrides `opts.threads`).
 pub fn run_in<K>(
     pool: &rayon::ThreadPool,
     field: &mut Field,

@@ -3,8 +3,8 @@
 //! broken files: `err_*` must fail to load, `warn_*` load with a warning, `ok_*` load cleanly;
 //! `part_*` are files the others refer to. Bad command-line values are in `tests/cli.rs`.
 
-use ftpd3d::app::load_scene;
 use ftpd3d::math::Rgb;
+use ftpd3d::scene::load::load_scene;
 use ftpd3d::transport::bsdf::Bsdf;
 use std::path::{Path, PathBuf};
 

@@ -338,7 +338,7 @@ fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
 
 #[test]
 fn summary_projects_the_cost_of_the_next_digit() {
-    use ftpd3d::app::cost_of_accuracy;
+    use ftpd3d::cli::report::cost_of_accuracy;
     use ftpd3d::ftpd::Weighting;
     // 1000 samples at 100/s: 4x needs 3000 more (30 s), 100x 99 000 more (16 min 30 s).
     let c = cost_of_accuracy(1000, 100.0, 0.2, Weighting::Unweighted).unwrap();

@@ -4,7 +4,7 @@
 //! equal samples without moving the estimate, and SIGINT leaves a valid, resumable partial file.
 
 use crate::geometry::scene_path;
-use ftpd3d::app::{self, EstimatorArgs};
+use ftpd3d::app;
 use ftpd3d::domain::Plane;
 use ftpd3d::domain::slice::SliceSpec;
 use ftpd3d::field::Field;
@@ -12,7 +12,9 @@ use ftpd3d::ftpd::{Params, Weighting};
 use ftpd3d::render::{
     self, Adaptive, Budget, Hooks, Progress, RenderOptions, RunStats, StopReason,
 };
+use ftpd3d::run::{self, EstimatorArgs};
 use ftpd3d::scene::Scene;
+use ftpd3d::scene::load::load_scene;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -26,7 +28,7 @@ struct Setup {
 /// The Cornell box with a mirror, slice z = 0 at `res` cells, radiance weighting, default
 /// parameters: a scene whose error varies strongly over the slice (mirror, light, shadows).
 fn cornell(res: usize) -> Setup {
-    let scene = app::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
+    let scene = load_scene(&scene_path("cornell_mirror.obj")).unwrap();
     let params = EstimatorArgs {
         weighting: Weighting::Radiance,
         t0: None,
@@ -64,8 +66,8 @@ impl Setup {
     /// A new field with the metadata `run_job` gives it (what a resume is checked against).
     fn field(&self, o: &RenderOptions) -> Field {
         let mut f = Field::new(self.plane.width, self.plane.height, 1);
-        app::describe_run(&mut f, &self.scene, &self.params, o, "slice");
-        f.meta.extend(app::plane_meta(&self.plane));
+        run::describe_run(&mut f, &self.scene, &self.params, o, "slice");
+        f.meta.extend(run::plane_meta(&self.plane));
         let k = ftpd3d::ftpd::kernel_for(&self.params);
         f.meta.insert("kernel".into(), k.to_string());
         f
@@ -78,7 +80,7 @@ impl Setup {
         o: &RenderOptions,
         hooks: Hooks,
     ) -> RunStats {
-        app::run_domain_progressive(
+        run::run_domain_progressive(
             &pool(),
             &self.scene,
             &self.plane,
@@ -378,7 +380,7 @@ fn resume_refuses_another_seed_or_run_length_naming_the_key() {
             t1: s.params.t1 * 0.5,
             ..s.params
         },
-        scene: app::load_scene(&scene_path("cornell_mirror.obj")).unwrap(),
+        scene: load_scene(&scene_path("cornell_mirror.obj")).unwrap(),
         plane: s.plane.clone(),
     };
     let e = app::check_resume(&path, &back, &t1.field(&o).meta, dims).unwrap_err();

@@ -10,14 +10,15 @@
 
 use crate::bsdf::{chi2_test, gauss_legendre, mean_and_se};
 use crate::geometry::{scene_path, translated};
-use ftpd3d::app::{load_scene, run_plane};
 use ftpd3d::domain::Plane;
 use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_at, sample_point};
 use ftpd3d::kernel::{PlainFlat, RadianceFlat, Record};
 use ftpd3d::math::{Rgb, luminance, reflect};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
+use ftpd3d::run::run_plane;
 use ftpd3d::scene::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
+use ftpd3d::scene::load::load_scene;
 use ftpd3d::scene::{Features, Material, Scene};
 use ftpd3d::transport::bsdf::{Bsdf, Mode, fresnel_dielectric};
 use ftpd3d::transport::walk::{RadianceStats, radiance, walk};

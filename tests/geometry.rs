@@ -66,7 +66,7 @@ fn self_hits(scene: &Scene, rays: usize) -> usize {
 
 #[test]
 fn rays_from_triangles_never_rehit_their_own() {
-    let scene = ftpd3d::app::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
+    let scene = ftpd3d::scene::load::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
     assert_eq!(self_hits(&scene, 20_000), 0);
     let far = translated(&scene, Vec3::splat(1e4));
     assert_eq!(self_hits(&far, 20_000), 0);

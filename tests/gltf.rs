@@ -4,8 +4,8 @@
 
 use crate::geometry::scene_path;
 use base64::Engine as _;
-use ftpd3d::app::load_scene;
 use ftpd3d::math::Rgb;
+use ftpd3d::scene::load::load_scene;
 use ftpd3d::scene::{Light, Scene};
 use ftpd3d::transport::bsdf::Bsdf;
 use glam::DVec3;

@@ -948,7 +948,7 @@ fn exr_part_0_is_all_f32_and_part_1_holds_the_exact_sums() {
             .attributes
             .other
             .keys()
-            .any(|k| k.to_string() == "ftpd3d.weighting")
+            .any(|k| k == "ftpd3d.weighting")
     );
     std::fs::remove_dir_all(&dir).ok();
 }

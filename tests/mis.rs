@@ -11,7 +11,7 @@ use ftpd3d::scene::{Features, Scene};
 use glam::DVec3;
 
 fn cornell_with_point_light() -> Scene {
-    let mut scene = ftpd3d::app::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
+    let mut scene = ftpd3d::scene::load::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
     scene
         .lights
         .add_point(DVec3::new(0.5, 1.2, 0.3), DVec3::splat(2.0));

@@ -7,7 +7,6 @@
 //! tolerance is a tuned constant. Run with `--nocapture` to see the measured numbers.
 
 use crate::geometry::{scene_path, translated};
-use ftpd3d::app::{load_scene, run_plane};
 use ftpd3d::domain::Plane;
 use ftpd3d::ftpd::moments::{CellValue, Moments};
 use ftpd3d::ftpd::{Params, Weighting, sample_point};
@@ -15,6 +14,8 @@ use ftpd3d::kernel::Plain3D;
 use ftpd3d::math::{Rgb, is_finite3};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::rng::Sampler;
+use ftpd3d::run::run_plane;
+use ftpd3d::scene::load::load_scene;
 use ftpd3d::scene::{Material, Scene};
 use ftpd3d::transport::bsdf::Bsdf;
 use glam::{DVec3, Vec3};
@@ -715,7 +716,7 @@ fn stability_total_internal_reflection_is_capped_and_counted() {
     assert_eq!(stats.clamped, 0);
     let dir = temp_dir("tir");
     let out = dir.join("tir.exr");
-    ftpd3d::app::write_outputs(&field, &out, true).unwrap();
+    ftpd3d::output::write_outputs(&field, &out, true).unwrap();
     assert_all_channels_finite(&out);
 
     // A 20 × 20 × 0.1 m glass slab, outward faces; the point inside it.
@@ -930,7 +931,7 @@ fn stability_unlit_regions_are_invalid_never_nan() {
     assert!(lit > 0 && dark > 0);
     let dir = temp_dir("unlit");
     let out = dir.join("unlit.exr");
-    ftpd3d::app::write_outputs(&field, &out, true).unwrap();
+    ftpd3d::output::write_outputs(&field, &out, true).unwrap();
     assert_all_channels_finite(&out);
     let (_, _, valid) = ftpd3d::output::exr::read_channel(&out, "valid").unwrap();
     let invalid = field.values().iter().filter(|v| !v.valid).count();

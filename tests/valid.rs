@@ -7,12 +7,12 @@
 //! no tolerance is a tuned constant. Run with `--nocapture` to see the measured numbers.
 
 use crate::geometry::scene_path;
-use ftpd3d::app::load_scene;
 use ftpd3d::ftpd::moments::{Moments, sigma_from};
 use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_point};
 use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::Rgb;
 use ftpd3d::rng::Sampler;
+use ftpd3d::scene::load::load_scene;
 use ftpd3d::scene::{Features, Material, Scene};
 use ftpd3d::transport::bsdf::Bsdf;
 use ftpd3d::transport::walk::{RadianceStats, radiance};

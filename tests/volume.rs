@@ -2,23 +2,28 @@
 //! slice through the same points, and the memory check that refuses impossible grids.
 
 use crate::geometry::scene_path;
-use ftpd3d::app::{DomainArg, EstimatorArgs, Job, SliceArg, VolumeJob, run_job, run_volume_job};
+use ftpd3d::app::{DomainArg, Job, run_job};
 use ftpd3d::domain::VolumeRes;
+use ftpd3d::domain::slice::SliceArg;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::RenderOptions;
+use ftpd3d::run::EstimatorArgs;
 use std::path::{Path, PathBuf};
 
 fn temp_dir(name: &str) -> PathBuf {
     crate::support::temp_dir("volume", name)
 }
 
-fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> VolumeJob {
-    VolumeJob {
+fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> Job {
+    Job {
         scene: scene_path("cornell_mirror.obj"),
+        domain: DomainArg::Volume { res, bbox },
         point_lights: vec![],
-        res,
-        bbox,
+        flatland: false,
+        checkpoint_every: None,
+        resume: None,
+        command: None,
         estimator: EstimatorArgs {
             weighting: Weighting::Radiance,
             t0: None,
@@ -45,7 +50,10 @@ fn vti_read_by_vtkio_equals_the_field() {
     use vtkio::model::{Attribute, DataSet, Extent, IOBuffer, Piece};
     let dir = temp_dir("vtkio");
     let out = dir.join("c.vti");
-    let field = run_volume_job(&volume_job(VolumeRes::Dims([6, 5, 4]), None, 8, &out)).unwrap();
+    let field = run_job(&volume_job(VolumeRes::Dims([6, 5, 4]), None, 8, &out))
+        .unwrap()
+        .remove(0)
+        .field;
     let vtk = vtkio::Vtk::import(&out).expect("vtkio reads the file");
     let DataSet::ImageData {
         extent,
@@ -261,7 +269,7 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
     );
     vjob.render.batches = 16;
     vjob.estimator.weighting = Weighting::Unweighted;
-    let vol = run_volume_job(&vjob).unwrap();
+    let vol = run_job(&vjob).unwrap().remove(0).field;
     let sjob = Job {
         scene: vjob.scene.clone(),
         domain: DomainArg::Slice {
@@ -436,5 +444,212 @@ fn a_volume_run_writes_vti_and_middle_slice_previews() {
     let back = ftpd3d::output::vti::read_vti(&out).unwrap();
     assert_eq!(back.field.meta.get("volume.dims").unwrap(), "10,10,10");
     assert_eq!(back.field.total_samples(), 4000);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A 6³ unweighted volume of the Cornell box, 8 samples per voxel in 4 passes (fast, fixed seed).
+fn small_volume(out: &Path) -> Job {
+    let mut job = volume_job(VolumeRes::Longest(6), None, 8, out);
+    job.estimator.weighting = Weighting::Unweighted;
+    job
+}
+
+fn bits(field: &Field) -> Vec<[u64; 17]> {
+    field.cells.iter().map(|m| m.bit_pattern()).collect()
+}
+
+/// The binary on a 6³ unweighted volume of the Cornell box written to `out`, with `extra` flags.
+fn small_volume_cli(out: &Path, extra: &[&str]) -> crate::support::Run {
+    let cornell = scene_path("cornell_mirror.obj");
+    let mut args = vec![
+        "--scene",
+        cornell.to_str().unwrap(),
+        "--volume",
+        "6",
+        "--weight",
+        "unweighted",
+        "--no-png",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    crate::support::ftpd3d(None, &args)
+}
+
+#[test]
+fn a_volume_takes_a_time_budget() {
+    let dir = temp_dir("time");
+    let out = dir.join("t.vti");
+    let r = small_volume_cli(&out, &["--time", "1s", "--pass-spp", "2"]);
+    assert!(r.ok, "{}", r.err);
+    assert!(r.err.contains("budget time 1s"), "{}", r.err);
+    let back = ftpd3d::output::vti::read_vti(&out).unwrap();
+    assert_eq!(back.field.meta.get("budget.time").unwrap(), "1s");
+    assert_eq!(back.field.meta.get("spp").unwrap(), "none");
+    assert!(back.field.total_samples() >= 2 * 216);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_interrupted_volume_resumes_to_the_uninterrupted_run_bit_for_bit() {
+    let dir = temp_dir("resume");
+    let whole = run_job(&small_volume(&dir.join("whole.vti")))
+        .unwrap()
+        .remove(0);
+    assert!(whole.stats.stop.is_complete());
+    // Stopped after 2 of 4 passes: written partial, with its progress.
+    let part = dir.join("part.vti");
+    let mut first = small_volume(&part);
+    first.render.budget.max_passes = Some(2);
+    let cut = run_job(&first).unwrap().remove(0);
+    assert!(!cut.stats.stop.is_complete());
+    let back = ftpd3d::output::vti::read_vti(&part).unwrap();
+    assert_eq!(back.field.meta.get("partial").unwrap(), "true");
+    assert_eq!(back.field.meta.get("passes").unwrap(), "2");
+    assert_eq!(
+        bits(&back.field),
+        bits(&cut.field),
+        "the .vti keeps the sums"
+    );
+    // Resumed into the same file.
+    let mut again = small_volume(&part);
+    again.resume = Some(part.clone());
+    let done = run_job(&again).unwrap().remove(0);
+    assert!(done.stats.stop.is_complete());
+    assert_eq!(done.progress.passes, 4);
+    assert_eq!(bits(&done.field), bits(&whole.field));
+    let file = ftpd3d::output::vti::read_vti(&part).unwrap();
+    assert_eq!(bits(&file.field), bits(&whole.field));
+    assert_eq!(file.field.meta.get("partial").unwrap(), "false");
+    // Another grid is refused, naming the flag.
+    let mut other = small_volume(&part);
+    other.domain = DomainArg::Volume {
+        res: VolumeRes::Longest(5),
+        bbox: None,
+    };
+    other.resume = Some(part.clone());
+    let e = format!("{:#}", run_job(&other).unwrap_err());
+    assert!(e.contains("--resume") && e.contains("6x6x6"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_pass_cut_part_way_survives_the_vti() {
+    use ftpd3d::render::{InFlight, Progress};
+    let dir = temp_dir("inflight");
+    let path = dir.join("p.vti");
+    let volume = ftpd3d::domain::Volume::new(
+        &ftpd3d::scene::Aabb {
+            min: glam::DVec3::ZERO,
+            max: glam::DVec3::ONE,
+        },
+        [3, 2, 2],
+    )
+    .unwrap();
+    let mut field = Field::new(3, 2, 2);
+    field.meta.insert("adaptive".into(), "max 4x".into());
+    let progress = Progress {
+        passes: 3,
+        inflight: Some(InFlight {
+            done: (0..12).map(|k| k % 3 == 0).collect(),
+            units: Some((0..12).map(|k| k * 7 + 1).collect()),
+        }),
+        elapsed: 1.25,
+    };
+    let opts = RenderOptions::default();
+    ftpd3d::app::mark_progress(&mut field, &progress, &opts, true, None);
+    ftpd3d::app::write_volume_progress(&field, &progress, &volume, &path, false).unwrap();
+    let (back, p) = ftpd3d::app::read_progress(&path).unwrap();
+    assert_eq!(p, progress);
+    assert_eq!(bits(&back), bits(&field));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn three_volume_tiles_merge_into_the_full_run_bit_for_bit() {
+    let dir = temp_dir("tiles");
+    let whole = run_job(&small_volume(&dir.join("whole.vti")))
+        .unwrap()
+        .remove(0)
+        .field;
+    let mut parts = Vec::new();
+    for i in 0..3 {
+        let out = dir.join(format!("t{i}.vti"));
+        let mut job = small_volume(&out);
+        job.render.tile = Some(ftpd3d::domain::Tile { index: i, count: 3 });
+        let f = run_job(&job).unwrap().remove(0).field;
+        // Only its slab of z layers is sampled.
+        let layer = 6 * 6;
+        for (k, c) in f.cells.iter().enumerate() {
+            assert_eq!(c.n > 0, k / layer / 2 == i, "tile {i}, cell {k}");
+        }
+        parts.push(out);
+    }
+    let merged = ftpd3d::merge::merge_files(&parts, &dir.join("all.vti"), false).unwrap();
+    assert!(merged.warnings.is_empty(), "{:?}", merged.warnings);
+    assert_eq!(bits(&merged.field), bits(&whole));
+    let back = ftpd3d::output::vti::read_vti(&dir.join("all.vti")).unwrap();
+    assert_eq!(bits(&back.field), bits(&whole));
+    // Two tiles of three cover two thirds of the layers, and say so.
+    let two = ftpd3d::merge::merge_files(&parts[..2], &dir.join("two.vti"), false).unwrap();
+    assert!(
+        two.warnings.iter().any(|w| w.contains("4 of 6 rows")),
+        "{:?}",
+        two.warnings
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_volume_checkpoint_resumes() {
+    let dir = temp_dir("checkpoint");
+    let out = dir.join("c.vti");
+    let run = |extra: &[&str]| {
+        let mut a = vec!["--spp", "8", "--batches", "4", "--seed", "7"];
+        a.extend_from_slice(extra);
+        small_volume_cli(&out, &a)
+    };
+    let r = run(&["--checkpoint-every", "1ms"]);
+    assert!(r.ok, "{}", r.err);
+    assert!(
+        r.err.contains("checkpoint: ") && r.err.contains("passes written to"),
+        "{}",
+        r.err
+    );
+    let whole = ftpd3d::output::vti::read_vti(&out).unwrap().field;
+    // Checkpointed after each pass and stopped after pass 2 (as a killed run would have left it
+    // at its last checkpoint), then resumed from the command line.
+    let mut job = small_volume(&out);
+    job.render.budget.max_passes = Some(2);
+    job.checkpoint_every = Some(std::time::Duration::from_nanos(1));
+    run_job(&job).unwrap();
+    let r = run(&["--resume", out.to_str().unwrap()]);
+    assert!(r.ok, "{}", r.err);
+    assert!(
+        r.err.contains("resuming") && r.err.contains("2 passes done"),
+        "{}",
+        r.err
+    );
+    let resumed = ftpd3d::output::vti::read_vti(&out).unwrap().field;
+    assert_eq!(bits(&resumed), bits(&whole));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_tile_resumes_only_as_the_same_tile() {
+    let dir = temp_dir("tile_resume");
+    let out = dir.join("t.vti");
+    let mut job = small_volume(&out);
+    job.render.tile = Some(ftpd3d::domain::Tile { index: 1, count: 3 });
+    job.render.budget.max_passes = Some(1);
+    run_job(&job).unwrap();
+    let mut whole = small_volume(&out);
+    whole.resume = Some(out.clone());
+    let e = format!("{:#}", run_job(&whole).unwrap_err());
+    assert!(e.contains("tile differs"), "{e}");
+    job.render.budget.max_passes = None;
+    job.resume = Some(out.clone());
+    let done = run_job(&job).unwrap().remove(0);
+    assert!(done.stats.stop.is_complete());
     std::fs::remove_dir_all(&dir).ok();
 }

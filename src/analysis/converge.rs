@@ -23,13 +23,15 @@
 //! with the slope's standard error. Monte Carlo converges as t^−½ once the time is proportional
 //! to the samples; fixed costs per run make small runs look cheaper than they are.
 
-use crate::app::{self, EstimatorArgs};
-use crate::domain::Plane;
+use crate::domain::{MAX_RES, Plane};
 use crate::field::Field;
 use crate::ftpd::{Params, Weighting};
 use crate::output::plot::{self, Line, Series};
+use crate::output::{check_writable, write_atomically, write_outputs};
 use crate::render::RenderOptions;
+use crate::run::{EstimatorArgs, run_plane};
 use crate::scene::Scene;
+use crate::scene::load::load_scene_with_lights;
 use anyhow::{Context, bail};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -263,7 +265,7 @@ pub fn measure(
             progress: false,
             ..Default::default()
         };
-        app::run_plane(scene, plane, p, &warm)?;
+        run_plane(scene, plane, p, &warm)?;
         let mut fields = Vec::new();
         let mut runs = Vec::new();
         for (k, &spp) in levels.iter().enumerate() {
@@ -275,7 +277,7 @@ pub fn measure(
                 progress: false,
                 ..Default::default()
             };
-            let (field, stats) = app::run_plane(scene, plane, p, &opts)?;
+            let (field, stats) = run_plane(scene, plane, p, &opts)?;
             if let Some((name, r)) = reference {
                 crate::merge::check_same_run(name, r, "the converge run", &field)?;
             }
@@ -518,13 +520,13 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         );
     }
     if let Some(r) = job.res
-        && (r == 0 || r > app::MAX_RES)
+        && (r == 0 || r > MAX_RES)
     {
-        bail!("--res {r}: must be between 1 and {}", app::MAX_RES);
+        bail!("--res {r}: must be between 1 and {MAX_RES}");
     }
     std::fs::create_dir_all(&job.out_dir)
         .with_context(|| format!("--out-dir {}: cannot create it", job.out_dir.display()))?;
-    app::check_writable(&job.out_dir.join("converge.csv"))?;
+    check_writable(&job.out_dir.join("converge.csv"))?;
     let reference = match &job.reference {
         Some(p) => {
             if !p.exists() {
@@ -534,12 +536,7 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         }
         None => None,
     };
-    let mut scene = app::load_scene(&job.scene)?;
-    for (p, i) in &job.point_lights {
-        scene.lights.add_point(*p, *i);
-    }
-    scene.features =
-        crate::scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    let scene = load_scene_with_lights(&job.scene, &job.point_lights)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
@@ -548,7 +545,7 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
             .as_ref()
             .map_or(DEFAULT_RES, |r| r.width.max(r.height))
     });
-    let spec = app::resolve_slice(&job.slice, &scene)?;
+    let spec = crate::domain::slice::resolve_slice(&job.slice, &scene)?;
     let plane = Plane::axis_slice(&scene.bounds, spec, job.window, res)?;
     let weightings: Vec<Weighting> = match (job.weighting, &reference) {
         (Some(w), _) => vec![w],
@@ -618,14 +615,18 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         grid: (plane.width, plane.height),
         scene: job.scene.clone(),
     };
-    std::fs::write(job.out_dir.join("converge.csv"), csv(&report))
-        .with_context(|| format!("{}: writing converge.csv", job.out_dir.display()))?;
-    std::fs::write(job.out_dir.join("converge_fit.csv"), fit_csv(&report))
-        .with_context(|| format!("{}: writing converge_fit.csv", job.out_dir.display()))?;
+    for (name, text) in [
+        ("converge.csv", csv(&report)),
+        ("converge_fit.csv", fit_csv(&report)),
+    ] {
+        write_atomically(&job.out_dir.join(name), |tmp| {
+            std::fs::write(tmp, &text).with_context(|| format!("{}: cannot write", tmp.display()))
+        })?;
+    }
     plot(&report, &job.out_dir.join("converge.png"), (800, 560))?;
     for (c, f) in report.curves.iter().zip(&tops) {
         let top = c.levels.last().map_or(0, |l| l.spp);
-        app::write_outputs(
+        write_outputs(
             f,
             &job.out_dir.join(format!("{}_spp{top}.exr", c.weighting)),
             false,

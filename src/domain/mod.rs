@@ -14,6 +14,9 @@ use crate::ftpd::Start;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 
+/// Largest accepted grid side (`--res`, `--size`).
+pub const MAX_RES: usize = 16384;
+
 /// A grid of cells over which FTPD is estimated. Object-safe: the driver runs any domain through
 /// `&dyn Domain`, and only the four kernels ([`crate::kernel`]) are compiled, not one copy per
 /// domain type.

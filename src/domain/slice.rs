@@ -5,8 +5,8 @@
 //! Axis slices: `x=c` spans (u, v) = (z, y), `y=c` spans (x, z), `z=c` spans (x, y), so that y (up
 //! in the shipped scenes) is vertical in images whenever the plane contains it.
 
-use crate::scene::Aabb;
 use crate::scene::flat::Flatland;
+use crate::scene::{Aabb, Scene};
 use anyhow::bail;
 use glam::DVec3;
 use std::fmt;
@@ -210,21 +210,8 @@ pub struct PlaneSpec {
     pub size: Option<(f64, f64)>,
 }
 
-fn parse_numbers(key: &str, v: &str, n: usize) -> Result<Vec<f64>, String> {
-    let xs: Vec<f64> = v
-        .split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("{key}={v}: '{t}' is not a number"))
-        })
-        .collect::<Result<_, _>>()?;
-    if xs.len() != n || !xs.iter().all(|x| x.is_finite()) {
-        return Err(format!(
-            "{key}={v}: expected {n} finite comma-separated numbers"
-        ));
-    }
-    Ok(xs)
+fn parse_numbers<const N: usize>(key: &str, v: &str, names: &str) -> Result<[f64; N], String> {
+    crate::math::parse_floats(v, names).map_err(|e| format!("{key}={v}: {e}"))
 }
 
 impl FromStr for PlaneSpec {
@@ -236,11 +223,11 @@ impl FromStr for PlaneSpec {
                 .split_once('=')
                 .ok_or_else(|| format!("'{item}': expected KEY=VALUE"))?;
             match k {
-                "origin" => origin = Some(DVec3::from_slice(&parse_numbers(k, v, 3)?)),
-                "normal" => normal = Some(DVec3::from_slice(&parse_numbers(k, v, 3)?)),
-                "up" => up = Some(DVec3::from_slice(&parse_numbers(k, v, 3)?)),
+                "origin" => origin = Some(DVec3::from(parse_numbers(k, v, "x,y,z")?)),
+                "normal" => normal = Some(DVec3::from(parse_numbers(k, v, "x,y,z")?)),
+                "up" => up = Some(DVec3::from(parse_numbers(k, v, "x,y,z")?)),
                 "size" => {
-                    let w = parse_numbers(k, v, 2)?;
+                    let w: [f64; 2] = parse_numbers(k, v, "w,h")?;
                     if !(w[0] > 0.0 && w[1] > 0.0) {
                         return Err(format!("size={v}: both sides must be > 0"));
                     }
@@ -350,6 +337,67 @@ pub fn parse_slice_range(s: &str) -> Result<Vec<SliceSpec>, String> {
             format!("{axis}={}", from + (to - from) * t).parse::<SliceSpec>()
         })
         .collect()
+}
+
+/// One plane of a slice run.
+#[derive(Clone, Debug)]
+pub enum SliceArg {
+    /// `AXIS=VALUE` or the name of a slice in the scene file.
+    Axis(String),
+    /// `origin=… normal=… [up=…] [size=…]`.
+    Plane(PlaneSpec),
+}
+
+impl SliceArg {
+    /// A short name for file names: `z0.5`, `plane2`.
+    pub fn file_label(&self, index: usize) -> String {
+        match self {
+            SliceArg::Axis(a) => a.replace(['=', '/', ' '], ""),
+            SliceArg::Plane(_) => format!("plane{index}"),
+        }
+    }
+}
+
+/// Resolves `--slice`: `AXIS=VALUE`, or the name of a slice in the sidecar scene file.
+pub fn resolve_slice(arg: &str, scene: &Scene) -> anyhow::Result<SliceSpec> {
+    if arg.contains('=') {
+        return arg
+            .parse::<SliceSpec>()
+            .map_err(|e| anyhow::anyhow!("--slice {e}"));
+    }
+    match scene.named_slices.iter().find(|(n, _)| n == arg) {
+        Some((_, plane)) => plane
+            .parse::<SliceSpec>()
+            .map_err(|e| anyhow::anyhow!("--slice {arg}: the scene file's plane {e}")),
+        None if scene.named_slices.is_empty() => {
+            bail!("--slice {arg}: expected AXIS=VALUE such as z=1.2 (the scene names no slices)")
+        }
+        None => bail!(
+            "--slice {arg}: not AXIS=VALUE and not a slice of the scene file (it names: {})",
+            scene
+                .named_slices
+                .iter()
+                .map(|(n, _)| n.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// The plane of one slice of a run with `res` cells along the longer side; `window` (u0,v0,u1,v1)
+/// applies to axis slices.
+pub fn resolve_plane(
+    arg: &SliceArg,
+    scene: &Scene,
+    window: Option<[f64; 4]>,
+    res: usize,
+) -> anyhow::Result<Plane> {
+    match arg {
+        SliceArg::Axis(a) => {
+            Plane::axis_slice(&scene.bounds, resolve_slice(a, scene)?, window, res)
+        }
+        SliceArg::Plane(spec) => Plane::from_spec(&scene.bounds, spec, res),
+    }
 }
 
 #[cfg(test)]

@@ -56,22 +56,7 @@ impl fmt::Display for VolumeRes {
 
 /// Parses `--box xmin,ymin,zmin,xmax,ymax,zmax` (finite numbers; checked for emptiness later).
 pub fn parse_box(s: &str) -> Result<[f64; 6], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("'{}' is not a number", t.trim()))
-        })
-        .collect::<Result<_, _>>()?;
-    match v.as_slice() {
-        [a, b, c, d, e, f] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c, *d, *e, *f]),
-        [_, _, _, _, _, _] => Err("values must be finite".into()),
-        _ => Err(format!(
-            "expected 6 comma-separated numbers xmin,ymin,zmin,xmax,ymax,zmax, got {}",
-            v.len()
-        )),
-    }
+    crate::math::parse_floats(s, "xmin,ymin,zmin,xmax,ymax,zmax")
 }
 
 /// A box with a voxel grid.

@@ -118,8 +118,7 @@ pub fn write_outputs_with(
     extra.insert(1, ("grad.y", gy));
     exr::write_exr(path, field, &extra)?;
     if png {
-        png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
-        png::write_gradient_preview(&path.with_extension("grad.png"), &sigma, &valid, w, h)?;
+        write_previews(path, &sigma, &valid, w, h)?;
     }
     Ok(())
 }
@@ -134,17 +133,41 @@ pub fn write_volume_outputs(
     path: &Path,
     png: bool,
 ) -> anyhow::Result<()> {
-    vti::write_vti(path, field, origin, spacing)?;
+    write_volume_outputs_with(field, origin, spacing, path, png, &[])
+}
+
+/// [`write_volume_outputs`] with extra Float64 arrays (one value per voxel, field order).
+pub fn write_volume_outputs_with(
+    field: &Field,
+    origin: DVec3,
+    spacing: DVec3,
+    path: &Path,
+    png: bool,
+    extra: &[(&str, Vec<f64>)],
+) -> anyhow::Result<()> {
+    vti::write_vti_with(path, field, origin, spacing, extra)?;
     if png {
         let (w, h) = (field.width, field.height);
         let layer = &field.cells[(field.depth / 2) * w * h..][..w * h];
         let vals: Vec<_> = layer.iter().map(|c| c.finalize()).collect();
         let sigma: Vec<f64> = vals.iter().map(|v| v.sigma).collect();
         let valid: Vec<bool> = vals.iter().map(|v| v.valid).collect();
-        png::write_field_preview(&path.with_extension("png"), &sigma, &valid, w, h)?;
-        png::write_gradient_preview(&path.with_extension("grad.png"), &sigma, &valid, w, h)?;
+        write_previews(path, &sigma, &valid, w, h)?;
     }
     Ok(())
+}
+
+/// The PNG previews of a 2D grid of σ next to `path`: `<name>.png` (σ, equalised CIELAB map) and
+/// `<name>.grad.png` (gradient direction as hue, magnitude as lightness).
+pub fn write_previews(
+    path: &Path,
+    sigma: &[f64],
+    valid: &[bool],
+    w: usize,
+    h: usize,
+) -> anyhow::Result<()> {
+    png::write_field_preview(&path.with_extension("png"), sigma, valid, w, h)?;
+    png::write_gradient_preview(&path.with_extension("grad.png"), sigma, valid, w, h)
 }
 
 /// The sums every output keeps exactly (EXR as hi/lo u32 pairs, VTI as Float64), by name, with

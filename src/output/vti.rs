@@ -51,6 +51,9 @@ pub struct Vti {
     /// Position of the first point (the centre of voxel (0, 0, 0)).
     pub origin: DVec3,
     pub spacing: DVec3,
+    /// Arrays of a run's progress, by name (`pass.done`, `pass.units`: see [`write_vti_with`]),
+    /// empty for a finished run.
+    pub extra: BTreeMap<String, Vec<f64>>,
 }
 
 /// Bytes of memory a volume run needs per voxel, besides the scene: its accumulator while it runs,
@@ -247,6 +250,18 @@ fn triple(v: DVec3) -> String {
 /// `origin` (the centre of voxel (0, 0, 0)) and `spacing` between points. Written to a temporary
 /// name, then renamed.
 pub fn write_vti(path: &Path, field: &Field, origin: DVec3, spacing: DVec3) -> anyhow::Result<()> {
+    write_vti_with(path, field, origin, spacing, &[])
+}
+
+/// [`write_vti`] with extra Float64 arrays (one value per voxel, field order), read back exactly
+/// into [`Vti::extra`]: a partial run's `pass.done` and `pass.units`, which a resumed run needs.
+pub fn write_vti_with(
+    path: &Path,
+    field: &Field,
+    origin: DVec3,
+    spacing: DVec3,
+    extra: &[(&str, Vec<f64>)],
+) -> anyhow::Result<()> {
     let dims = [field.width, field.height, field.depth];
     let n = dims.iter().product::<usize>();
     if n == 0 || n != field.cells.len() {
@@ -357,6 +372,22 @@ pub fn write_vti(path: &Path, field: &Field, origin: DVec3, spacing: DVec3) -> a
             comps: 1,
             size: 8,
             put: Box::new(move |i, b| b.extend_from_slice(&cells[i].comp[k].to_le_bytes())),
+        });
+    }
+    for (name, values) in extra {
+        if values.len() != n {
+            bail!(
+                "{}: array '{name}' has {} values for {n} voxels",
+                path.display(),
+                values.len()
+            );
+        }
+        arrays.push(Array {
+            name: (*name).to_string(),
+            ty: "Float64",
+            comps: 1,
+            size: 8,
+            put: Box::new(move |i, b| b.extend_from_slice(&values[i].to_le_bytes())),
         });
     }
 
@@ -594,10 +625,22 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
             field.cells[i].comp[k] = f64::from_le_bytes(c.try_into().expect("8 bytes"));
         }
     }
+    let mut extra = BTreeMap::new();
+    for (name, (ty, _)) in &offsets {
+        if name.starts_with("pass.") && ty == "Float64" {
+            let b = block(name, "Float64", 8)?;
+            let v = b
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect();
+            extra.insert(name.clone(), v);
+        }
+    }
     Ok(Vti {
         field,
         origin: DVec3::new(o[0], o[1], o[2]),
         spacing: DVec3::new(s[0], s[1], s[2]),
+        extra,
     })
 }
 

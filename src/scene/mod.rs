@@ -6,6 +6,7 @@ pub mod features;
 pub mod flat;
 pub mod gltf;
 pub mod light;
+pub mod load;
 pub mod material;
 pub mod obj;
 pub mod sidecar;

@@ -113,7 +113,8 @@ pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
     })
 }
 
-/// Applies a sidecar's lights and cameras to a loaded scene.
+/// Applies a sidecar's lights and cameras to a loaded scene (the loader then recomputes its
+/// features: [`crate::scene::load`]).
 pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
     for l in &sc.point_light {
         scene
@@ -123,7 +124,5 @@ pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
     for c in &sc.camera {
         scene.cameras.push(camera_of(c)?);
     }
-    scene.features =
-        crate::scene::Features::of(&scene.materials, &scene.tri_material, &scene.lights);
     Ok(())
 }

@@ -1,0 +1,232 @@
+//! Where a run stands, in its output: progress metadata, the arrays of a pass cut part-way, and the
+//! checks that a file may be resumed by this run. EXR fields and VTI volumes alike.
+
+use crate::domain::volume::Volume;
+use crate::field::Field;
+use crate::output::{self, write_outputs_with};
+use crate::render::{InFlight, Progress, RenderOptions, StopReason};
+use crate::run::fmt_duration;
+use crate::scene::load::extension;
+use anyhow::{Context, bail};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Duration;
+
+/// Keys of a field's metadata beyond [`crate::merge::MUST_MATCH`] (what the samples estimate)
+/// that must agree for a run to resume from it: which random streams, pass sizes, kernel and
+/// tile produced them (a tile resumed as a whole grid would give its other cells only the later
+/// passes). Budgets (spp cap, time, target error) may change between invocations.
+pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel", "tile"];
+
+/// Checks that the field read from `path` was made by the run described by `meta` on a grid of
+/// `dims`; the error names the first key that differs.
+pub fn check_resume(
+    path: &Path,
+    file: &Field,
+    meta: &BTreeMap<String, String>,
+    dims: (usize, usize, usize),
+) -> anyhow::Result<()> {
+    let have = (file.width, file.height, file.depth);
+    if have != dims {
+        bail!(
+            "--resume {}: grid size differs: the file has {} cells, this run {} \
+             (give the --res/--window/--size/--volume/--box the run was started with)",
+            path.display(),
+            grid_text(have),
+            grid_text(dims)
+        );
+    }
+    if !file.meta.contains_key("schedule") {
+        bail!(
+            "--resume {}: not a field this version of ftpd3d can resume (no 'schedule' key)",
+            path.display()
+        );
+    }
+    for key in crate::merge::MUST_MATCH.iter().chain(RESUME_KEYS) {
+        let (a, b) = (file.meta.get(*key), meta.get(*key));
+        if a != b {
+            let show = |v: Option<&String>| v.map_or_else(|| "(none)".to_string(), Clone::clone);
+            bail!(
+                "--resume {}: {key} differs: the file has {}, this run {}; a run resumes only with \
+                 the scene, domain, parameters, seed and pass schedule it was started with",
+                path.display(),
+                show(a),
+                show(b)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `64x48` for a 2D grid, `6x6x6` for a volume.
+pub(super) fn grid_text((w, h, d): (usize, usize, usize)) -> String {
+    if d > 1 {
+        format!("{w}x{h}x{d}")
+    } else {
+        format!("{w}x{h}")
+    }
+}
+
+/// Records where a run stands in the field's metadata: `partial`, `passes`, `samples`, `elapsed`
+/// (compute seconds so far), `remaining.samples` and `remaining.time` (what is left of the budgets),
+/// `pass.inflight`, and `stop` (why it stopped, when it has).
+pub fn mark_progress(
+    field: &mut Field,
+    progress: &Progress,
+    opts: &RenderOptions,
+    partial: bool,
+    stop: Option<StopReason>,
+) {
+    let samples = field.total_samples();
+    // The cells the run samples: a tile's, or the whole grid.
+    let cells = opts.tile.map_or(field.cells.len(), |t| {
+        t.cells(field.width, field.height, field.depth).len()
+    }) as u64;
+    let m = &mut field.meta;
+    m.insert("partial".into(), partial.to_string());
+    m.insert("passes".into(), progress.passes.to_string());
+    m.insert("samples".into(), samples.to_string());
+    m.insert("elapsed".into(), progress.elapsed.to_string());
+    m.insert(
+        "remaining.samples".into(),
+        if opts.budget.cap_spp {
+            (cells * opts.spp as u64)
+                .saturating_sub(samples)
+                .to_string()
+        } else {
+            "unbounded".into()
+        },
+    );
+    m.insert(
+        "remaining.time".into(),
+        opts.budget.time.map_or_else(
+            || "none".into(),
+            |t| fmt_duration(t.saturating_sub(Duration::from_secs_f64(progress.elapsed))),
+        ),
+    );
+    m.insert(
+        "pass.inflight".into(),
+        progress.inflight.is_some().to_string(),
+    );
+    match stop {
+        Some(s) => m.insert("stop".into(), s.to_string()),
+        None => m.remove("stop"),
+    };
+}
+
+/// Writes a field with its progress: for a pass interrupted part-way, the channels `pass.done`
+/// (1 where the cell completed it) and, for adaptive passes, `pass.units` (the pass's allocation).
+pub fn write_progress(
+    field: &Field,
+    progress: &Progress,
+    path: &Path,
+    png: bool,
+) -> anyhow::Result<()> {
+    write_outputs_with(field, path, png, progress_arrays(progress))
+}
+
+/// [`write_progress`] for a volume: the `.vti`, whose `pass.done` and `pass.units` arrays are
+/// Float64 (read back by [`read_progress`]).
+pub fn write_volume_progress(
+    field: &Field,
+    progress: &Progress,
+    volume: &Volume,
+    path: &Path,
+    png: bool,
+) -> anyhow::Result<()> {
+    output::write_volume_outputs_with(
+        field,
+        volume.vtk_origin(),
+        volume.spacing,
+        path,
+        png,
+        &progress_arrays(progress),
+    )
+}
+
+/// The per-cell arrays of a pass interrupted part-way (none between passes).
+fn progress_arrays(progress: &Progress) -> Vec<(&'static str, Vec<f64>)> {
+    let mut extra = Vec::new();
+    if let Some(f) = &progress.inflight {
+        extra.push((
+            "pass.done",
+            f.done.iter().map(|&d| if d { 1.0 } else { 0.0 }).collect(),
+        ));
+        if let Some(u) = &f.units {
+            extra.push(("pass.units", u.iter().map(|&x| x as f64).collect()));
+        }
+    }
+    extra
+}
+
+/// Reads a field (`.exr`) or volume (`.vti`) to resume from, with where its run stands (see
+/// [`mark_progress`]).
+pub fn read_progress(path: &Path) -> anyhow::Result<(Field, Progress)> {
+    let volume = extension(path).as_deref() == Some("vti");
+    let (field, mut arrays) = if volume {
+        let v =
+            output::vti::read_vti(path).with_context(|| format!("--resume {}", path.display()))?;
+        (v.field, v.extra)
+    } else {
+        let f =
+            output::exr::read_exr(path).with_context(|| format!("--resume {}", path.display()))?;
+        (f, BTreeMap::new())
+    };
+    // A pass's progress array, from the volume's arrays or the field's channels.
+    let mut array = |name: &str| -> anyhow::Result<Vec<f64>> {
+        if volume {
+            arrays
+                .remove(name)
+                .with_context(|| format!("--resume {}: no array '{name}'", path.display()))
+        } else {
+            let (_, _, v) = output::exr::read_channel(path, name)?;
+            Ok(v.into_iter().map(f64::from).collect())
+        }
+    };
+    let num = |key: &str| -> anyhow::Result<&str> {
+        field.meta.get(key).map(String::as_str).with_context(|| {
+            format!(
+                "--resume {}: no '{key}' in the file (not written by a progressive run?)",
+                path.display()
+            )
+        })
+    };
+    let passes: u32 = num("passes")?
+        .parse()
+        .with_context(|| format!("--resume {}: 'passes' is not a number", path.display()))?;
+    let elapsed: f64 = num("elapsed")?
+        .parse()
+        .with_context(|| format!("--resume {}: 'elapsed' is not a number", path.display()))?;
+    let inflight = if field.meta.get("pass.inflight").is_some_and(|v| v == "true") {
+        let done = array("pass.done")?;
+        let units = if field.meta.get("adaptive").is_some_and(|a| a != "off") && passes >= 2 {
+            Some(array("pass.units")?.iter().map(|&x| x as u32).collect())
+        } else {
+            None
+        };
+        if done.len() != field.cells.len()
+            || units
+                .as_ref()
+                .is_some_and(|u: &Vec<u32>| u.len() != done.len())
+        {
+            bail!(
+                "--resume {}: the interrupted pass's arrays do not match the grid",
+                path.display()
+            );
+        }
+        Some(InFlight {
+            done: done.iter().map(|&d| d != 0.0).collect(),
+            units,
+        })
+    } else {
+        None
+    };
+    Ok((
+        field,
+        Progress {
+            passes,
+            inflight,
+            elapsed,
+        },
+    ))
+}

@@ -1,0 +1,199 @@
+//! The benchmark (`ftpd3d bench`): kernel rays/s against raw Embree rays/s on the same scene, rays
+//! and threads.
+
+use crate::domain::{Domain, Plane, PlaneOnSurfaces};
+use crate::field::Field;
+use crate::ftpd::{self, Params};
+use crate::kernel::{self, Kernel, WithKernel};
+use crate::render::{self, RenderOptions, RunStats};
+use crate::rng::Sampler;
+use crate::run::run_plane;
+use crate::scene::Scene;
+use std::time::Instant;
+
+/// One benchmark run: the kernel and raw Embree rays, on the same scene, slice, samples and
+/// threads.
+#[derive(Clone, Debug)]
+pub struct BenchReport {
+    pub kernel: crate::kernel::KernelChoice,
+    pub run: RunStats,
+    pub raw_rays: u64,
+    pub raw_seconds: f64,
+}
+
+impl BenchReport {
+    pub fn raw_rays_per_second(&self) -> f64 {
+        if self.raw_seconds > 0.0 {
+            self.raw_rays as f64 / self.raw_seconds
+        } else {
+            0.0
+        }
+    }
+    /// Kernel rays/s over raw rays/s.
+    pub fn ray_ratio(&self) -> f64 {
+        let raw = self.raw_rays_per_second();
+        if raw > 0.0 {
+            self.run.rays_per_second() / raw
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Runs the FTPD kernel over `plane`, then replays through Embree alone (`rtcIntersect1` /
+/// `rtcOccluded1`, nothing else) exactly the rays the kernel traced, recorded in a separate untimed
+/// run, on the same number of threads. Each part runs `repeats` times, interleaved, and the fastest
+/// time of each is kept (shared, noisy machines).
+pub fn bench_plane(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+    repeats: u32,
+) -> anyhow::Result<BenchReport> {
+    use rayon::prelude::*;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()?;
+    let rays = record_rays(scene, plane, params, opts, &pool)?;
+    let accel = scene.accel();
+    let (mut run, mut raw_seconds) = (None::<RunStats>, f64::INFINITY);
+    for _ in 0..repeats.max(1) {
+        let r = run_plane(scene, plane, params, opts)?.1;
+        if run.as_ref().is_none_or(|a| r.seconds < a.seconds) {
+            run = Some(r);
+        }
+        let start = Instant::now();
+        let hits: u64 = pool.install(|| {
+            rays.par_chunks(4096)
+                .map(|chunk| {
+                    let mut h = 0u64;
+                    for r in chunk {
+                        h += if r.shadow {
+                            accel.occluded(r.o, r.d, 0.0, r.tfar) as u64
+                        } else {
+                            accel.intersect(r.o, r.d, 0.0, r.tfar).is_some() as u64
+                        };
+                    }
+                    h
+                })
+                .sum()
+        });
+        std::hint::black_box(hits);
+        raw_seconds = raw_seconds.min(start.elapsed().as_secs_f64());
+    }
+    Ok(BenchReport {
+        kernel: ftpd::kernel_for(params),
+        run: run.unwrap_or_default(),
+        raw_rays: rays.len() as u64,
+        raw_seconds,
+    })
+}
+
+/// Every ray query of one run of the kernel over `plane` (the same random decisions, hence the
+/// same rays, as the timed runs), gathered from the pool's threads.
+fn record_rays(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+    pool: &rayon::ThreadPool,
+) -> anyhow::Result<Vec<crate::transport::trace::LoggedRay>> {
+    struct Recording<'a> {
+        scene: &'a Scene,
+        domain: &'a dyn Domain,
+        params: &'a Params,
+        opts: &'a RenderOptions,
+        pool: &'a rayon::ThreadPool,
+    }
+    impl WithKernel for Recording<'_> {
+        type Output = anyhow::Result<()>;
+        fn run<K: Kernel>(self) -> anyhow::Result<()> {
+            let (w, h, d) = self.domain.dims();
+            let mut field = Field::new(w, h, d);
+            render::run_in(self.pool, &mut field, self.opts, |cell, s: &mut Sampler| {
+                let start = self.domain.start(self.scene, cell, s);
+                ftpd::sample::<K>(self.scene, start, self.params, s)
+            })?;
+            Ok(())
+        }
+    }
+    let mut o = opts.clone();
+    o.progress = false;
+    let on_surfaces = PlaneOnSurfaces(plane);
+    let domain: &dyn Domain = if scene.surface_in_plane(plane.origin, plane.normal()) {
+        &on_surfaces
+    } else {
+        plane
+    };
+    kernel::dispatch_recording(
+        ftpd::kernel_for(params),
+        Recording {
+            scene,
+            domain,
+            params,
+            opts: &o,
+            pool,
+        },
+    )?;
+    // Gather the logs of every worker of the pool.
+    Ok(pool
+        .broadcast(|_| crate::transport::trace::take_ray_log())
+        .into_iter()
+        .flatten()
+        .collect())
+}
+
+/// `ftpd3d bench`: loads the scene, resolves the first slice of the run (a flatland one when
+/// `flatland`), runs [`bench_plane`] three times and writes the report to `out`.
+pub fn bench(
+    out: &mut impl std::io::Write,
+    path: &std::path::Path,
+    point_lights: &[(glam::DVec3, glam::DVec3)],
+    estimator: &crate::run::EstimatorArgs,
+    (slice, window, res): (&crate::domain::slice::SliceArg, Option<[f64; 4]>, usize),
+    flatland: bool,
+    opts: &RenderOptions,
+) -> anyhow::Result<()> {
+    let mut scene = crate::scene::load::load_scene_with_lights(path, point_lights)?;
+    let plane = crate::domain::slice::resolve_plane(slice, &scene, window, res)?;
+    let params = if flatland {
+        crate::run::prepare_flatland(&mut scene, &plane, estimator)?
+    } else {
+        estimator.resolve(&scene)?
+    };
+    let mut opts = opts.clone();
+    opts.progress = false;
+    let r = bench_plane(&scene, &plane, &params, &opts, 3)?;
+    let line = |name: &str, s: &RunStats| {
+        format!(
+            "{name:<20} {:>11} rays in {:>7.3} s = {:.3e} rays/s, {:.3e} samples/s",
+            s.rays,
+            s.seconds,
+            s.rays_per_second(),
+            s.samples_per_second()
+        )
+    };
+    writeln!(out, "scene                {}", path.display())?;
+    writeln!(out, "features             {}", scene.features)?;
+    writeln!(
+        out,
+        "slice                {} ({}x{}), {} spp, weighting {}, {} threads, best of 3",
+        plane.label,
+        plane.width,
+        plane.height,
+        opts.spp,
+        params.weighting,
+        opts.thread_count()
+    )?;
+    writeln!(out, "{}", line(&r.kernel.to_string(), &r.run))?;
+    writeln!(
+        out,
+        "raw rtcIntersect1    {:>11} rays in {:>7.3} s = {:.3e} rays/s",
+        r.raw_rays,
+        r.raw_seconds,
+        r.raw_rays_per_second()
+    )?;
+    writeln!(out, "kernel/raw rays/s    {:.3}", r.ray_ratio())?;
+    Ok(())
+}

@@ -1,0 +1,101 @@
+//! Parsers of command-line values (clap `value_parser`s): each error says what was expected.
+
+use crate::math::parse_floats;
+use glam::DVec3;
+use std::time::Duration;
+
+/// Parses `--point-light x,y,z:r,g,b` (position, then radiant intensity per steradian).
+pub fn parse_point_light(s: &str) -> Result<(DVec3, DVec3), String> {
+    let (p, i) = s
+        .split_once(':')
+        .ok_or_else(|| format!("'{s}': expected x,y,z:r,g,b"))?;
+    let three = |t: &str, what: &str, names: &str| {
+        parse_floats::<3>(t, names)
+            .map(DVec3::from)
+            .map_err(|e| format!("'{s}': {what}: {e}"))
+    };
+    let (pos, int) = (
+        three(p, "position", "x,y,z")?,
+        three(i, "intensity", "r,g,b")?,
+    );
+    if int.min_element() < 0.0 {
+        return Err(format!("'{s}': intensity must be ≥ 0"));
+    }
+    Ok((pos, int))
+}
+
+/// Parses `X,Y,Z` (`--eye`, `--target`, `--up`).
+pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
+    parse_floats(s, "x,y,z").map(DVec3::from)
+}
+
+/// Parses `--window u0,v0,u1,v1`.
+pub fn parse_window(s: &str) -> Result<[f64; 4], String> {
+    parse_floats(s, "u0,v0,u1,v1")
+}
+
+/// Parses `--size W,H` (whole numbers).
+pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let (w, h) = s
+        .split_once(',')
+        .ok_or_else(|| format!("'{s}': expected W,H such as 640,480"))?;
+    let p = |t: &str| {
+        t.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("'{t}' is not a whole number"))
+    };
+    Ok((p(w)?, p(h)?))
+}
+
+/// Parses a duration such as `90s`, `10m`, `1h30m`, `2.5h`, `1d`, `500ms`; a bare number is
+/// seconds.
+pub fn parse_duration(s: &str) -> Result<Duration, String> {
+    let t = s.trim();
+    if t.is_empty() {
+        return Err("empty duration; expected e.g. 90s, 10m or 1h30m".into());
+    }
+    if let Ok(x) = t.parse::<f64>() {
+        return Duration::try_from_secs_f64(x)
+            .map_err(|_| format!("'{s}': a duration must be finite and ≥ 0"));
+    }
+    let mut total = 0.0f64;
+    let mut rest = t;
+    while !rest.is_empty() {
+        let num_len = rest
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(rest.len());
+        if num_len == 0 {
+            return Err(format!(
+                "'{s}': expected a number before '{rest}' (e.g. 90s, 10m, 1h30m)"
+            ));
+        }
+        let x: f64 = rest[..num_len]
+            .parse()
+            .map_err(|_| format!("'{s}': '{}' is not a number", &rest[..num_len]))?;
+        rest = rest[num_len..].trim_start();
+        let unit_len = rest
+            .find(|c: char| !c.is_ascii_alphabetic())
+            .unwrap_or(rest.len());
+        let unit = match &rest[..unit_len] {
+            "ms" => 1e-3,
+            "s" | "sec" | "secs" => 1.0,
+            "m" | "min" | "mins" => 60.0,
+            "h" | "hr" | "hrs" => 3600.0,
+            "d" => 86400.0,
+            "" => {
+                return Err(format!(
+                    "'{s}': a unit must follow '{x}' (ms, s, m, h or d)"
+                ));
+            }
+            u => return Err(format!("'{s}': unknown unit '{u}' (ms, s, m, h or d)")),
+        };
+        total += x * unit;
+        rest = rest[unit_len..].trim_start();
+    }
+    Duration::try_from_secs_f64(total).map_err(|_| format!("'{s}': duration out of range"))
+}
+
+/// Parses `--volume N` or `--volume NX,NY,NZ`.
+pub fn parse_volume(s: &str) -> Result<crate::domain::VolumeRes, String> {
+    s.parse()
+}

@@ -1,0 +1,497 @@
+//! Runs of one domain with the kernel its parameters need: the layer between the driver
+//! ([`crate::render`]) and a job ([`crate::app`]). Estimator settings as given (with scene-relative
+//! defaults) resolve to [`Params`]; a plane, camera image or volume runs to a [`Field`] whose
+//! metadata describes the run; a short calibration estimates how long a run will take.
+
+use crate::domain::volume::Volume;
+use crate::domain::{CameraView, Domain, Plane, PlaneOnSurfaces, Subset};
+use crate::field::Field;
+use crate::ftpd::{self, Params, Weighting};
+use crate::kernel::{self, Kernel, WithKernel};
+use crate::render::{self, Hooks, Progress, RenderOptions, RunStats, Schedule};
+use crate::rng::Sampler;
+use crate::scene::flat::Flatland;
+use crate::scene::{self, Scene};
+use anyhow::bail;
+use std::time::{Duration, Instant};
+
+/// Estimator settings as the user gave them; `None` means "relative to the scene" (see [`resolve`]).
+#[derive(Clone, Debug)]
+pub struct EstimatorArgs {
+    pub weighting: Weighting,
+    pub t0: Option<f64>,
+    pub t1: Option<f64>,
+    /// Perturbation half-angle in degrees.
+    pub angle_deg: f64,
+    pub max_bounces: u32,
+}
+
+impl Default for EstimatorArgs {
+    /// Radiance weighting, run lengths relative to the scene, a 2° cone, 32 bounces.
+    fn default() -> Self {
+        EstimatorArgs {
+            weighting: Weighting::Radiance,
+            t0: None,
+            t1: None,
+            angle_deg: 2.0,
+            max_bounces: 32,
+        }
+    }
+}
+
+/// Default run-length window as fractions of the scene diagonal D: T ∈ [0.1 D, 0.5 D].
+pub const DEFAULT_T0_OF_DIAGONAL: f64 = 0.1;
+pub const DEFAULT_T1_OF_DIAGONAL: f64 = 0.5;
+
+impl EstimatorArgs {
+    /// Checks the values and fills scene-relative defaults.
+    pub fn resolve(&self, scene: &Scene) -> anyhow::Result<Params> {
+        self.resolve_with_extent(scene, scene.extent())
+    }
+
+    /// [`resolve`](Self::resolve) with run-length defaults relative to the length `d` instead of the
+    /// scene diagonal (flatland uses the diagonal of the scene's cross-section).
+    pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> anyhow::Result<Params> {
+        let t0 = self.t0.unwrap_or(DEFAULT_T0_OF_DIAGONAL * d);
+        let t1 = self
+            .t1
+            .unwrap_or(DEFAULT_T1_OF_DIAGONAL * d)
+            .max(if self.t1.is_none() { t0 } else { 0.0 });
+        if !t0.is_finite() || t0 < 0.0 {
+            bail!("--t0 {t0}: the shortest run length must be finite and ≥ 0");
+        }
+        if !t1.is_finite() || t1 <= 0.0 {
+            bail!("--t1 {t1}: the longest run length must be finite and > 0");
+        }
+        if t0 > t1 {
+            bail!("--t0 {t0} is larger than --t1 {t1}: the run-length interval [t0, t1] is empty");
+        }
+        if !(self.angle_deg > 0.0 && self.angle_deg < 90.0) {
+            bail!(
+                "--angle {}: the perturbation half-angle must lie strictly between 0 and 90 degrees",
+                self.angle_deg
+            );
+        }
+        if self.weighting == Weighting::Radiance && scene.lights.is_empty() {
+            bail!(
+                "--weight radiance: {} has no lights (no emissive material, Ke); \
+                 use --weight unweighted or add a light",
+                scene.source.display()
+            );
+        }
+        Ok(Params {
+            t0,
+            t1,
+            theta_max: self.angle_deg.to_radians(),
+            weighting: self.weighting,
+            max_bounces: self.max_bounces,
+            flat: None,
+        })
+    }
+}
+
+/// Diagonal of the bounds projected onto the plane of `fl` (the size of a flatland scene).
+pub fn flat_extent(bounds: &scene::Aabb, fl: &Flatland) -> f64 {
+    if bounds.is_empty() {
+        return 1.0;
+    }
+    let (mut lo, mut hi) = (
+        glam::DVec2::splat(f64::INFINITY),
+        glam::DVec2::splat(f64::NEG_INFINITY),
+    );
+    for c in bounds.corners() {
+        let q = glam::DVec2::new(c.dot(fl.e1), c.dot(fl.e2));
+        lo = lo.min(q);
+        hi = hi.max(q);
+    }
+    let d = (hi - lo).length();
+    if d > 0.0 && d.is_finite() { d } else { 1.0 }
+}
+
+/// Sets up a flatland run on `plane`: validates and prepares the scene
+/// ([`Scene::prepare_flatland`]), resolves the estimator settings with run-length defaults relative
+/// to the cross-section's diagonal, and returns them with [`Params::flat`] set.
+pub fn prepare_flatland(
+    scene: &mut Scene,
+    plane: &Plane,
+    args: &EstimatorArgs,
+) -> anyhow::Result<Params> {
+    let fl = plane.flatland();
+    scene.prepare_flatland(fl, &plane.label)?;
+    let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
+    if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {
+        bail!(
+            "--flatland --weight radiance: no light of {} meets the slice plane {} (emissive \
+             triangles must cross it, point lights lie in it); use --weight unweighted or another \
+             slice",
+            scene.source.display(),
+            plane.label
+        );
+    }
+    params.flat = Some(fl);
+    Ok(params)
+}
+
+/// Describes the run in the field's metadata (EXR header attributes).
+pub fn describe_run(
+    field: &mut Field,
+    scene: &Scene,
+    params: &Params,
+    opts: &RenderOptions,
+    domain: &str,
+) {
+    let m = &mut field.meta;
+    m.insert(
+        "tool".into(),
+        format!("ftpd3d {}", env!("CARGO_PKG_VERSION")),
+    );
+    m.insert("embree".into(), crate::embree_version().into());
+    m.insert("scene".into(), scene.source.display().to_string());
+    m.insert("domain".into(), domain.into());
+    m.insert("weighting".into(), params.weighting.to_string());
+    m.insert("t0".into(), format!("{:e}", params.t0));
+    m.insert("t1".into(), format!("{:e}", params.t1));
+    m.insert(
+        "angle_deg".into(),
+        format!("{}", params.theta_max.to_degrees()),
+    );
+    m.insert("max_bounces".into(), params.max_bounces.to_string());
+    m.insert("seed".into(), opts.seed.to_string());
+    m.insert(
+        "spp".into(),
+        if opts.budget.cap_spp {
+            opts.spp.to_string()
+        } else {
+            "none".into()
+        },
+    );
+    m.insert("batches".into(), opts.batches.to_string());
+    m.insert("schedule".into(), Schedule::of(opts).key());
+    m.insert(
+        "adaptive".into(),
+        match opts.adaptive {
+            Some(a) => format!("max {}x", a.max_share),
+            None => "off".into(),
+        },
+    );
+    m.insert(
+        "budget.time".into(),
+        opts.budget.time.map_or_else(|| "none".into(), fmt_duration),
+    );
+    m.insert(
+        "budget.target_error".into(),
+        opts.budget
+            .target_error
+            .map_or_else(|| "none".into(), |t| t.to_string()),
+    );
+    m.insert("features".into(), scene.features.to_string());
+    m.insert("flatland".into(), params.flat.is_some().to_string());
+}
+
+/// Runs FTPD over a plane (the whole grid, or the stripe `opts.tile`); the field comes back with
+/// its metadata filled in. A plane with a surface lying in it (a slice through a wall) starts its
+/// points on the surfaces' front sides ([`PlaneOnSurfaces`]).
+pub fn run_plane(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+) -> anyhow::Result<(Field, RunStats)> {
+    check_flatland(scene, plane, params)?;
+    let on_surfaces = PlaneOnSurfaces(plane);
+    let domain: &dyn Domain = if scene.surface_in_plane(plane.origin, plane.normal()) {
+        &on_surfaces
+    } else {
+        plane
+    };
+    let (mut field, stats) = run_domain(scene, domain, params, opts)?;
+    describe_run(&mut field, scene, params, opts, "slice");
+    field.meta.extend(plane_meta(plane));
+    Ok((field, stats))
+}
+
+/// Runs FTPD over any domain (the whole grid, or the stripe `opts.tile`) with the kernel `params`
+/// needs ([`ftpd::kernel_for`]).
+pub fn run_domain(
+    scene: &Scene,
+    domain: &dyn Domain,
+    params: &Params,
+    opts: &RenderOptions,
+) -> anyhow::Result<(Field, RunStats)> {
+    let (w, h, d) = domain.dims();
+    let mut field = Field::new(w, h, d);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()?;
+    let stats = run_domain_progressive(
+        &pool,
+        scene,
+        domain,
+        params,
+        opts,
+        &mut field,
+        &mut Progress::default(),
+        Hooks::default(),
+    )?;
+    field
+        .meta
+        .insert("kernel".into(), ftpd::kernel_for(params).to_string());
+    if let Some(t) = opts.tile {
+        field.meta.insert("tile".into(), t.to_string());
+    }
+    Ok((field, stats))
+}
+
+/// Runs passes over `field` (new, or resumed at `progress`) with the kernel `params` needs until a
+/// budget of `opts` is reached or `hooks.stop` is set; see [`render::run_progressive`].
+#[allow(clippy::too_many_arguments)]
+pub fn run_domain_progressive(
+    pool: &rayon::ThreadPool,
+    scene: &Scene,
+    domain: &dyn Domain,
+    params: &Params,
+    opts: &RenderOptions,
+    field: &mut Field,
+    progress: &mut Progress,
+    hooks: Hooks,
+) -> anyhow::Result<RunStats> {
+    let dims = domain.dims();
+    if (field.width, field.height, field.depth) != dims {
+        bail!(
+            "the field is {}x{}x{} cells, the domain {}x{}x{}",
+            field.width,
+            field.height,
+            field.depth,
+            dims.0,
+            dims.1,
+            dims.2
+        );
+    }
+    struct DomainRun<'a, 'h> {
+        pool: &'a rayon::ThreadPool,
+        scene: &'a Scene,
+        domain: &'a dyn Domain,
+        params: &'a Params,
+        opts: &'a RenderOptions,
+        field: &'a mut Field,
+        progress: &'a mut Progress,
+        hooks: Hooks<'h>,
+    }
+    impl WithKernel for DomainRun<'_, '_> {
+        type Output = anyhow::Result<RunStats>;
+        fn run<K: Kernel>(self) -> Self::Output {
+            let DomainRun {
+                pool,
+                scene,
+                domain,
+                params,
+                opts,
+                field,
+                progress,
+                hooks,
+            } = self;
+            render::run_progressive(
+                pool,
+                field,
+                opts,
+                progress,
+                hooks,
+                |cell, s: &mut Sampler| {
+                    let start = domain.start(scene, cell, s);
+                    ftpd::sample::<K>(scene, start, params, s)
+                },
+            )
+        }
+    }
+    kernel::dispatch(
+        ftpd::kernel_for(params),
+        DomainRun {
+            pool,
+            scene,
+            domain,
+            params,
+            opts,
+            field,
+            progress,
+            hooks,
+        },
+    )
+}
+
+/// A flatland run needs a flatland kernel, a scene prepared for its plane, and a domain in it.
+pub fn check_flatland(scene: &Scene, plane: &Plane, params: &Params) -> anyhow::Result<()> {
+    match params.flat {
+        None => Ok(()),
+        Some(fl) => {
+            let prepared = scene.flat.as_ref().map(|f| f.plane);
+            if prepared != Some(fl) {
+                bail!(
+                    "flatland run on {}: the scene was not prepared for this plane \
+                     (Scene::prepare_flatland)",
+                    plane.label
+                );
+            }
+            let tol = 1e-9 * scene.extent().max(plane.origin.abs().max_element());
+            if plane.normal().cross(fl.normal).length() > 1e-12
+                || fl.distance(plane.origin).abs() > tol
+            {
+                bail!(
+                    "flatland run: the domain {} does not lie in the flatland plane",
+                    plane.label
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+/// The metadata that places a slice.
+pub fn plane_meta(plane: &Plane) -> Vec<(String, String)> {
+    vec![
+        ("plane".into(), plane.label.clone()),
+        ("plane.origin".into(), fmt_vec(plane.origin)),
+        ("plane.u".into(), fmt_vec(plane.u_axis)),
+        ("plane.v".into(), fmt_vec(plane.v_axis)),
+        (
+            "plane.size".into(),
+            format!("{},{}", plane.size.0, plane.size.1),
+        ),
+    ]
+}
+
+/// The metadata that places a camera image.
+pub fn camera_meta(view: &CameraView) -> Vec<(String, String)> {
+    let c = &view.camera;
+    vec![
+        ("camera".into(), c.name.clone()),
+        ("camera.eye".into(), fmt_vec(c.eye)),
+        ("camera.forward".into(), fmt_vec(c.forward)),
+        ("camera.up".into(), fmt_vec(c.up)),
+        (
+            "camera.fov_y_deg".into(),
+            format!("{}", c.fov_y.to_degrees()),
+        ),
+    ]
+}
+
+pub fn fmt_vec(v: glam::DVec3) -> String {
+    format!("{},{},{}", v.x, v.y, v.z)
+}
+
+/// `1h02m03s`, `4m05s`, `12.3s`: a duration as `cli::parse::parse_duration` reads it back (in
+/// run metadata and reports).
+pub fn fmt_duration(d: Duration) -> String {
+    let secs = d.as_secs_f64();
+    if secs < 60.0 {
+        return format!("{}s", (secs * 1000.0).round() / 1000.0);
+    }
+    let s = d.as_secs();
+    let (h, m, sec) = (s / 3600, s / 60 % 60, s % 60);
+    if h > 0 {
+        format!("{h}h{m:02}m{sec:02}s")
+    } else {
+        format!("{m}m{sec:02}s")
+    }
+}
+
+/// Importance-weighted FTPD over a camera image (the whole image, or the stripe `opts.tile`), with
+/// its beauty image (`radiance.R/G/B`).
+pub fn run_camera(
+    scene: &Scene,
+    view: &CameraView,
+    params: &Params,
+    opts: &RenderOptions,
+) -> anyhow::Result<(Field, RunStats)> {
+    let (mut field, stats) = run_domain(scene, view, params, opts)?;
+    describe_run(&mut field, scene, params, opts, "camera");
+    field.meta.extend(camera_meta(view));
+    Ok((field, stats))
+}
+
+/// How long a run should take, from a short calibration on a few random cells.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Eta {
+    /// Estimated seconds for the whole run.
+    pub seconds: f64,
+    /// Samples per second measured.
+    pub rate: f64,
+    /// Cells and samples per cell of the last calibration round.
+    pub cells: usize,
+    pub spp: u32,
+    /// Time spent calibrating, all rounds.
+    pub calibration_seconds: f64,
+}
+
+/// Seconds the calibration aims at: its last round runs at least this long (or the whole spp).
+pub const CALIBRATION_SECONDS: f64 = 0.25;
+
+/// Estimates the run time of `domain` at `opts.spp` by running the same kernel on the same threads
+/// over random cells (128 per thread to start, so every thread has work), doubling the samples per
+/// cell, then the cells, until a round takes [`CALIBRATION_SECONDS`] (or covers the whole run).
+/// Its samples come from other streams and are thrown away; the run itself is unchanged.
+pub fn estimate_time(
+    scene: &Scene,
+    domain: &dyn Domain,
+    params: &Params,
+    opts: &RenderOptions,
+) -> anyhow::Result<Eta> {
+    let (w, h, d) = domain.dims();
+    let total = w * h * d;
+    let threads = opts.thread_count();
+    let mut pick = Sampler::new(opts.seed, u64::MAX, u64::MAX);
+    let mut subset = Subset {
+        inner: domain,
+        cells: Vec::new(),
+    };
+    let mut want = (128 * threads).min(total);
+    let mut o = opts.clone();
+    o.progress = false;
+    o.batches = 1;
+    o.seed = opts.seed ^ 0xCA11_B4A7_E000_0000;
+    o.spp = 1;
+    o.tile = None;
+    o.budget = render::Budget::default();
+    o.pass_spp = None;
+    o.adaptive = None;
+    let start = Instant::now();
+    loop {
+        while subset.cells.len() < want {
+            let c = (pick.next_f64() * total as f64) as usize;
+            subset.cells.push(c.min(total - 1));
+        }
+        let (_, stats) = run_domain(scene, &subset, params, &o)?;
+        let whole = o.spp >= opts.spp && want >= total;
+        if stats.seconds >= CALIBRATION_SECONDS || whole {
+            let rate = stats.samples_per_second();
+            let samples = total as f64 * opts.spp as f64;
+            return Ok(Eta {
+                seconds: if rate > 0.0 { samples / rate } else { 0.0 },
+                rate,
+                cells: subset.cells.len(),
+                spp: o.spp,
+                calibration_seconds: start.elapsed().as_secs_f64(),
+            });
+        }
+        if o.spp < opts.spp {
+            o.spp = o.spp.saturating_mul(2).min(opts.spp);
+        } else {
+            want = want.saturating_mul(2).min(total);
+        }
+    }
+}
+
+/// The metadata that places a volume.
+pub fn volume_meta(volume: &Volume) -> Vec<(String, String)> {
+    let (lo, hi) = (volume.origin, volume.max_corner());
+    vec![
+        (
+            "volume.box".into(),
+            format!("{},{},{},{},{},{}", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z),
+        ),
+        (
+            "volume.dims".into(),
+            format!("{},{},{}", volume.nx, volume.ny, volume.nz),
+        ),
+        ("volume.spacing".into(), fmt_vec(volume.spacing)),
+    ]
+}
