@@ -202,18 +202,22 @@ fn temp_dir(test: &str) -> TempDir {
     TempDir(dir)
 }
 
-/// Every channel of an EXR file (f32 and u32 alike) holds finite values only.
+/// Every channel of every part of an EXR file (f32 and u32 alike) holds finite values only.
 fn assert_all_channels_finite(path: &Path) {
     use exr::prelude::*;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
-        .first_valid_layer()
+        .all_layers()
         .all_attributes()
         .from_file(path)
         .unwrap();
-    let channels = &image.layer_data.channel_data.list;
+    let channels: Vec<_> = image
+        .layer_data
+        .iter()
+        .flat_map(|l| &l.channel_data.list)
+        .collect();
     assert!(channels.len() > 20);
     for c in channels {
         let bad = c
