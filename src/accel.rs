@@ -234,10 +234,14 @@ impl Accel {
         if !ray_is_valid(o, d, tnear, tfar) {
             return None;
         }
-        let mut rh = sys::RTCRayHit {
-            ray: make_ray(o, d, tnear, tfar),
-            hit: sys::RTCHit::default(),
+        let mut buf = Spare {
+            value: sys::RTCRayHit {
+                ray: make_ray(o, d, tnear, tfar),
+                hit: sys::RTCHit::default(),
+            },
+            spare: [0; SPARE_WORDS],
         };
+        let rh = &mut buf.value;
         rh.hit.geomID = sys::RTC_INVALID_GEOMETRY_ID;
         rh.hit.primID = sys::RTC_INVALID_GEOMETRY_ID;
         for id in rh.hit.instID.iter_mut() {
@@ -247,13 +251,14 @@ impl Accel {
         {
             let mut ctx = context();
             // SAFETY: the scene is committed and immutable; ctx and rh are valid, properly aligned
-            // (bindgen keeps RTCRayHit's 16-byte alignment) and live for the call.
-            unsafe { sys::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+            // (bindgen keeps RTCRayHit's 16-byte alignment) and live for the call, with spare
+            // zeroed room after rh (see `Spare`).
+            unsafe { sys::rtcIntersect1(self.scene, &mut ctx, rh) };
         }
         #[cfg(embree4)]
         {
             // SAFETY: as above; a null argument struct selects Embree 4's default query arguments.
-            unsafe { sys::rtcIntersect1(self.scene, &mut rh, std::ptr::null_mut()) };
+            unsafe { sys::rtcIntersect1(self.scene, rh, std::ptr::null_mut()) };
         }
         (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
             t: rh.ray.tfar,
@@ -333,11 +338,17 @@ impl Accel {
             time: 0.0,
             radius,
         };
-        // Embree's header-inline rtcInitPointQueryContext: no instance on the stack.
-        let mut ctx = sys::RTCPointQueryContext {
-            instStackSize: 0,
-            ..Default::default()
+        // Embree's header-inline rtcInitPointQueryContext: no instance on the stack. The spare
+        // words after it are zero, so a library built with instance arrays, which reads
+        // `instStackSize` one word later than a header without them says, reads 0 too.
+        let mut buf = Spare {
+            value: sys::RTCPointQueryContext {
+                instStackSize: 0,
+                ..Default::default()
+            },
+            spare: [0; SPARE_WORDS],
         };
+        let ctx = &mut buf.value;
         for id in ctx.instID.iter_mut() {
             *id = sys::RTC_INVALID_GEOMETRY_ID;
         }
@@ -348,13 +359,30 @@ impl Accel {
             sys::rtcPointQuery(
                 self.scene,
                 &mut query,
-                &mut ctx,
+                ctx,
                 Some(collect_near),
                 &mut near as *mut Near as *mut c_void,
             )
         };
         near
     }
+}
+
+/// Zeroed words after a struct handed to Embree.
+const SPARE_WORDS: usize = 8;
+
+/// A struct Embree reads or writes, followed by zeroed spare room. `RTCRayHit` and
+/// `RTCPointQueryContext` grow by one word per instance level when Embree is built with instance
+/// arrays (`RTC_GEOMETRY_INSTANCE_ARRAY`: `instPrimID` after `instID`), and nothing in the library
+/// tells whether it was: Debian's 4.3 has them, and the 4.4 library the Embree 4 CI stage uses has
+/// them while its configuration header says it has not. Bindings from such a header make the
+/// library write `hit.instPrimID` past the end of the struct (onto the stack) and read the point
+/// query's `instStackSize` from beyond it. The spare room takes the write and reads as zero, so the
+/// layout of either build is safe; the fields this code reads come before the ones that move.
+#[repr(C)]
+struct Spare<T> {
+    value: T,
+    spare: [u32; SPARE_WORDS],
 }
 
 /// What Embree accepts: finite origin and direction, 0 ≤ tnear ≤ tfar (tfar may be +inf).
