@@ -43,5 +43,5 @@ pub fn dir() -> &'static Path {
 pub fn load(name: &str, data: &[u8], load: &str) {
     let d = dir();
     std::fs::write(d.join(name), data).unwrap();
-    let _ = ftpd3d::app::load_scene(&d.join(load));
+    let _ = ftpd3d::scene::load::load_scene(&d.join(load));
 }
