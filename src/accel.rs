@@ -338,19 +338,20 @@ impl Accel {
             time: 0.0,
             radius,
         };
-        // Embree's header-inline rtcInitPointQueryContext: no instance on the stack. The spare
-        // words after it are zero, so a library built with instance arrays, which reads
-        // `instStackSize` one word later than a header without them says, reads 0 too.
-        let mut buf = Spare {
-            value: sys::RTCPointQueryContext {
-                instStackSize: 0,
-                ..Default::default()
-            },
-            spare: [0; SPARE_WORDS],
-        };
-        let ctx = &mut buf.value;
-        for id in ctx.instID.iter_mut() {
-            *id = sys::RTC_INVALID_GEOMETRY_ID;
+        // Embree's header-inline rtcInitPointQueryContext: no instance on the stack. Every byte
+        // is zeroed first, the struct's tail padding and the spare words after it included: a
+        // library built with instance arrays reads `instStackSize` one word later than a header
+        // without them says, i.e. from what is padding here, and must read 0 there too.
+        let mut buf = std::mem::MaybeUninit::<Spare<sys::RTCPointQueryContext>>::zeroed();
+        let ctx: *mut sys::RTCPointQueryContext = buf.as_mut_ptr().cast();
+        // SAFETY: `ctx` points into `buf`, which is live, aligned for the struct and all zero; all
+        // zero bytes are a valid RTCPointQueryContext (floats and u32s only), and the fields are
+        // written in place, so no typed copy drops the zeroed padding.
+        unsafe {
+            (*ctx).instStackSize = 0;
+            for id in (*ctx).instID.iter_mut() {
+                *id = sys::RTC_INVALID_GEOMETRY_ID;
+            }
         }
         // SAFETY: the scene is committed and immutable (point queries may run concurrently like
         // ray queries); query and ctx are valid, 16-byte aligned (bindgen keeps the alignment) and
