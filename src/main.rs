@@ -88,7 +88,7 @@ struct ConvergeArgs {
     #[arg(long, value_name = "REF.exr")]
     reference: Option<PathBuf>,
     /// Part of the plane to cover, u0,v0,u1,v1.
-    #[arg(long, value_name = "U0,V0,U1,V1", value_parser = parse_window)]
+    #[arg(long, value_name = "U0,V0,U1,V1", allow_hyphen_values = true, value_parser = parse_window)]
     window: Option<[f64; 4]>,
     /// Cells along the longer side [default: the reference's, else 64].
     #[arg(long)]
@@ -123,7 +123,7 @@ struct ConvergeArgs {
 #[derive(Args, Debug, Clone)]
 struct EstimatorFlags {
     /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
-    #[arg(long, value_name = "X,Y,Z:R,G,B", value_parser = parse_point_light)]
+    #[arg(long, value_name = "X,Y,Z:R,G,B", allow_hyphen_values = true, value_parser = parse_point_light)]
     point_light: Vec<(glam::DVec3, glam::DVec3)>,
     /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
     #[arg(long, allow_negative_numbers = true)]
@@ -175,7 +175,7 @@ struct RunArgs {
     slices: Vec<SliceRange>,
     /// Arbitrary plane "origin=X,Y,Z normal=X,Y,Z [up=X,Y,Z] [size=W,H]" (quoted; keys may also be
     /// separated by ';'); repeatable.
-    #[arg(long, value_name = "SPEC")]
+    #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
     plane: Vec<ftpd3d::domain::slice::PlaneSpec>,
     /// A voxel grid instead of a slice, written as VTK ImageData (.vti): N voxels along the longest
     /// side of the box (the others by aspect), or NX,NY,NZ. Takes the budget, resume, checkpoint
@@ -187,7 +187,7 @@ struct RunArgs {
     #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", allow_hyphen_values = true, value_parser = ftpd3d::domain::volume::parse_box)]
     bbox: Option<[f64; 6]>,
     /// Part of the plane to cover, in plane coordinates u0,v0,u1,v1 [default: the scene bounds].
-    #[arg(long, value_name = "U0,V0,U1,V1", value_parser = parse_window)]
+    #[arg(long, value_name = "U0,V0,U1,V1", allow_hyphen_values = true, value_parser = parse_window)]
     window: Option<[f64; 4]>,
     /// Cells along the longer side of the slice.
     #[arg(long, default_value_t = 256)]
@@ -231,13 +231,13 @@ struct RunArgs {
     #[arg(long, value_name = "NAME", num_args = 0..=1, default_missing_value = "", conflicts_with_all = ["slice", "slices", "plane"])]
     camera: Option<String>,
     /// Camera position (with --target) instead of a scene camera.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, conflicts_with_all = ["slice", "slices", "plane", "camera"], requires = "target")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3, conflicts_with_all = ["slice", "slices", "plane", "camera"], requires = "target")]
     eye: Option<glam::DVec3>,
     /// Point the camera looks at.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, requires = "eye")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3, requires = "eye")]
     target: Option<glam::DVec3>,
     /// Camera up vector.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,1,0")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3, default_value = "0,1,0")]
     up: glam::DVec3,
     /// Vertical field of view of --eye cameras, degrees.
     #[arg(long, default_value_t = 40.0)]

@@ -459,3 +459,46 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
         }
     }
 }
+
+/// Every flag that takes numbers takes negative ones (they used to fail with "unexpected argument
+/// '-0' found").
+#[test]
+fn flags_take_negative_numbers() {
+    let dir = crate::support::temp_dir("cli", "negative_numbers");
+    let cornell = scene_path("cornell_mirror.obj");
+    let cornell = cornell.to_str().unwrap();
+    let runs: &[&[&str]] = &[
+        &[
+            "--slice",
+            "z=0",
+            "--point-light",
+            "-0.5,1.5,0:1,1,1",
+            "--window",
+            "-1,0,1,2",
+            "-o",
+            "a.exr",
+        ],
+        &[
+            "--eye", "-1,1,3", "--target", "-0.2,1,0", "--up", "-0,1,0", "-o", "b.exr",
+        ],
+        &["--volume", "4", "--box", "-1,0,-1,1,2,1", "-o", "c.vti"],
+    ];
+    for args in runs {
+        let mut all = vec![
+            "--scene", cornell, "--quiet", "--no-png", "--res", "8", "--spp", "2",
+        ];
+        if args.contains(&"--eye") {
+            all.retain(|a| *a != "--res" && *a != "8");
+            all.extend(["--size", "8,8"]);
+        }
+        if args.contains(&"--volume") {
+            all.retain(|a| *a != "--res" && *a != "8");
+        }
+        all.extend_from_slice(args);
+        let r = crate::support::ftpd3d(Some(&dir), &all);
+        assert!(r.ok, "{args:?}: {}", r.err);
+    }
+    let a = ftpd3d::output::exr::read_exr(&dir.join("a.exr")).unwrap();
+    assert_eq!(a.meta["point_lights"], "-0.5,1.5,0:1,1,1");
+    std::fs::remove_dir_all(&dir).ok();
+}
