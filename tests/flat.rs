@@ -19,7 +19,7 @@ use ftpd3d::rng::Sampler;
 use ftpd3d::run::run_plane;
 use ftpd3d::scene::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
 use ftpd3d::scene::load::load_scene;
-use ftpd3d::scene::{Features, Material, Scene};
+use ftpd3d::scene::{Material, Scene};
 use ftpd3d::transport::bsdf::{Bsdf, Mode, fresnel_dielectric};
 use ftpd3d::transport::walk::{RadianceStats, radiance, walk};
 use glam::{DVec3, Vec3};
@@ -139,10 +139,7 @@ fn zoo(pl: &Flatland) -> Scene {
         ],
         materials,
     );
-    scene
-        .lights
-        .add_point(in_plane_2d(pl, -1.5, 1.8), Rgb::splat(2.0));
-    scene.features = Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    scene.add_point_light(in_plane_2d(pl, -1.5, 1.8), Rgb::splat(2.0));
     scene
 }
 
@@ -173,8 +170,7 @@ fn opts(spp: u32, seed: u64) -> RenderOptions {
 
 fn plane_with_point_light(light: DVec3, intensity: f64) -> Scene {
     let mut scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
-    scene.lights.add_point(light, Rgb::splat(intensity));
-    scene.features = Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    scene.add_point_light(light, Rgb::splat(intensity));
     scene.prepare_flatland(z0(), "z=0").unwrap();
     scene
 }
@@ -291,8 +287,7 @@ fn point_light_fluence_is_i_over_d_plus_the_reflected_light() {
 fn empty_flatland_gives_exactly_zero() {
     let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
     let mut far = translated(&scene, Vec3::new(0.0, -1e4, 0.0));
-    far.lights.add_point(DVec3::new(0.1, 0.2, 0.0), Rgb::ONE);
-    far.features = Features::of(&far.materials, &far.tri_material, &far.lights);
+    far.add_point_light(DVec3::new(0.1, 0.2, 0.0), Rgb::ONE);
     let plane = Plane::new(
         DVec3::new(-1.0, -1.0, 0.0),
         DVec3::X,

@@ -7,15 +7,12 @@ use ftpd3d::ftpd::moments::Moments;
 use ftpd3d::ftpd::reference::sample_reference;
 use ftpd3d::ftpd::{Params, Weighting, sample_point};
 use ftpd3d::rng::Sampler;
-use ftpd3d::scene::{Features, Scene};
+use ftpd3d::scene::Scene;
 use glam::DVec3;
 
 fn cornell_with_point_light() -> Scene {
     let mut scene = ftpd3d::scene::load::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
-    scene
-        .lights
-        .add_point(DVec3::new(0.5, 1.2, 0.3), DVec3::splat(2.0));
-    scene.features = Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    scene.add_point_light(DVec3::new(0.5, 1.2, 0.3), DVec3::splat(2.0));
     scene
 }
 

@@ -13,7 +13,7 @@ use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::Rgb;
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::load::load_scene;
-use ftpd3d::scene::{Features, Material, Scene};
+use ftpd3d::scene::{Material, Scene};
 use ftpd3d::transport::bsdf::Bsdf;
 use ftpd3d::transport::walk::{RadianceStats, radiance};
 use glam::{DVec3, Vec3};
@@ -378,8 +378,7 @@ const PL_LIGHT: DVec3 = DVec3::new(0.3, 1.2, -0.2);
 
 fn point_lit_plane() -> Scene {
     let mut scene = big_plane(diffuse("plane", PL_RHO));
-    scene.lights.add_point(PL_LIGHT, Rgb::splat(PL_I));
-    scene.features = Features::of(&scene.materials, &scene.tri_material, &scene.lights);
+    scene.add_point_light(PL_LIGHT, Rgb::splat(PL_I));
     assert!(scene.features.point_lights && !scene.features.area_lights);
     scene
 }

@@ -37,7 +37,7 @@
 use crate::math::Rgb;
 use crate::scene::material::Bsdf;
 use crate::scene::material::{Material, conserve_energy};
-use crate::scene::{Camera, Features, LoadReport, Scene};
+use crate::scene::{Camera, LoadReport, Scene};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::khr_lights_punctual::Kind as LightKind;
 use ::gltf::mesh::{Mode, Semantic};
@@ -140,9 +140,8 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     }
     scene.cameras = cameras;
     for (position, intensity) in points {
-        scene.lights.add_point(position, intensity);
+        scene.add_point_light(position, intensity);
     }
-    scene.features = Features::of(&scene.materials, &scene.tri_material, &scene.lights);
     Ok(scene)
 }
 

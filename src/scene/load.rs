@@ -2,7 +2,7 @@
 //! point lights, cameras and named slices. The scene's [`Features`] are computed here, once, after
 //! every light (the file's, the sidecar's, the command line's) is in.
 
-use crate::scene::{self, Features, Scene};
+use crate::scene::{self, Scene};
 use anyhow::{Context, bail};
 use std::path::Path;
 
@@ -40,9 +40,8 @@ pub fn load_scene_with_lights(
         _ => load_mesh(path)?,
     };
     for (p, i) in point_lights {
-        scene.lights.add_point(*p, *i);
+        scene.add_point_light(*p, *i);
     }
-    scene.features = Features::of(&scene.materials, &scene.tri_material, &scene.lights);
     Ok(scene)
 }
 

@@ -58,10 +58,6 @@ impl Aabb {
             )
         })
     }
-
-    pub fn center(&self) -> DVec3 {
-        0.5 * (self.min + self.max)
-    }
 }
 
 /// A pinhole camera (from a glTF file, a sidecar scene file or the command line).
@@ -266,6 +262,13 @@ impl Scene {
 
     /// Prepares a flatland run on `plane` (named `label`, e.g. `z=0`, in messages): checks that the
     /// geometry is extruded along the plane normal and point lights lie in the plane, and computes
+    /// Adds an isotropic point light of radiant intensity `intensity` (per steradian) at
+    /// `position`, and says so in the feature set.
+    pub fn add_point_light(&mut self, position: DVec3, intensity: Rgb) {
+        self.lights.add_point(position, intensity);
+        self.features.point_lights = true;
+    }
+
     /// the emitters' cross-sections. Call after every light has been added.
     pub fn prepare_flatland(&mut self, plane: Flatland, label: &str) -> anyhow::Result<()> {
         self.flat = Some(FlatScene::new(self, plane, label)?);
