@@ -74,9 +74,10 @@ impl EstimatorArgs {
         }
         if self.weighting == Weighting::Radiance && scene.lights.is_empty() {
             bail!(
-                "--weight radiance: {} has no lights (no emissive material, Ke); \
-                 use --weight unweighted or add a light",
-                scene.source.display()
+                "--weight radiance: {} has no lights ({}); add one with --point-light \
+                 X,Y,Z:R,G,B (position and radiant intensity), or use --weight unweighted",
+                scene.source.display(),
+                ways_to_light(scene)
             );
         }
         Ok(Params {
@@ -87,6 +88,24 @@ impl EstimatorArgs {
             max_bounces: self.max_bounces,
             flat: None,
         })
+    }
+}
+
+/// What would have made a light in the scene's own format, for messages about a scene without.
+pub fn ways_to_light(scene: &Scene) -> &'static str {
+    let ext = scene
+        .source
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("gltf" | "glb") => {
+            "no emissive material (emissiveFactor) and no KHR_lights_punctual point light"
+        }
+        Some("toml") => {
+            "no emissive material in its mesh (Ke in the .mtl, emissiveFactor in glTF) and no \
+             [[point_light]] in the scene file"
+        }
+        _ => "no emissive material: Ke in the .mtl",
     }
 }
 

@@ -294,8 +294,9 @@ fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
         (
             vec!["--scene", p, "--slice", "z=0"],
             format!(
-                "--weight radiance: {p} has no lights (no emissive material, Ke); use --weight \
-                 unweighted or add a light"
+                "--weight radiance: {p} has no lights (no emissive material: Ke in the .mtl); add \
+                 one with --point-light X,Y,Z:R,G,B (position and radiant intensity), or use \
+                 --weight unweighted"
             ),
         ),
         (

@@ -716,3 +716,59 @@ fn gltf_without_triangles_is_an_empty_scene() {
         assert_eq!(r.err.trim(), want, "{extra:?}");
     }
 }
+
+/// A scene without lights: radiance weighting is refused with the ways to add one, in the glTF's
+/// own terms (not the MTL's Ke); a camera run goes on but warns that its beauty image is black.
+#[test]
+fn gltf_without_lights_names_the_ways_to_add_one() {
+    let dir = temp_dir("no_lights");
+    let mut bin = Bin::default();
+    let mesh = quad(&mut bin, "Quad", None);
+    let extra = json!({
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [mesh],
+    });
+    let path = bin.write_embedded(&dir.0, "dark.gltf", extra);
+    let p = path.to_str().unwrap();
+    let r = crate::support::ftpd3d(Some(&dir.0), &["--scene", p, "--slice", "z=0", "--quiet"]);
+    assert!(!r.ok);
+    assert_eq!(
+        r.err.trim(),
+        format!(
+            "error: --weight radiance: {p} has no lights (no emissive material (emissiveFactor) \
+             and no KHR_lights_punctual point light); add one with --point-light X,Y,Z:R,G,B \
+             (position and radiant intensity), or use --weight unweighted"
+        )
+    );
+    let r = crate::support::ftpd3d(
+        Some(&dir.0),
+        &[
+            "--scene",
+            p,
+            "--eye",
+            "0.5,0.5,2",
+            "--target",
+            "0.5,0.5,0",
+            "--size",
+            "4,4",
+            "--spp",
+            "1",
+            "--quiet",
+            "--no-png",
+            "-o",
+            "cam.exr",
+        ],
+    );
+    assert!(r.ok, "{}", r.err);
+    assert!(
+        r.err.contains(&format!(
+            "warning: {p} has no lights (no emissive material (emissiveFactor) and no \
+             KHR_lights_punctual point light): the beauty image (radiance.R/G/B) will be black; \
+             add one with --point-light X,Y,Z:R,G,B"
+        )),
+        "{}",
+        r.err
+    );
+}

@@ -264,6 +264,14 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
             }
         }
         DomainArg::Camera { camera, size } => {
+            if scene.lights.is_empty() {
+                eprintln!(
+                    "warning: {} has no lights ({}): the beauty image (radiance.R/G/B) will be \
+                     black; add one with --point-light X,Y,Z:R,G,B",
+                    job.scene.display(),
+                    crate::run::ways_to_light(&scene)
+                );
+            }
             domains.push((
                 JobDomain::Camera(resolve_camera(camera, &scene, *size)?),
                 job.output.clone(),
