@@ -52,10 +52,23 @@ impl EstimatorArgs {
     /// [`resolve`](Self::resolve) with run-length defaults relative to the length `d` instead of the
     /// scene diagonal (flatland uses the diagonal of the scene's cross-section).
     pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> anyhow::Result<Params> {
-        let t0 = self.t0.unwrap_or(DEFAULT_T0_OF_DIAGONAL * d);
+        self.resolve_from(scene, 0.0, d)
+    }
+
+    /// [`resolve`](Self::resolve) for a camera at `eye`: the default run lengths start where the
+    /// scene starts, `dist + [0.1 D, 0.5 D]` with `dist` the distance from the eye to the scene's
+    /// bounds, so that pairs from a camera outside the scene reach it (walks that end in empty
+    /// space are never deflected).
+    pub fn resolve_for_camera(&self, scene: &Scene, eye: glam::DVec3) -> anyhow::Result<Params> {
+        self.resolve_from(scene, scene.bounds.distance(eye), scene.extent())
+    }
+
+    /// Defaults `offset + [0.1 d, 0.5 d]`.
+    fn resolve_from(&self, scene: &Scene, offset: f64, d: f64) -> anyhow::Result<Params> {
+        let t0 = self.t0.unwrap_or(offset + DEFAULT_T0_OF_DIAGONAL * d);
         let t1 = self
             .t1
-            .unwrap_or(DEFAULT_T1_OF_DIAGONAL * d)
+            .unwrap_or(offset + DEFAULT_T1_OF_DIAGONAL * d)
             .max(if self.t1.is_none() { t0 } else { 0.0 });
         if !t0.is_finite() || t0 < 0.0 {
             bail!("--t0 {t0}: the shortest run length must be finite and ≥ 0");

@@ -503,3 +503,40 @@ fn flags_take_negative_numbers() {
     assert_eq!(a.meta["point_lights"], "-0.5,1.5,0:1,1,1");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A camera far outside the scene: the default run lengths start where the scene starts, so the
+/// image is not blank; run lengths given too short for the pairs to reach the scene are warned
+/// about, naming --t0/--t1 (the image used to be σ = 0 everywhere without a word).
+#[test]
+fn far_cameras_reach_the_scene_and_blank_runs_are_warned_about() {
+    let dir = crate::support::temp_dir("cli", "far_camera");
+    let cornell = scene_path("cornell_mirror.obj");
+    let cornell = cornell.to_str().unwrap();
+    let common = [
+        "--scene", cornell, "--eye", "0,1,40", "--target", "0,1,0", "--fov", "4", "--size", "8,8",
+        "--spp", "4", "--no-png",
+    ];
+    let mut args = common.to_vec();
+    args.extend(["-o", "far.exr"]);
+    let r = crate::support::ftpd3d(Some(&dir), &args);
+    assert!(r.ok, "{}", r.err);
+    assert!(!r.err.contains("no pair was deflected"), "{}", r.err);
+    let f = ftpd3d::output::exr::read_exr(&dir.join("far.exr")).unwrap();
+    let t0: f64 = f.meta["t0"].parse().unwrap();
+    assert!(t0 > 38.0, "t0 {t0} starts at the scene, about 39 away");
+    assert!(f.values().iter().any(|v| v.sigma > 0.0));
+    let mut args = common.to_vec();
+    args.extend(["--t0", "1", "--t1", "2", "-o", "short.exr"]);
+    let r = crate::support::ftpd3d(Some(&dir), &args);
+    assert!(r.ok, "{}", r.err);
+    assert!(
+        r.err.contains(
+            "warning: no pair was deflected: every walk ran straight for its whole run length (T \
+             in [1.0000, 2.0000]) without reaching any geometry, so σ is 0 everywhere; give \
+             longer run lengths with --t0/--t1"
+        ),
+        "{}",
+        r.err
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -320,6 +320,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                 }
                 params
             }
+            JobDomain::Camera(view) => job.estimator.resolve_for_camera(&scene, view.camera.eye)?,
             _ => job.estimator.resolve(&scene)?,
         };
         let outcome = run_domain_job(job, &scene, domain, &params, out)?;
@@ -530,6 +531,19 @@ fn run_domain_job(
         hooks,
     )?;
     let error = render::error_stats(&field.cells);
+    // Pairs carried weight, yet none was deflected: Δ is exactly 0 only for two straight walks.
+    if field.cells.iter().any(|c| c.s0 > 0.0)
+        && field.cells.iter().all(|c| c.s1 == 0.0 && c.s2 == 0.0)
+    {
+        eprintln!(
+            "warning: no pair was deflected: every walk ran straight for its whole run length \
+             (T in [{:.4}, {:.4}]) without reaching any geometry, so σ is 0 everywhere; give \
+             longer run lengths with --t0/--t1 (the scene's diagonal is {:.4})",
+            params.t0,
+            params.t1,
+            scene.extent()
+        );
+    }
     let partial = !stats.stop.is_complete();
     mark_progress(&mut field, &progress, opts, partial, Some(stats.stop));
     say(job, summary(&field, &stats, &error, params));

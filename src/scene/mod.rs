@@ -41,6 +41,13 @@ impl Aabb {
     pub fn is_empty(&self) -> bool {
         !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
     }
+    /// Distance from `p` to the box (0 inside; 0 for an empty box).
+    pub fn distance(&self, p: DVec3) -> f64 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        (self.min - p).max(p - self.max).max(DVec3::ZERO).length()
+    }
     pub fn diagonal(&self) -> f64 {
         if self.is_empty() {
             0.0
