@@ -862,7 +862,7 @@ fn non_extruded_geometry_is_refused_with_a_clear_error() {
     );
     // Point lights must lie in the plane.
     let mut lit = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
-    lit.lights.add_point(DVec3::new(0.0, 1.0, 0.25), Rgb::ONE);
+    lit.add_point_light(DVec3::new(0.0, 1.0, 0.25), Rgb::ONE);
     let e = lit.prepare_flatland(z0(), "z=0").unwrap_err().to_string();
     assert!(
         e.contains("point light at (0, 1, 0.25)") && e.contains("must lie in the plane"),

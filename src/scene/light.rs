@@ -129,7 +129,7 @@ impl LightSet {
         set
     }
 
-    pub fn add_point(&mut self, position: DVec3, intensity: Rgb) {
+    pub(super) fn add_point(&mut self, position: DVec3, intensity: Rgb) {
         self.lights.push(Light::Point {
             position,
             intensity,

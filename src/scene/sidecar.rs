@@ -113,13 +113,10 @@ pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
     })
 }
 
-/// Applies a sidecar's lights and cameras to a loaded scene (the loader then recomputes its
-/// features: [`crate::scene::load`]).
+/// Applies a sidecar's lights and cameras to a loaded scene.
 pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
     for l in &sc.point_light {
-        scene
-            .lights
-            .add_point(DVec3::from(l.position), DVec3::from(l.intensity));
+        scene.add_point_light(DVec3::from(l.position), DVec3::from(l.intensity));
     }
     for c in &sc.camera {
         scene.cameras.push(camera_of(c)?);
