@@ -540,3 +540,82 @@ fn far_cameras_reach_the_scene_and_blank_runs_are_warned_about() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The README's Python example (OpenEXR 3, `separate_channels=True`) reads part 0 of a field.
+/// Needs python3 with the OpenEXR and numpy packages: CI installs them (`.ci/run`) and the test
+/// fails there without them; elsewhere it says it was skipped.
+#[test]
+fn readme_python_example_reads_part_0() {
+    let has = std::process::Command::new("python3")
+        .args(["-c", "import OpenEXR, numpy"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !has {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must have python3 with OpenEXR and numpy (.ci/run installs them)"
+        );
+        eprintln!("skipped: python3 with OpenEXR and numpy is not installed");
+        return;
+    }
+    let readme = std::fs::read_to_string("README.md").unwrap();
+    let start = readme.find("<!-- python-example -->\n```python\n").unwrap();
+    let code = &readme[start..];
+    let code = &code[code.find("```python\n").unwrap() + 10..];
+    let code = &code[..code.find("```").unwrap()];
+    let dir = crate::support::temp_dir("cli", "python_example");
+    let cornell = scene_path("cornell_mirror.obj");
+    let r = crate::support::ftpd3d(
+        Some(&dir),
+        &[
+            "--scene",
+            cornell.to_str().unwrap(),
+            "--slice",
+            "z=0",
+            "--res",
+            "16",
+            "--spp",
+            "8",
+            "--quiet",
+            "--no-png",
+            "-o",
+            "f.exr",
+        ],
+    );
+    assert!(r.ok, "{}", r.err);
+    std::fs::write(dir.join("example.py"), code).unwrap();
+    let out = std::process::Command::new("python3")
+        .current_dir(&dir)
+        .args(["example.py", "f.exr"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}{}",
+        stdout,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The mean σ it prints is the mean over valid cells that the project's own reader gives.
+    let f = ftpd3d::output::exr::read_exr(&dir.join("f.exr")).unwrap();
+    let vals: Vec<f64> = f
+        .values()
+        .iter()
+        .filter(|v| v.valid)
+        .map(|v| v.sigma as f32 as f64)
+        .collect();
+    let mean = vals.iter().sum::<f64>() / vals.len() as f64;
+    let printed: f64 = stdout
+        .split_whitespace()
+        .skip_while(|w| *w != "sigma")
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(stdout.starts_with("radiance mean sigma"), "{stdout}");
+    assert!(
+        (printed - mean).abs() <= 1e-5 * mean,
+        "{printed} against {mean}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
