@@ -463,24 +463,42 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
     for mode in ["tiles", "seeds"] {
         let work = dir.join(mode);
         std::fs::create_dir_all(&work).unwrap();
-        let out = Command::new("bash")
-            .arg(examples.join("submit.sh"))
+        let mut cmd = Command::new("bash");
+        cmd.arg(examples.join("submit.sh"))
             .arg(mode)
             .current_dir(&work)
             .env("PATH", &path)
             .env("FTPD3D", env!("CARGO_BIN_EXE_ftpd3d"))
-            .env("SCENE", &scene)
             .env("SLICE", "z=0")
             .env("RES", "12")
             .env("SPP", "4")
             .env("PARTS", "3")
-            .output()
-            .unwrap();
+            .env_remove("SCENE")
+            .env_remove("CPUS")
+            .env_remove("PARTITION");
+        if mode == "tiles" {
+            // CPUs and partition from the environment, another option passed through.
+            cmd.env("SCENE", &scene)
+                .env("CPUS", "2")
+                .env("PARTITION", "debug")
+                .arg("--qos=short");
+        } // seeds: the default scene, found from this other working directory
+        let out = cmd.output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "{mode}: {err}");
         let log = std::fs::read_to_string(work.join("sbatch.log")).unwrap();
-        assert!(log.contains("--array=0-2"), "{log}");
-        assert!(log.contains("--dependency=afterok:4242"), "{log}");
+        let lines: Vec<&str> = log.lines().collect();
+        assert_eq!(lines.len(), 2, "{log}");
+        assert!(lines[0].contains("--array=0-2"), "{log}");
+        // The merge runs after every task has ended, failed or not, and reports missing parts.
+        assert!(lines[1].contains("--dependency=afterany:4242"), "{log}");
+        assert!(!log.contains("--cpus-per-task=8"), "no hard-coded CPU count: {log}");
+        if mode == "tiles" {
+            assert!(lines[0].contains("--cpus-per-task=2"), "{log}");
+            for l in &lines {
+                assert!(l.contains("--partition=debug") && l.contains("--qos=short"), "{log}");
+            }
+        }
         let all = read_exr(&work.join("all.exr")).unwrap();
         if mode == "tiles" {
             // The same as one full run of 4 samples per cell.
@@ -499,6 +517,38 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
             assert!(all.cells.iter().all(|c| c.n == 12));
         }
     }
+    // A task that failed: the merge job names the missing part and how to rerun it.
+    let work = dir.join("tiles");
+    std::fs::remove_file(work.join("part_1.exr")).unwrap();
+    let out = Command::new("bash")
+        .arg(examples.join("ftpd3d-merge.sbatch"))
+        .current_dir(&work)
+        .env("FTPD3D", env!("CARGO_BIN_EXE_ftpd3d"))
+        .env("PARTS", "3")
+        .env("OUT", "again.exr")
+        .env("ARRAY_SCRIPT", "ftpd3d-array.sbatch")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        "missing parts: 1 of 3 (tasks 1); see their logs, rerun them from this directory with \
+         the same settings:\n  sbatch --export=ALL --array=1 ftpd3d-array.sbatch\nthen merge \
+         again:  sbatch --export=ALL ftpd3d-merge.sbatch\n"
+    );
+    assert!(!work.join("again.exr").exists());
+    // A relative scene path that does not exist is refused before anything is queued.
+    let out = Command::new("bash")
+        .arg(examples.join("submit.sh"))
+        .arg("tiles")
+        .current_dir(&work)
+        .env("PATH", &path)
+        .env("SCENE", "no/such.obj")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no/such.obj: no such scene file"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
