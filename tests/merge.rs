@@ -492,11 +492,17 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
         assert!(lines[0].contains("--array=0-2"), "{log}");
         // The merge runs after every task has ended, failed or not, and reports missing parts.
         assert!(lines[1].contains("--dependency=afterany:4242"), "{log}");
-        assert!(!log.contains("--cpus-per-task=8"), "no hard-coded CPU count: {log}");
+        assert!(
+            !log.contains("--cpus-per-task=8"),
+            "no hard-coded CPU count: {log}"
+        );
         if mode == "tiles" {
             assert!(lines[0].contains("--cpus-per-task=2"), "{log}");
             for l in &lines {
-                assert!(l.contains("--partition=debug") && l.contains("--qos=short"), "{log}");
+                assert!(
+                    l.contains("--partition=debug") && l.contains("--qos=short"),
+                    "{log}"
+                );
             }
         }
         let all = read_exr(&work.join("all.exr")).unwrap();
@@ -943,15 +949,7 @@ fn exr_part_0_is_all_f32_and_part_1_holds_the_exact_sums() {
     use exr::prelude::*;
     let dir = temp_dir("parts");
     run(&dir, &["-o", "a.exr"]);
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(dir.join("a.exr"))
-        .unwrap();
-    let parts = &image.layer_data;
+    let parts = &crate::support::exr_parts(&dir.join("a.exr"));
     assert_eq!(parts.len(), 2);
     let name = |l: &Layer<AnyChannels<FlatSamples>>| {
         l.attributes.layer_name.as_ref().map(|t| t.to_string())

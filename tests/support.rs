@@ -32,3 +32,21 @@ pub fn ftpd3d(dir: Option<&Path>, args: &[&str]) -> Run {
         err: String::from_utf8_lossy(&out.stderr).into_owned(),
     }
 }
+
+/// Every part of an EXR file with all its channels and attributes, read by the exr crate directly
+/// (not by the project's reader).
+pub fn exr_parts(
+    path: &Path,
+) -> Vec<exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>> {
+    use exr::prelude::*;
+    read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .unwrap()
+        .layer_data
+        .into_vec()
+}
