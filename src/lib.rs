@@ -2,9 +2,12 @@
 //! integration through Embree, after Zirr, Ament and Dachsbacher, "Visualization of Coherent
 //! Structures of Light Transport", Computer Graphics Forum 34(3), 2015 (sections 5 and 6).
 //!
-//! Data flows one way: [`scene`] (load) → [`accel`] (Embree) → [`domain`] (where samples start) →
-//! [`ftpd`] (one sample, moments) → [`render`] (parallel passes) → [`field`] → [`output`] (EXR, VTI,
-//! PNG).
+//! Modules import one way (checked by `tests/layers.rs`): [`math`], [`rng`] → [`accel`] (Embree) →
+//! [`scene`] (data: geometry, materials, lights, flatland preparation) → [`kernel`] (the four
+//! compile-time kernels) → [`transport`] (walks, BSDF and light sampling) → [`ftpd`] (one sample,
+//! moments) → [`domain`] (where samples start) → [`render`], [`run`] (the driver and the runs built
+//! on it) → [`field`], [`output`], [`merge`], [`analysis`] → [`app`], [`cli`] (jobs and the command
+//! line). The README's Architecture section has a paragraph per module.
 
 // `!(x > 0.0)` is how this crate rejects NaN along with non-positive values; keep that idiom.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
