@@ -7,7 +7,7 @@
 //! - `RADIANCE`: the radiance estimate (light sampling, next-event estimation, MIS) is compiled in;
 //!   unweighted runs carry none of it.
 //!
-//! That is four kernels, chosen once per run ([`dispatch`]). Everything a scene may or may not have
+//! That is four kernels, chosen once per run (`ftpd::sampler`). Everything a scene may or may not have
 //! (glossy, mirror and dielectric materials, point lights, shading normals) is run-time data matched
 //! on closed enums: a branch a scene never takes is always predicted and costs nothing measurable,
 //! and work for an absent effect is still never done (there is no Fresnel term to evaluate where no
@@ -76,31 +76,5 @@ impl fmt::Display for KernelChoice {
             on(self.radiance),
             on(self.flatland)
         )
-    }
-}
-
-/// Something to run with a kernel type chosen at run time.
-pub trait WithKernel {
-    type Output;
-    fn run<K: Kernel>(self) -> Self::Output;
-}
-
-/// Calls `f.run::<K>()` with the kernel type matching `c` (four monomorphised variants).
-pub fn dispatch<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
-    match (c.radiance, c.flatland) {
-        (true, false) => f.run::<Radiance3D>(),
-        (false, false) => f.run::<Plain3D>(),
-        (true, true) => f.run::<RadianceFlat>(),
-        (false, true) => f.run::<PlainFlat>(),
-    }
-}
-
-/// [`dispatch`] with every ray logged ([`Record`]): the benchmark's replay.
-pub fn dispatch_recording<F: WithKernel>(c: KernelChoice, f: F) -> F::Output {
-    match (c.radiance, c.flatland) {
-        (true, false) => f.run::<Record<Radiance3D>>(),
-        (false, false) => f.run::<Record<Plain3D>>(),
-        (true, true) => f.run::<Record<RadianceFlat>>(),
-        (false, true) => f.run::<Record<PlainFlat>>(),
     }
 }

@@ -124,6 +124,20 @@ impl Default for RenderOptions {
 }
 
 impl RenderOptions {
+    /// The cells of a `width` × `height` × `depth` grid that a run samples: the stripe `tile`, or
+    /// every cell.
+    pub fn active_cells(
+        &self,
+        width: usize,
+        height: usize,
+        depth: usize,
+    ) -> std::ops::Range<usize> {
+        match self.tile {
+            Some(t) => t.cells(width, height, depth),
+            None => 0..width * height * depth,
+        }
+    }
+
     /// The worker threads a run uses: `threads`, or every core for 0.
     pub fn thread_count(&self) -> usize {
         if self.threads == 0 {
@@ -651,10 +665,7 @@ pub fn run_progressive<K>(
 where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
-    let active = match opts.tile {
-        Some(t) => t.cells(field.width, field.height, field.depth),
-        None => 0..field.cells.len(),
-    };
+    let active = opts.active_cells(field.width, field.height, field.depth);
     let cells = active.len() as u64;
     let schedule = Schedule::of(opts);
     let unit = schedule.unit();

@@ -14,7 +14,7 @@ pub use progress::{
 use crate::cli::report::{fmt_duration, human_bytes, scene_line, shell_quote, summary};
 use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::domain::volume::Volume;
-use crate::domain::{CameraView, Domain, MAX_RES, Plane, PlaneOnSurfaces, VolumeRes};
+use crate::domain::{CameraView, Domain, MAX_RES, Plane, PlaneDomain, VolumeRes};
 use crate::field::Field;
 use crate::ftpd::{self, Params};
 use crate::output::check_writable;
@@ -367,14 +367,12 @@ fn run_domain_job(
         JobDomain::Camera(v) => (format!("camera '{}'", v.camera.name), "camera"),
         JobDomain::Volume(_) => ("volume".to_string(), "volume"),
     };
-    let on_surfaces;
+    let plane_domain;
     let dom: &dyn Domain = match domain {
-        // A slice through a wall: its points start on the surfaces' front sides.
-        JobDomain::Plane(p) if scene.surface_in_plane(p.origin, p.normal()) => {
-            on_surfaces = PlaneOnSurfaces(p);
-            &on_surfaces
+        JobDomain::Plane(p) => {
+            plane_domain = PlaneDomain::new(p, scene);
+            &plane_domain
         }
-        JobDomain::Plane(p) => p,
         JobDomain::Camera(v) => v,
         JobDomain::Volume(v) => v,
     };
@@ -474,7 +472,7 @@ fn run_domain_job(
     {
         // How long the samples still to take (this tile's, after those resumed) should last.
         let e = estimate_time(scene, v, params, opts)?;
-        let cells = opts.tile.map_or(w * h * d, |t| t.cells(w, h, d).len());
+        let cells = opts.active_cells(w, h, d).len();
         let left = (cells as u64 * opts.spp as u64).saturating_sub(field.total_samples());
         say(
             job,

@@ -78,10 +78,9 @@ pub fn mark_progress(
     stop: Option<StopReason>,
 ) {
     let samples = field.total_samples();
-    // The cells the run samples: a tile's, or the whole grid.
-    let cells = opts.tile.map_or(field.cells.len(), |t| {
-        t.cells(field.width, field.height, field.depth).len()
-    }) as u64;
+    let cells = opts
+        .active_cells(field.width, field.height, field.depth)
+        .len() as u64;
     let m = &mut field.meta;
     m.insert("partial".into(), partial.to_string());
     m.insert("passes".into(), progress.passes.to_string());

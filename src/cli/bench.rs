@@ -1,10 +1,9 @@
 //! The benchmark (`ftpd3d bench`): kernel rays/s against raw Embree rays/s on the same scene, rays
 //! and threads.
 
-use crate::domain::{Domain, Plane, PlaneOnSurfaces};
+use crate::domain::{Domain, Plane, PlaneDomain};
 use crate::field::Field;
 use crate::ftpd::{self, Params};
-use crate::kernel::{self, Kernel, WithKernel};
 use crate::render::{self, RenderOptions, RunStats};
 use crate::rng::Sampler;
 use crate::run::run_plane;
@@ -99,43 +98,15 @@ fn record_rays(
     opts: &RenderOptions,
     pool: &rayon::ThreadPool,
 ) -> anyhow::Result<Vec<crate::transport::trace::LoggedRay>> {
-    struct Recording<'a> {
-        scene: &'a Scene,
-        domain: &'a dyn Domain,
-        params: &'a Params,
-        opts: &'a RenderOptions,
-        pool: &'a rayon::ThreadPool,
-    }
-    impl WithKernel for Recording<'_> {
-        type Output = anyhow::Result<()>;
-        fn run<K: Kernel>(self) -> anyhow::Result<()> {
-            let (w, h, d) = self.domain.dims();
-            let mut field = Field::new(w, h, d);
-            render::run_in(self.pool, &mut field, self.opts, |cell, s: &mut Sampler| {
-                let start = self.domain.start(self.scene, cell, s);
-                ftpd::sample::<K>(self.scene, start, self.params, s)
-            })?;
-            Ok(())
-        }
-    }
     let mut o = opts.clone();
     o.progress = false;
-    let on_surfaces = PlaneOnSurfaces(plane);
-    let domain: &dyn Domain = if scene.surface_in_plane(plane.origin, plane.normal()) {
-        &on_surfaces
-    } else {
-        plane
-    };
-    kernel::dispatch_recording(
-        ftpd::kernel_for(params),
-        Recording {
-            scene,
-            domain,
-            params,
-            opts: &o,
-            pool,
-        },
-    )?;
+    let domain = PlaneDomain::new(plane, scene);
+    let (w, h, d) = domain.dims();
+    let mut field = Field::new(w, h, d);
+    let sample = ftpd::sampler(ftpd::kernel_for(params), true);
+    render::run_in(pool, &mut field, &o, |cell, s: &mut Sampler| {
+        sample(scene, domain.start(scene, cell, s), params, s)
+    })?;
     // Gather the logs of every worker of the pool.
     Ok(pool
         .broadcast(|_| crate::transport::trace::take_ray_log())

@@ -38,18 +38,37 @@ impl Domain for Plane {
     }
 }
 
-/// A plane with a surface lying in it (a slice through a wall, [`Scene::surface_in_plane`]): its
-/// sample points start on the front side of the surfaces they lie on ([`Scene::off_surfaces`]).
-/// Same cells and random streams as the plane itself.
-pub struct PlaneOnSurfaces<'a>(pub &'a Plane);
+/// A plane as runs sample it. Where a surface lies in the plane (a slice through a wall,
+/// [`Scene::surface_in_plane`]), sample points start on the front side of the surfaces they lie on
+/// ([`Scene::off_surfaces`]); elsewhere they are the plane's own points. Same cells and random
+/// streams either way.
+pub struct PlaneDomain<'a> {
+    plane: &'a Plane,
+    on_surfaces: bool,
+}
 
-impl Domain for PlaneOnSurfaces<'_> {
+impl<'a> PlaneDomain<'a> {
+    /// Decides once, for the whole run, whether `plane` cuts a surface of `scene` lying in it.
+    pub fn new(plane: &'a Plane, scene: &Scene) -> Self {
+        PlaneDomain {
+            plane,
+            on_surfaces: scene.surface_in_plane(plane.origin, plane.normal()),
+        }
+    }
+}
+
+impl Domain for PlaneDomain<'_> {
     fn dims(&self) -> (usize, usize, usize) {
-        self.0.dims()
+        self.plane.dims()
     }
     #[inline]
     fn start(&self, scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
-        Start::Point(scene.off_surfaces(self.0.point(cell, s.next_2d())))
+        let x = self.plane.point(cell, s.next_2d());
+        Start::Point(if self.on_surfaces {
+            scene.off_surfaces(x)
+        } else {
+            x
+        })
     }
 }
 

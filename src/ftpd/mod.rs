@@ -17,7 +17,7 @@ pub mod effects;
 pub mod moments;
 pub mod reference;
 
-use crate::kernel::{self, Kernel, KernelChoice, WithKernel};
+use crate::kernel::{Kernel, KernelChoice};
 use crate::math::{Frame, Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
@@ -251,24 +251,31 @@ pub fn kernel_for(p: &Params) -> KernelChoice {
     }
 }
 
+/// One sample from a start point, with a kernel chosen at run time ([`sampler`]).
+pub type SampleFn = fn(&Scene, Start, &Params, &mut Sampler) -> Sample;
+
+/// [`sample`] for the kernel `k`, chosen once per run; with `record`, the kernel also logs every ray
+/// it traces (the benchmark's replay, [`crate::kernel::Record`]).
+pub fn sampler(k: KernelChoice, record: bool) -> SampleFn {
+    use crate::kernel::{Plain3D, PlainFlat, Radiance3D, RadianceFlat, Record};
+    match (k.radiance, k.flatland, record) {
+        (true, false, false) => sample::<Radiance3D>,
+        (false, false, false) => sample::<Plain3D>,
+        (true, true, false) => sample::<RadianceFlat>,
+        (false, true, false) => sample::<PlainFlat>,
+        (true, false, true) => sample::<Record<Radiance3D>>,
+        (false, false, true) => sample::<Record<Plain3D>>,
+        (true, true, true) => sample::<Record<RadianceFlat>>,
+        (false, true, true) => sample::<Record<PlainFlat>>,
+    }
+}
+
 /// One sample at the point `x` with the kernel `p` needs ([`kernel_for`]), for callers that do not
 /// choose a kernel themselves (tests, single points). `x` may lie on a surface: it starts on the
 /// surface's front side ([`Scene::off_surfaces`]).
 pub fn sample_point(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
-    struct Point<'a> {
-        scene: &'a Scene,
-        x: DVec3,
-        p: &'a Params,
-        s: &'a mut Sampler,
-    }
-    impl WithKernel for Point<'_> {
-        type Output = Sample;
-        fn run<K: Kernel>(self) -> Sample {
-            sample_at::<K>(self.scene, self.x, self.p, self.s)
-        }
-    }
     let x = scene.off_surfaces(x);
-    kernel::dispatch(kernel_for(p), Point { scene, x, p, s })
+    sampler(kernel_for(p), false)(scene, Start::Point(x), p, s)
 }
 
 /// One FTPD sample at `x` with start direction drawn by the estimator (slice and volume domains),
