@@ -4,10 +4,10 @@
 //!
 //! Modules import one way (checked by `tests/layers.rs`): [`math`], [`rng`] → [`accel`] (Embree) →
 //! [`scene`] (data: geometry, materials, lights, flatland preparation) → [`kernel`] (the four
-//! compile-time kernels) → [`transport`] (walks, BSDF and light sampling) → [`ftpd`] (one sample,
-//! moments) → [`domain`] (where samples start) → [`render`], [`run`] (the driver and the runs built
-//! on it) → [`field`], [`output`], [`merge`], [`analysis`] → [`app`], [`cli`] (jobs and the command
-//! line). The README's Architecture section has a paragraph per module.
+//! compile-time kernels, the space of directions) → [`transport`] (walks, BSDFs and lights, written
+//! once for 3D and flatland) → [`ftpd`] (one sample, moments) → [`domain`] (where samples start)
+//! → [`render`], [`run`] (the driver and the runs built on it) → [`field`], [`output`], [`merge`],
+//! [`analysis`] → [`app`], [`cli`] (jobs and the command line). The README's Architecture section has a paragraph per module.
 
 // `!(x > 0.0)` is how this crate rejects NaN along with non-positive values; keep that idiom.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -1072,18 +1072,21 @@ fn warp_uniform_triangle() {
 
 #[test]
 fn warp_uniform_circle() {
+    use ftpd3d::kernel::{Flatland, Space};
     let bins = 64;
-    assert!((pdf_uniform_circle() * TAU - 1.0).abs() <= 2.0 * EPS);
+    assert!((Flatland::PDF_UNIFORM * TAU - 1.0).abs() <= 2.0 * EPS);
+    // The flatland space's uniform direction, in the plane z = 0.
+    let pl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
     let n = N_SAMPLES;
     let mut counts = vec![0.0; bins];
     let mut s = Sampler::new(SEED, 3, 50);
     for _ in 0..n {
-        let w = sample_uniform_circle(s.next_f64());
+        let w = pl.uniform(s.next_2d());
         assert!(w.z == 0.0 && (w.length() - 1.0).abs() < 4.0 * EPS);
         let phi = w.y.atan2(w.x).rem_euclid(TAU);
         counts[((phi / TAU * bins as f64) as usize).min(bins - 1)] += 1.0;
     }
-    let e = n as f64 * pdf_uniform_circle() * TAU / bins as f64;
+    let e = n as f64 * Flatland::PDF_UNIFORM * TAU / bins as f64;
     chi2_test("uniform circle", &counts, &vec![e; bins], &vec![0.0; bins]);
 }
 

@@ -391,7 +391,7 @@ fn gltf_emissive_material_is_an_area_light() {
             .lights
             .lights
             .iter()
-            .all(|l| matches!(l, Light::Triangle { normal, .. } if close(*normal, DVec3::Z)))
+            .all(|l| matches!(l, Light::Area { normal, .. } if close(*normal, DVec3::Z)))
     );
     assert!(scene.features.area_lights);
 }

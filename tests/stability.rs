@@ -425,7 +425,8 @@ fn stability_grazing_pairs_match_their_neighbours() {
         4.0,
     );
 
-    use ftpd3d::ftpd::{pairwise_deviation, perturb};
+    use ftpd3d::ftpd::pairwise_deviation;
+    use ftpd3d::kernel::{Space, Sphere};
     use ftpd3d::transport::walk::walk;
     let mirror = load_scene(&scene_path("mirror_plane.obj")).unwrap();
     let theta_max: f64 = 1e-6;
@@ -439,7 +440,7 @@ fn stability_grazing_pairs_match_their_neighbours() {
         let a = 1e-6 + 1e-6 * s.next_f64();
         let x = DVec3::new(-5.0, a, 0.3);
         let omega = DVec3::new(a.cos(), -a.sin(), 0.0);
-        let (omega2, chord, r) = perturb(omega, omc, thm, s.next_2d());
+        let (omega2, chord, r) = Sphere.perturb(omega, theta_max, omc, thm, s.next_2d());
         let (Some(wa), Some(wb)) = (
             walk::<Plain3D>(&mirror, x, omega, 3.0, 8, &mut s),
             walk::<Plain3D>(&mirror, x, omega2, 3.0, 8, &mut s),

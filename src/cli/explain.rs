@@ -50,7 +50,7 @@ pub fn explain(
         .lights
         .iter()
         .fold((0, 0), |(a, p), l| match l {
-            Light::Triangle { .. } => (a + 1, p),
+            Light::Area { .. } => (a + 1, p),
             Light::Point { .. } => (a, p + 1),
         });
     writeln!(

@@ -9,21 +9,19 @@
 //! 5. `Δ = s(r) (‖a − b‖ / (T ‖ω − ω'‖) − 1)` (eq. 9, both paths start at x);
 //! 6. contribution `c = luminance(weight · βA · βB)`, accumulated as ΣP, ΣΔ, ΣΔ² (eq. 14).
 //!
-//! In flatland (`K::FLATLAND`, [`Params::flat`]) ω is uniform on the circle of in-plane directions
-//! (density 1/2π), ω' is ω turned by an angle uniform in [−θmax, θmax], and all densities are per
-//! radian ([`crate::transport::flat`]).
+//! In flatland (a kernel whose [`Space`] is the plane [`Params::flat`]) ω is uniform on the circle
+//! of in-plane directions (density 1/2π), ω' is ω turned by an angle uniform in [−θmax, θmax], and
+//! all densities are per radian ([`crate::transport::space`]).
 
 pub mod effects;
 pub mod moments;
 pub mod reference;
 
-use crate::kernel::{Kernel, KernelChoice};
-use crate::math::{Frame, Rgb, luminance};
+use crate::kernel::{Kernel, KernelChoice, Space};
+use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::flat::Flatland;
-use crate::transport::flat;
-use crate::transport::sampling::{sample_uniform_cone_1mc, sample_uniform_sphere};
 use crate::transport::trace;
 use crate::transport::walk::{RadianceStats, radiance, walk_counted};
 use glam::DVec3;
@@ -63,7 +61,7 @@ pub struct Params {
     pub max_bounces: u32,
     /// Flatland runs only: the slice plane every direction is confined to. The scene must have been
     /// prepared for the same plane ([`Scene::prepare_flatland`]) and the kernel must be a flatland
-    /// one (`K::FLATLAND`).
+    /// one (its [`Space`] the plane).
     pub flat: Option<Flatland>,
 }
 
@@ -131,24 +129,6 @@ pub struct Sample {
     pub clamped: bool,
 }
 
-/// Draws the second direction ω' in the cone around ω; returns ω', ‖ω − ω'‖ and r.
-#[inline]
-pub fn perturb(
-    omega: DVec3,
-    one_minus_cos_max: f64,
-    tan_half_max: f64,
-    u: (f64, f64),
-) -> (DVec3, f64, f64) {
-    let local = sample_uniform_cone_1mc(u, one_minus_cos_max);
-    let omega2 = Frame::from_z(omega).to_world(local);
-    // θ from the local coordinates: exact for tiny angles.
-    let sin_t = (local.x * local.x + local.y * local.y).sqrt(); // unit vector: no overflow
-    let cos_t = local.z;
-    let tan_half = sin_t / (1.0 + cos_t);
-    let chord = 2.0 * tan_half / (1.0 + tan_half * tan_half).sqrt(); // 2 sin(θ/2)
-    (omega2, chord, tan_half / tan_half_max)
-}
-
 /// Fraction of radiance-weighted samples whose direction is drawn uniformly; the others are drawn
 /// towards the lights (when the scene has any).
 pub const UNIFORM_FRACTION: f64 = 0.5;
@@ -170,46 +150,29 @@ pub fn radiance_direction<K: Kernel>(
     s: &mut Sampler,
     rays: &mut u32,
 ) -> (DVec3, Rgb) {
-    use std::f64::consts::PI;
-    let lights = &scene.lights;
-    let lights_empty = if K::FLATLAND {
-        scene.flat().lights.is_empty()
+    let sp = K::Space::of(scene);
+    let lights = K::Space::lights(scene);
+    let alpha = if lights.is_empty() {
+        1.0
     } else {
-        lights.is_empty()
+        UNIFORM_FRACTION
     };
-    let alpha = if lights_empty { 1.0 } else { UNIFORM_FRACTION };
     // Densities per steradian, or per radian in flatland.
-    let p_uniform = if K::FLATLAND {
-        alpha * flat::PDF_CIRCLE
-    } else {
-        alpha / (4.0 * PI)
-    };
+    let p_uniform = alpha * K::Space::PDF_UNIFORM;
     let mut st = RadianceStats::default();
     let strategy = s.next_f64();
     let (u_l, u) = (s.next_f64(), s.next_2d());
-    let uniform = |u: (f64, f64)| {
-        if K::FLATLAND {
-            scene.flat().plane.sample_circle(u.0)
-        } else {
-            sample_uniform_sphere(u)
-        }
-    };
     if strategy < alpha {
-        let omega = uniform(u);
+        let omega = sp.uniform(u);
         // Light passing x along ω arrives from −ω.
         let r = radiance::<K>(scene, x, -omega, max_bounces, s, &mut st);
         *rays += st.rays;
         let direct = r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf);
         return (omega, direct + r.rest / p_uniform);
     }
-    let sample = if K::FLATLAND {
-        scene.flat().lights.sample(x, u_l, u.0)
-    } else {
-        lights.sample(x, u_l, u)
-    };
-    let Some(ls) = sample else {
+    let Some(ls) = lights.sample::<K::Space>(x, u_l, u) else {
         // A light that faces away: this strategy contributes nothing here.
-        return (uniform(s.next_2d()), Rgb::ZERO);
+        return (sp.uniform(s.next_2d()), Rgb::ZERO);
     };
     let omega = -ls.wi;
     *rays += 1;
@@ -286,16 +249,14 @@ pub fn sample_point(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sam
 #[inline]
 pub fn sample_at<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
     debug_assert!(K::RADIANCE || p.weighting != Weighting::Radiance);
-    debug_assert_eq!(K::FLATLAND, p.flat.is_some());
-    debug_assert!(!K::FLATLAND || p.flat == Some(scene.flat().plane));
+    debug_assert_eq!(K::Space::DIMS == 2, p.flat.is_some());
+    debug_assert!(p.flat.is_none() || p.flat == Some(scene.flat().plane));
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
     let mut rays = 0;
     let (omega, weight) = if K::RADIANCE && p.weighting == Weighting::Radiance {
         radiance_direction::<K>(scene, x, p.max_bounces, s, &mut rays)
-    } else if K::FLATLAND {
-        (flat_plane(p).sample_circle(s.next_2d().0), Rgb::ONE)
     } else {
-        (sample_uniform_sphere(s.next_2d()), Rgb::ONE)
+        (K::Space::of(scene).uniform(s.next_2d()), Rgb::ONE)
     };
     let mut out = pair_from::<K>(scene, x, omega, t, weight, p, s);
     out.rays += rays;
@@ -325,14 +286,6 @@ pub fn sample_camera<K: Kernel>(
     out
 }
 
-/// The plane of a flatland run (flatland kernels only).
-#[inline(always)]
-fn flat_plane(p: &Params) -> &Flatland {
-    p.flat
-        .as_ref()
-        .expect("a flatland kernel needs Params::flat (the slice plane)")
-}
-
 /// The deflection pair for a given start point, direction ω, run length and weight.
 #[inline]
 pub fn pair_from<K: Kernel>(
@@ -349,17 +302,13 @@ pub fn pair_from<K: Kernel>(
         ..Default::default()
     };
     let (one_minus_cos_max, tan_half_max) = cone_constants(p);
-    let (omega2, chord, r) = if K::FLATLAND {
-        flat::perturb(
-            flat_plane(p),
-            omega,
-            p.theta_max,
-            tan_half_max,
-            s.next_2d().0,
-        )
-    } else {
-        perturb(omega, one_minus_cos_max, tan_half_max, s.next_2d())
-    };
+    let (omega2, chord, r) = K::Space::of(scene).perturb(
+        omega,
+        p.theta_max,
+        one_minus_cos_max,
+        tan_half_max,
+        s.next_2d(),
+    );
     if luminance(weight) <= 0.0 {
         // No light passes here in this direction: the pair carries no weight; skip tracing it.
         return out;
@@ -406,8 +355,9 @@ mod tests {
             let omc = 2.0 * (0.5f64 * theta_max).sin().powi(2);
             let thm = (0.5f64 * theta_max).tan();
             for _ in 0..2000 {
-                let w = sample_uniform_sphere(s.next_2d());
-                let (w2, chord, r) = perturb(w, omc, thm, s.next_2d());
+                let w = crate::transport::sampling::sample_uniform_sphere(s.next_2d());
+                let (w2, chord, r) =
+                    crate::kernel::Sphere.perturb(w, theta_max, omc, thm, s.next_2d());
                 assert!((0.0..=1.0 + 1e-12).contains(&r), "r = {r}");
                 assert!((w2.length() - 1.0).abs() < 1e-12);
                 let ang = w.cross(w2).length().atan2(w.dot(w2));

@@ -41,7 +41,7 @@ impl Features {
         }
         for l in &lights.lights {
             match l {
-                Light::Triangle { .. } => f.area_lights = true,
+                Light::Area { .. } => f.area_lights = true,
                 Light::Point { .. } => f.point_lights = true,
             }
         }

@@ -1,11 +1,11 @@
 //! The flatland preparation of a scene: the slice plane ([`Flatland`]), the check that the geometry
 //! is extruded along its normal, the emitters' cross-sections with it and every material in 2D form
-//! ([`FlatScene`]). Sampling and evaluating these in 2D is light transport (`crate::transport::flat`,
+//! ([`FlatScene`]). Sampling and evaluating these in 2D is light transport (`crate::transport::space`,
 //! where the table of 2D measures is).
 
-use crate::math::{Rgb, luminance};
+use crate::math::luminance;
 use crate::scene::Scene;
-use crate::scene::light::{Light, PowerCdf};
+use crate::scene::light::{Light, Lights, Segment};
 use crate::scene::material::Bsdf;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
@@ -149,7 +149,7 @@ impl PhongLobe {
 }
 
 /// A material's scattering model in flatland: the same [`Bsdf`] with 2D lobes (see the table in
-/// `crate::transport::flat`), and for Phong its precomputed normalisation.
+/// `crate::transport::space`), and for Phong its precomputed normalisation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FlatBsdf {
     pub bsdf: Bsdf,
@@ -169,64 +169,13 @@ impl FlatBsdf {
     }
 }
 
-/// A light source as flatland sees it.
-#[derive(Clone, Debug, PartialEq)]
-pub enum FlatLight {
-    /// The cross-section of emissive triangle `prim` with the plane: the segment from `a` to `b`,
-    /// emitting radiance `emission` to the side of the in-plane unit `normal`.
-    Segment {
-        prim: u32,
-        a: DVec3,
-        b: DVec3,
-        normal: DVec3,
-        length: f64,
-        emission: Rgb,
-    },
-    /// A point light in the plane, radiant intensity per radian.
-    Point { position: DVec3, intensity: Rgb },
-}
-
-impl FlatLight {
-    /// 2D power (luminance), the selection weight: a one-sided Lambertian segment emits
-    /// `Le · length · ∫ cos θ dθ = 2 Le length`; a point light `2π I`.
-    pub fn power(&self) -> f64 {
-        match self {
-            FlatLight::Segment {
-                length, emission, ..
-            } => 2.0 * length * luminance(*emission).max(0.0),
-            FlatLight::Point { intensity, .. } => TAU * luminance(*intensity).max(0.0),
-        }
-    }
-}
+/// A light source as flatland sees it: the cross-section of an emissive triangle with the plane,
+/// or a point light in the plane (radiant intensity per radian).
+pub type FlatLight = Light<Segment>;
 
 /// The lights of a flatland run: one is chosen in proportion to its 2D power, then a point on a
 /// segment uniformly by length; densities are per radian at the receiving point.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FlatLights {
-    pub lights: Vec<FlatLight>,
-    pub(crate) choice: PowerCdf,
-    /// For each scene triangle, its index in `lights` or `u32::MAX`.
-    pub(crate) light_of_prim: Vec<u32>,
-}
-
-impl FlatLights {
-    /// `light_of_prim[t]` is the index in `lights` of triangle t's cross-section, or `u32::MAX`.
-    fn new(lights: Vec<FlatLight>, light_of_prim: Vec<u32>) -> FlatLights {
-        FlatLights {
-            choice: PowerCdf::new(lights.iter().map(FlatLight::power)),
-            lights,
-            light_of_prim,
-        }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.lights.is_empty() || self.choice.is_empty()
-    }
-
-    pub fn total_power(&self) -> f64 {
-        self.lights.iter().map(FlatLight::power).sum()
-    }
-}
+pub type FlatLights = Lights<Segment>;
 
 /// How a triangle meets the slice plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -360,7 +309,7 @@ impl FlatScene {
             let key = [p.x, p.y, p.z, q.x, q.y, q.z].map(f64::to_bits);
             if edge
                 && let Some(&j) = edges.get(&key)
-                && let FlatLight::Segment {
+                && let Light::Area {
                     normal: nj,
                     emission: ej,
                     ..
@@ -375,12 +324,11 @@ impl FlatScene {
                 edges.insert(key, lights.len() as u32);
             }
             light_of_prim[i] = lights.len() as u32;
-            lights.push(FlatLight::Segment {
+            lights.push(Light::Area {
                 prim: i as u32,
-                a,
-                b,
+                shape: Segment { a, b },
                 normal,
-                length,
+                measure: length,
                 emission: m.emission,
             });
         }
@@ -418,7 +366,7 @@ impl FlatScene {
                         off.abs()
                     );
                 }
-                lights.push(FlatLight::Point {
+                lights.push(Light::Point {
                     position: *position - plane.normal * off,
                     intensity: *intensity,
                 });

@@ -1,32 +1,70 @@
-//! Lights: emissive triangles (area lights, Lambertian, front side only) and isotropic point lights.
-//! One light is chosen in proportion to its power (`PowerCdf`); sampling a point on it and the
+//! Lights: emissive triangles (area lights, Lambertian, front side only) and isotropic point lights,
+//! in 3D and, with the triangles' cross-sections as emitters, in flatland. One light is chosen in proportion to its power (`PowerCdf`); sampling a point on it and the
 //! densities at the receiving point are light transport (`crate::transport::light`).
 
 use crate::math::{Rgb, luminance};
 use crate::scene::material::Material;
 use glam::{DVec3, Vec3};
-use std::f64::consts::PI;
+use std::f64::consts::{PI, TAU};
 
-#[derive(Clone, Debug)]
-pub enum Light {
-    /// Triangle `prim` of the scene with radiance `emission` leaving its front side.
-    Triangle {
+/// The shape of an area emitter as a run's space of directions sees it: a triangle in 3D, or the
+/// segment where a triangle crosses the flatland plane. Uniform points on it are light transport
+/// (`crate::kernel::Space::point_on`).
+pub trait Shape: Clone + std::fmt::Debug + PartialEq + Send + Sync + 'static {
+    /// ∫ cos θ over the directions of one side: π (per steradian) or 2 (per radian); the power of
+    /// a Lambertian emitter is this × radiance × its measure.
+    const COSINE_INTEGRAL: f64;
+    /// The measure of all directions: 4π, or 2π; the power of an isotropic point light is this ×
+    /// its intensity.
+    const FULL_ANGLE: f64;
+}
+
+/// A triangle of the scene, by its three vertices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Triangle(pub [DVec3; 3]);
+
+impl Shape for Triangle {
+    const COSINE_INTEGRAL: f64 = PI;
+    const FULL_ANGLE: f64 = 4.0 * PI;
+}
+
+/// A segment in the flatland plane, from `a` to `b`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Segment {
+    pub a: DVec3,
+    pub b: DVec3,
+}
+
+impl Shape for Segment {
+    const COSINE_INTEGRAL: f64 = 2.0;
+    const FULL_ANGLE: f64 = TAU;
+}
+
+/// A light source, with emitters of shape `S` ([`Triangle`] in 3D, [`Segment`] in flatland).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light<S = Triangle> {
+    /// Triangle `prim` of the scene (in flatland, its cross-section with the plane), emitting
+    /// radiance `emission` to the side of the unit `normal`; `measure` is its area (length).
+    Area {
         prim: u32,
-        v: [DVec3; 3],
+        shape: S,
         normal: DVec3,
-        area: f64,
+        measure: f64,
         emission: Rgb,
     },
-    /// Isotropic point light of radiant intensity `intensity` (per steradian).
+    /// Isotropic point light of radiant intensity `intensity` (per steradian; per radian in
+    /// flatland).
     Point { position: DVec3, intensity: Rgb },
 }
 
-impl Light {
+impl<S: Shape> Light<S> {
     /// Total emitted power (luminance), the light-selection weight.
     pub fn power(&self) -> f64 {
         match self {
-            Light::Triangle { area, emission, .. } => PI * area * luminance(*emission).max(0.0),
-            Light::Point { intensity, .. } => 4.0 * PI * luminance(*intensity).max(0.0),
+            Light::Area {
+                measure, emission, ..
+            } => S::COSINE_INTEGRAL * measure * luminance(*emission).max(0.0),
+            Light::Point { intensity, .. } => S::FULL_ANGLE * luminance(*intensity).max(0.0),
         }
     }
 }
@@ -82,12 +120,45 @@ impl PowerCdf {
     }
 }
 
-#[derive(Clone, Debug, Default)]
-pub struct LightSet {
-    pub lights: Vec<Light>,
+/// The lights of a run: one is chosen in proportion to its power, then a point on it uniformly.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lights<S = Triangle> {
+    pub lights: Vec<Light<S>>,
     pub(crate) choice: PowerCdf,
     /// For each scene triangle, its index in `lights` or `u32::MAX`.
     pub(crate) light_of_prim: Vec<u32>,
+}
+
+impl<S> Default for Lights<S> {
+    fn default() -> Self {
+        Lights {
+            lights: Vec::new(),
+            choice: PowerCdf::default(),
+            light_of_prim: Vec::new(),
+        }
+    }
+}
+
+/// The lights of a 3D run.
+pub type LightSet = Lights<Triangle>;
+
+impl<S: Shape> Lights<S> {
+    /// `light_of_prim[t]` is the index in `lights` of triangle t's light, or `u32::MAX`.
+    pub(crate) fn new(lights: Vec<Light<S>>, light_of_prim: Vec<u32>) -> Lights<S> {
+        Lights {
+            choice: PowerCdf::new(lights.iter().map(Light::power)),
+            lights,
+            light_of_prim,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty() || self.choice.is_empty()
+    }
+
+    pub fn total_power(&self) -> f64 {
+        self.lights.iter().map(Light::power).sum()
+    }
 }
 
 impl LightSet {
@@ -112,21 +183,15 @@ impl LightSet {
                 continue;
             }
             light_of_prim[i] = lights.len() as u32;
-            lights.push(Light::Triangle {
+            lights.push(Light::Area {
                 prim: i as u32,
-                v,
+                shape: Triangle(v),
                 normal: normals[i],
-                area,
+                measure: area,
                 emission: m.emission,
             });
         }
-        let mut set = LightSet {
-            lights,
-            choice: PowerCdf::default(),
-            light_of_prim,
-        };
-        set.rebuild_cdf();
-        set
+        Lights::new(lights, light_of_prim)
     }
 
     pub(super) fn add_point(&mut self, position: DVec3, intensity: Rgb) {
@@ -134,18 +199,6 @@ impl LightSet {
             position,
             intensity,
         });
-        self.rebuild_cdf();
-    }
-
-    fn rebuild_cdf(&mut self) {
         self.choice = PowerCdf::new(self.lights.iter().map(Light::power));
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.lights.is_empty() || self.choice.is_empty()
-    }
-
-    pub fn total_power(&self) -> f64 {
-        self.lights.iter().map(Light::power).sum()
     }
 }

@@ -267,8 +267,6 @@ impl Scene {
         })
     }
 
-    /// Prepares a flatland run on `plane` (named `label`, e.g. `z=0`, in messages): checks that the
-    /// geometry is extruded along the plane normal and point lights lie in the plane, and computes
     /// Adds an isotropic point light of radiant intensity `intensity` (per steradian) at
     /// `position`, and says so in the feature set.
     pub fn add_point_light(&mut self, position: DVec3, intensity: Rgb) {
@@ -276,6 +274,8 @@ impl Scene {
         self.features.point_lights = true;
     }
 
+    /// Prepares a flatland run on `plane` (named `label`, e.g. `z=0`, in messages): checks that the
+    /// geometry is extruded along the plane normal and point lights lie in the plane, and computes
     /// the emitters' cross-sections. Call after every light has been added.
     pub fn prepare_flatland(&mut self, plane: Flatland, label: &str) -> anyhow::Result<()> {
         self.flat = Some(FlatScene::new(self, plane, label)?);

@@ -7,12 +7,13 @@
 //! `eval` returns `f(wo, wi) |cos θi|`; `sample` returns the weight `f |cos θi| / pdf`, which already
 //! includes the probability of the lobe chosen.
 
-use crate::math::{Frame, Rgb, luminance, reflect, safe_sqrt};
+use crate::kernel::{Flatland, Space, Sphere};
+use crate::math::{Rgb, luminance, reflect, safe_sqrt};
+use crate::rng::Sampler;
 // The enum is scene data; its sampling and evaluation are the `impl Bsdf` blocks below.
+use crate::scene::flat::FlatBsdf;
 pub use crate::scene::material::Bsdf;
-use crate::transport::sampling::*;
 use glam::DVec3;
-use std::f64::consts::{FRAC_1_PI, TAU};
 
 /// What a path carries: radiance (traced from the sensor) or importance/light (traced along the
 /// direction light travels). Only refraction differs: radiance is scaled by 1/η² across it.
@@ -51,7 +52,8 @@ impl Bsdf {
         if d + s > 0.0 { d / (d + s) } else { 1.0 }
     }
 
-    /// Sample `wi` given `wo`. `None` when the path is absorbed or the sample falls on the wrong side.
+    /// Samples `wi` given `wo` in 3D ([`sample_in`](Self::sample_in) on the [`Sphere`]). `None`
+    /// when the path is absorbed or the sample falls on the wrong side.
     #[inline(always)]
     pub fn sample(
         &self,
@@ -62,74 +64,128 @@ impl Bsdf {
         u: (f64, f64),
         mode: Mode,
     ) -> Option<BsdfSample> {
+        // The 3D lobes draw no numbers beyond `u`: this sampler is never read.
+        let mut unused = Sampler::new(0, 0, 0);
+        self.sample_in(&Sphere, &(), wo, ng, ns, u_lobe, u, &mut unused, mode)
+    }
+
+    /// `f(wo, wi) |cos θi|` of the non-delta lobes in 3D (delta lobes evaluate to zero).
+    #[inline(always)]
+    pub fn eval(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3, mode: Mode) -> Rgb {
+        self.eval_in::<Sphere>(&(), wo, wi, ng, ns, mode)
+    }
+
+    /// Solid-angle density with which [`sample`](Self::sample) produces `wi` through its non-delta
+    /// lobes.
+    #[inline(always)]
+    pub fn pdf(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3) -> f64 {
+        self.pdf_in::<Sphere>(&(), wo, wi, ng, ns)
+    }
+
+    /// Samples `wi` given `wo` in the space `sp` (3D or flatland), with `lobe` the Phong lobe's
+    /// constants there ([`Space::scatter`]); densities per steradian or per radian. `None` when
+    /// the path is absorbed or the sample falls on the wrong side. The flatland Phong lobe's
+    /// rejection sampler may draw more numbers from `s`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn sample_in<D: Space>(
+        &self,
+        sp: &D,
+        lobe: &D::Lobe,
+        wo: DVec3,
+        ng: DVec3,
+        ns: DVec3,
+        u_lobe: f64,
+        u: (f64, f64),
+        s: &mut Sampler,
+        mode: Mode,
+    ) -> Option<BsdfSample> {
         // Orient both normals towards wo: opaque surfaces are two-sided.
         let side = if wo.dot(ng) >= 0.0 { 1.0 } else { -1.0 };
         let (ngo, nso) = (ng * side, ns * side);
         match self {
             Bsdf::Black => None,
-            Bsdf::Diffuse { kd } => Self::sample_diffuse(*kd, ngo, nso, u),
+            Bsdf::Diffuse { kd } => {
+                let wi = sp.cosine(nso, u);
+                if wi.dot(ngo) <= 0.0 {
+                    return None;
+                }
+                Some(BsdfSample {
+                    wi,
+                    weight: *kd,
+                    pdf: D::pdf_cosine(wi.dot(nso)),
+                    delta: false,
+                })
+            }
             Bsdf::Glossy { kd, ks, exponent } => {
                 let pd = Self::diffuse_probability(*kd, *ks);
                 let wi = if u_lobe < pd {
-                    Frame::from_z(nso).to_world(sample_cosine_hemisphere(u))
+                    sp.cosine(nso, u)
                 } else {
-                    let r = reflect(wo, nso);
-                    Frame::from_z(r).to_world(sample_phong_lobe(u, *exponent))
+                    sp.phong(lobe, *exponent, reflect(wo, nso), u, s)?
                 };
                 if wi.dot(ngo) <= 0.0 || wi.dot(nso) <= 0.0 {
                     return None;
                 }
-                let pdf = self.pdf(wo, wi, ng, ns);
+                let pdf = self.pdf_in::<D>(lobe, wo, wi, ng, ns);
                 if pdf <= 0.0 || !pdf.is_finite() {
                     return None;
                 }
                 Some(BsdfSample {
                     wi,
-                    weight: self.eval(wo, wi, ng, ns, mode) / pdf,
+                    weight: self.eval_in::<D>(lobe, wo, wi, ng, ns, mode) / pdf,
                     pdf,
                     delta: false,
                 })
             }
             Bsdf::Mirror { kd, ks } => {
                 sample_mirror_mixture(wo, ngo, nso, *kd, *ks, u_lobe, || {
-                    let wi = Frame::from_z(nso).to_world(sample_cosine_hemisphere(u));
-                    (wi, pdf_cosine_hemisphere(wi.dot(nso)))
+                    let wi = sp.cosine(nso, u);
+                    (wi, D::pdf_cosine(wi.dot(nso)))
                 })
             }
             Bsdf::Dielectric { ior, tint } => {
-                sample_dielectric(wo, ng, ngo, nso, *ior, *tint, u_lobe, mode, 3)
+                sample_dielectric(wo, ng, ngo, nso, *ior, *tint, u_lobe, mode, D::DIMS)
             }
         }
     }
 
-    /// `f(wo, wi) |cos θi|` of the non-delta lobes (delta lobes evaluate to zero).
+    /// `f(wo, wi) |cos θi|` of the non-delta lobes in the space `D` (per steradian or radian).
     #[inline(always)]
-    pub fn eval(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3, _mode: Mode) -> Rgb {
+    pub fn eval_in<D: Space>(
+        &self,
+        lobe: &D::Lobe,
+        wo: DVec3,
+        wi: DVec3,
+        ng: DVec3,
+        ns: DVec3,
+        _mode: Mode,
+    ) -> Rgb {
         let Some((nso, cos_i)) = Self::cos_i(wo, wi, ng, ns) else {
             return Rgb::ZERO;
         };
         match self {
             Bsdf::Black | Bsdf::Dielectric { .. } => Rgb::ZERO,
-            Bsdf::Diffuse { kd } | Bsdf::Mirror { kd, .. } => *kd * (FRAC_1_PI * cos_i),
+            Bsdf::Diffuse { kd } | Bsdf::Mirror { kd, .. } => *kd * (D::LAMBERT * cos_i),
             Bsdf::Glossy { kd, ks, exponent } => {
                 let cos_a = reflect(wo, nso).dot(wi);
-                // Phong lobe divided by max(cos θi, cos θo) (cos θi > 0 here, so no division by
-                // zero): symmetric in wo and wi, albedo ≤ ks, and f cos θi / pdf = ks cos θi /
-                // max(cos θi, cos θo) → ks as the exponent grows, i.e. the lobe tends to the
-                // perfect mirror of reflectance ks (the paper's Fig. 4c/d).
-                let spec = if cos_a > 0.0 {
-                    (exponent + 1.0) / TAU * cos_a.powf(*exponent) / cos_i.max(wo.dot(nso))
-                } else {
-                    0.0
-                };
-                (*kd * FRAC_1_PI + *ks * spec) * cos_i
+                let spec = D::phong_brdf(lobe, *exponent, cos_a, cos_i, wo.dot(nso));
+                (*kd * D::LAMBERT + *ks * spec) * cos_i
             }
         }
     }
 
-    /// Solid-angle density with which `sample` produces `wi` through its non-delta lobes.
+    /// Density with which [`sample_in`](Self::sample_in) produces `wi` through its non-delta
+    /// lobes.
     #[inline(always)]
-    pub fn pdf(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3) -> f64 {
+    pub fn pdf_in<D: Space>(
+        &self,
+        lobe: &D::Lobe,
+        wo: DVec3,
+        wi: DVec3,
+        ng: DVec3,
+        ns: DVec3,
+    ) -> f64 {
         // `sample` rejects directions below the shading horizon, so none has density there
         // (the Phong lobe around the mirror direction may reach below it when ns ≠ ng).
         let Some((nso, cos_i)) = Self::cos_i(wo, wi, ng, ns) else {
@@ -137,36 +193,18 @@ impl Bsdf {
         };
         match self {
             Bsdf::Black | Bsdf::Dielectric { .. } => 0.0,
-            Bsdf::Diffuse { .. } => pdf_cosine_hemisphere(cos_i),
-            Bsdf::Mirror { kd, ks } => {
-                Self::diffuse_probability(*kd, *ks) * pdf_cosine_hemisphere(cos_i)
-            }
+            Bsdf::Diffuse { .. } => D::pdf_cosine(cos_i),
+            Bsdf::Mirror { kd, ks } => Self::diffuse_probability(*kd, *ks) * D::pdf_cosine(cos_i),
             Bsdf::Glossy { kd, ks, exponent } => {
                 let pd = Self::diffuse_probability(*kd, *ks);
                 let cos_a = reflect(wo, nso).dot(wi);
-                pd * pdf_cosine_hemisphere(cos_i) + (1.0 - pd) * pdf_phong_lobe(cos_a, *exponent)
+                pd * D::pdf_cosine(cos_i) + (1.0 - pd) * D::phong_pdf(lobe, *exponent, cos_a)
             }
         }
     }
 }
 
-/// The Lambertian lobe.
 impl Bsdf {
-    /// `sample` of `Diffuse { kd }`, with the normals already oriented towards `wo`.
-    #[inline(always)]
-    fn sample_diffuse(kd: Rgb, ngo: DVec3, nso: DVec3, u: (f64, f64)) -> Option<BsdfSample> {
-        let wi = Frame::from_z(nso).to_world(sample_cosine_hemisphere(u));
-        if wi.dot(ngo) <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            weight: kd,
-            pdf: pdf_cosine_hemisphere(wi.dot(nso)),
-            delta: false,
-        })
-    }
-
     /// The side of `wo` (±1) and the cosine of `wi` to the shading normal on that side, or `None`
     /// where `eval` and `pdf` of every lobe are zero (wi below the geometric or shading horizon).
     #[inline(always)]
@@ -181,6 +219,40 @@ impl Bsdf {
             return None;
         }
         Some((nso, cos_i))
+    }
+}
+
+/// The 2D material of a flatland run, with the plane it lives in given where needed.
+impl FlatBsdf {
+    /// [`Bsdf::sample_in`] in the plane `pl`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn sample(
+        &self,
+        pl: &Flatland,
+        wo: DVec3,
+        ng: DVec3,
+        ns: DVec3,
+        u_lobe: f64,
+        u: (f64, f64),
+        s: &mut Sampler,
+        mode: Mode,
+    ) -> Option<BsdfSample> {
+        self.bsdf
+            .sample_in(pl, &self.lobe, wo, ng, ns, u_lobe, u, s, mode)
+    }
+
+    /// [`Bsdf::eval_in`] in flatland (per radian).
+    #[inline]
+    pub fn eval(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3, mode: Mode) -> Rgb {
+        self.bsdf
+            .eval_in::<Flatland>(&self.lobe, wo, wi, ng, ns, mode)
+    }
+
+    /// [`Bsdf::pdf_in`] in flatland (per radian).
+    #[inline]
+    pub fn pdf(&self, wo: DVec3, wi: DVec3, ng: DVec3, ns: DVec3) -> f64 {
+        self.bsdf.pdf_in::<Flatland>(&self.lobe, wo, wi, ng, ns)
     }
 }
 

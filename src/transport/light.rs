@@ -2,9 +2,9 @@
 //! area (by length in flatland); densities are converted to solid angle (angle) at the receiving
 //! point (`sample_x` next to `pdf_x`). The lights themselves are scene data ([`crate::scene::light`]).
 
+use crate::kernel::Space;
 use crate::math::Rgb;
-use crate::scene::light::{Light, LightSet};
-use crate::transport::sampling::sample_uniform_triangle;
+use crate::scene::light::{Light, Lights, Shape};
 use glam::DVec3;
 
 /// A sampled connection from a receiving point to a light.
@@ -112,43 +112,65 @@ pub(crate) fn connect_point(
     })
 }
 
-impl LightSet {
-    /// Samples a light point as seen from `x`. `None` when there are no lights or the point faces
-    /// away (back of a one-sided emitter).
+/// Light sampling, written once for every space: `D::point_on` draws the point on an emitter's
+/// shape, `D::DIMS` converts densities and falls off.
+impl<S: Shape> Lights<S> {
+    /// Samples a light point as seen from `x` in the space `D` (whose emitters have shape `S`).
+    /// `None` when there are no lights or the point faces away (back of a one-sided emitter).
     #[inline]
-    pub fn sample(&self, x: DVec3, u_light: f64, u: (f64, f64)) -> Option<LightSample> {
+    pub fn sample<D: Space<Shape = S>>(
+        &self,
+        x: DVec3,
+        u_light: f64,
+        u: (f64, f64),
+    ) -> Option<LightSample> {
         let (i, p_choice) = self.choice.pick(u_light)?;
         match &self.lights[i] {
-            Light::Triangle {
-                v,
+            Light::Area {
+                shape,
                 normal,
-                area,
+                measure,
                 emission,
                 ..
-            } => {
-                let (b0, b1, b2) = sample_uniform_triangle(u);
-                let y = b0 * v[0] + b1 * v[1] + b2 * v[2];
-                connect_emitter(x, y, *normal, p_choice, *area, *emission, 3)
-            }
+            } => connect_emitter(
+                x,
+                D::point_on(shape, u),
+                *normal,
+                p_choice,
+                *measure,
+                *emission,
+                D::DIMS,
+            ),
             Light::Point {
                 position,
                 intensity,
-            } => connect_point(x, *position, *intensity, p_choice, 3),
+            } => connect_point(x, *position, *intensity, p_choice, D::DIMS),
         }
     }
 
-    /// Solid-angle density with which [`sample`](Self::sample) would pick the point `y` on triangle
-    /// `prim` (normal `ng`) as seen from `x`; 0 when `prim` is not an emitter.
-    pub fn pdf_hit(&self, x: DVec3, prim: u32, y: DVec3, ng: DVec3) -> f64 {
+    /// Density (per steradian, or radian) with which [`sample`](Self::sample) picks the point `y`
+    /// of triangle `prim`'s emitter as seen from `x`; 0 when `prim` is not an emitter.
+    #[inline]
+    pub fn pdf_hit<D: Space<Shape = S>>(&self, x: DVec3, prim: u32, y: DVec3) -> f64 {
         let Some(&li) = self.light_of_prim.get(prim as usize) else {
             return 0.0;
         };
         if li == u32::MAX {
             return 0.0;
         }
-        let Light::Triangle { area, .. } = &self.lights[li as usize] else {
+        let Light::Area {
+            normal, measure, ..
+        } = &self.lights[li as usize]
+        else {
             return 0.0;
         };
-        emitter_pdf(x, y, ng, self.choice.prob(li as usize), *area, 3)
+        emitter_pdf(
+            x,
+            y,
+            *normal,
+            self.choice.prob(li as usize),
+            *measure,
+            D::DIMS,
+        )
     }
 }

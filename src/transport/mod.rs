@@ -1,7 +1,7 @@
 //! Light transport: sampling warps, scattering models, and the random walks built from them.
 pub mod bsdf;
-pub mod flat;
 pub mod light;
 pub mod sampling;
+pub mod space;
 pub mod trace;
 pub mod walk;

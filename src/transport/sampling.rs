@@ -124,18 +124,6 @@ pub fn sample_uniform_triangle(u: (f64, f64)) -> (f64, f64, f64) {
     (b0, b1, 1.0 - b0 - b1)
 }
 
-// ---- flatland (directions in the local x/y plane, angle measure) ----
-
-/// Uniform direction on the unit circle in the local x/y plane.
-pub fn sample_uniform_circle(u: f64) -> DVec3 {
-    let phi = TAU * u;
-    DVec3::new(phi.cos(), phi.sin(), 0.0)
-}
-
-pub fn pdf_uniform_circle() -> f64 {
-    1.0 / TAU
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,8 +1,8 @@
-//! Ray queries as a kernel makes them: 3D or in the flatland plane ([`Kernel::FLATLAND`]), and
+//! Ray queries as a kernel makes them: 3D or in the flatland plane ([`Space::intersect`]), and
 //! logged for the benchmark's replay when the kernel records ([`Kernel::RECORD`]); other kernels
 //! compile the logging out.
 
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, Space};
 use crate::scene::{Hit, Scene};
 use glam::{DVec3, Vec3};
 
@@ -13,11 +13,7 @@ pub fn intersect<K: Kernel>(scene: &Scene, o: DVec3, d: DVec3, tmax: f64) -> Opt
     if K::RECORD {
         log_ray(o, d, tmax, false);
     }
-    if K::FLATLAND {
-        scene.intersect_in_plane(o, d, tmax)
-    } else {
-        scene.intersect(o, d, tmax)
-    }
+    K::Space::intersect(scene, o, d, tmax)
 }
 
 /// [`Scene::visible`].

@@ -6,14 +6,13 @@
 //!   heuristic) that estimates the radiance arriving at a point from a direction, used as the
 //!   radiance weight.
 //!
-//! Flatland kernels (`K::FLATLAND`) take their BSDFs and lights from [`crate::transport::flat`]
-//! (angle measure, in-plane directions); the rest of both paths is shared with 3D.
+//! Both are written once over the kernel's space of directions ([`Space`]: 3D, or the flatland
+//! plane with its angle measure and in-plane directions).
 
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, Space};
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
-use crate::scene::flat::FlatBsdf;
 use crate::transport::bsdf::Mode;
 use crate::transport::trace;
 use glam::DVec3;
@@ -57,6 +56,7 @@ pub fn walk_counted<K: Kernel>(
     // `base` is the true start of the current segment (x, then surface points); `origin` the same
     // point pushed off the surface for the ray query. Lengths are measured from `base`, so the
     // offsets never change the geometry of the walk.
+    let sp = K::Space::of(scene);
     let mut base = x;
     let mut origin = x;
     let mut d = dir;
@@ -98,24 +98,8 @@ pub fn walk_counted<K: Kernel>(
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let sampled = if K::FLATLAND {
-            let fs = scene.flat();
-            fs.bsdfs[hit.material as usize].sample(
-                &fs.plane,
-                -d,
-                hit.ng,
-                hit.ns,
-                u_lobe,
-                u,
-                s,
-                Mode::Importance,
-            )
-        } else {
-            scene
-                .material(&hit)
-                .bsdf
-                .sample(-d, hit.ng, hit.ns, u_lobe, u, Mode::Importance)
-        };
+        let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
+        let sampled = bsdf.sample_in(sp, lobe, -d, hit.ng, hit.ns, u_lobe, u, s, Mode::Importance);
         let Some(bs) = sampled else {
             return (None, rays);
         };
@@ -143,12 +127,6 @@ pub fn survives(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
         *beta /= q;
     }
     luminance(*beta) > 0.0
-}
-
-/// The 2D form of the material at a hit (flatland kernels only).
-#[inline(always)]
-fn flat_bsdf<'a>(scene: &'a Scene, hit: &crate::scene::Hit) -> &'a FlatBsdf {
-    &scene.flat().bsdfs[hit.material as usize]
 }
 
 /// Statistics of a radiance estimate.
@@ -197,12 +175,9 @@ pub fn radiance<K: Kernel>(
     s: &mut Sampler,
     st: &mut RadianceStats,
 ) -> Radiance {
-    let lights = &scene.lights;
-    let lights_empty = if K::FLATLAND {
-        scene.flat().lights.is_empty()
-    } else {
-        lights.is_empty()
-    };
+    let sp = K::Space::of(scene);
+    let lights = K::Space::lights(scene);
+    let lights_empty = lights.is_empty();
     let mut out = Radiance::default();
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;
@@ -221,11 +196,7 @@ pub fn radiance<K: Kernel>(
             let le = scene.emitted(&hit, -d);
             if le != Rgb::ZERO {
                 out.direct = le;
-                out.direct_pdf = if K::FLATLAND {
-                    scene.flat().lights.pdf_hit(x, hit.prim, hit.p)
-                } else {
-                    lights.pdf_hit(x, hit.prim, hit.p, hit.ng)
-                };
+                out.direct_pdf = lights.pdf_hit::<K::Space>(x, hit.prim, hit.p);
             }
         } else {
             let le = scene.emitted(&hit, -d);
@@ -233,11 +204,7 @@ pub fn radiance<K: Kernel>(
                 let w = if prev_delta {
                     1.0
                 } else {
-                    let p_light = if K::FLATLAND {
-                        scene.flat().lights.pdf_hit(prev_p, hit.prim, hit.p)
-                    } else {
-                        lights.pdf_hit(prev_p, hit.prim, hit.p, hit.ng)
-                    };
+                    let p_light = lights.pdf_hit::<K::Space>(prev_p, hit.prim, hit.p);
                     power_heuristic(prev_pdf, p_light)
                 };
                 l += beta * le * w;
@@ -246,23 +213,14 @@ pub fn radiance<K: Kernel>(
         if depth >= max_bounces {
             break;
         }
-        let bsdf = &scene.material(&hit).bsdf;
+        let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
         let wo = -d;
         // Next-event estimation on surfaces with a non-delta lobe.
         if !bsdf.is_delta() && !lights_empty {
             let u_l = s.next_f64();
             let u = s.next_2d();
-            let sample = if K::FLATLAND {
-                scene.flat().lights.sample(hit.p, u_l, u.0)
-            } else {
-                lights.sample(hit.p, u_l, u)
-            };
-            if let Some(ls) = sample {
-                let f = if K::FLATLAND {
-                    flat_bsdf(scene, &hit).eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance)
-                } else {
-                    bsdf.eval(wo, ls.wi, hit.ng, hit.ns, Mode::Radiance)
-                };
+            if let Some(ls) = lights.sample::<K::Space>(hit.p, u_l, u) {
+                let f = bsdf.eval_in::<K::Space>(lobe, wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
                 if f != Rgb::ZERO {
                     st.rays += 1;
                     let o = scene.spawn_origin_from(&hit, ls.wi, origin);
@@ -270,11 +228,7 @@ pub fn radiance<K: Kernel>(
                         let w = if ls.delta {
                             1.0
                         } else {
-                            let p_bsdf = if K::FLATLAND {
-                                flat_bsdf(scene, &hit).pdf(wo, ls.wi, hit.ng, hit.ns)
-                            } else {
-                                bsdf.pdf(wo, ls.wi, hit.ng, hit.ns)
-                            };
+                            let p_bsdf = bsdf.pdf_in::<K::Space>(lobe, wo, ls.wi, hit.ng, hit.ns);
                             power_heuristic(ls.pdf, p_bsdf)
                         };
                         l += beta * f * ls.li * (w / ls.pdf);
@@ -284,21 +238,7 @@ pub fn radiance<K: Kernel>(
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let sampled = if K::FLATLAND {
-            let fs = scene.flat();
-            flat_bsdf(scene, &hit).sample(
-                &fs.plane,
-                wo,
-                hit.ng,
-                hit.ns,
-                u_lobe,
-                u,
-                s,
-                Mode::Radiance,
-            )
-        } else {
-            bsdf.sample(wo, hit.ng, hit.ns, u_lobe, u, Mode::Radiance)
-        };
+        let sampled = bsdf.sample_in(sp, lobe, wo, hit.ng, hit.ns, u_lobe, u, s, Mode::Radiance);
         let Some(bs) = sampled else {
             break;
         };
