@@ -71,6 +71,8 @@ pub trait Space: Send + Sync + 'static {
         tan_half_max: f64,
         u: (f64, f64),
     ) -> (DVec3, f64, f64);
+    /// A direction uniform over those within `alpha` (radians, > 0) of the unit `axis`.
+    fn cone(&self, axis: DVec3, alpha: f64, u: (f64, f64)) -> DVec3;
     /// A cosine-weighted direction about the unit normal `n`.
     fn cosine(&self, n: DVec3, u: (f64, f64)) -> DVec3;
     /// Density of [`cosine`](Self::cosine) at cosine `cos_theta` to the normal.

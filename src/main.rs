@@ -4,7 +4,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use ftpd3d::analysis::converge::{self, ConvergeJob};
 use ftpd3d::app::{self, CameraArg, DomainArg, Job};
 use ftpd3d::cli::parse::{
-    parse_duration, parse_point_light, parse_size, parse_vec3, parse_volume, parse_window,
+    parse_duration, parse_point_light, parse_size, parse_sky, parse_sun, parse_vec3, parse_volume,
+    parse_window,
 };
 use ftpd3d::cli::{bench, explain, report};
 use ftpd3d::domain::slice::SliceArg;
@@ -125,6 +126,13 @@ struct EstimatorFlags {
     /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
     #[arg(long, value_name = "X,Y,Z:R,G,B", allow_hyphen_values = true, value_parser = parse_point_light)]
     point_light: Vec<(glam::DVec3, glam::DVec3)>,
+    /// Add the sun: the direction x,y,z towards it, the irradiance r,g,b it gives a surface facing
+    /// it, and its angular diameter in degrees [default: 0.53; 0: a Dirac delta]; repeatable.
+    #[arg(long, value_name = "X,Y,Z:R,G,B[:DIAM]", allow_hyphen_values = true, value_parser = parse_sun)]
+    sun: Vec<ftpd3d::scene::Light>,
+    /// Add a uniform sky: radiance r,g,b from every direction that leaves the scene.
+    #[arg(long, value_name = "R,G,B", value_parser = parse_sky)]
+    sky: Option<ftpd3d::scene::Light>,
     /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
@@ -140,6 +148,21 @@ struct EstimatorFlags {
 }
 
 impl EstimatorFlags {
+    /// The lights given on the command line, in the order point lights, suns, sky.
+    fn lights(&self) -> Vec<ftpd3d::scene::Light> {
+        let points =
+            self.point_light
+                .iter()
+                .map(|&(position, intensity)| ftpd3d::scene::Light::Point {
+                    position,
+                    intensity,
+                });
+        points
+            .chain(self.sun.iter().cloned())
+            .chain(self.sky.clone())
+            .collect()
+    }
+
     fn args(&self, weighting: Weighting) -> EstimatorArgs {
         EstimatorArgs {
             weighting,
@@ -393,7 +416,7 @@ impl RunArgs {
         Ok(Job {
             scene,
             domain,
-            point_lights: self.estimator.point_light.clone(),
+            lights: self.estimator.lights(),
             estimator: self.estimator.args(weight.into()),
             render: self.render(),
             output: self
@@ -451,7 +474,7 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
     bench::bench(
         &mut std::io::stdout().lock(),
         &job.scene,
-        &job.point_lights,
+        &job.lights,
         &job.estimator,
         (slice, *window, *res),
         job.flatland,
@@ -479,7 +502,7 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     explain::explain(
         &mut std::io::stdout().lock(),
         &job.scene,
-        &job.point_lights,
+        &job.lights,
         &job.estimator,
         flatland,
     )
@@ -504,7 +527,7 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
     let weighting = args.weight.map(Weighting::from);
     let job = ConvergeJob {
         scene: args.scene.clone(),
-        point_lights: args.estimator.point_light.clone(),
+        lights: args.estimator.lights(),
         slice: args.slice.clone(),
         window: args.window,
         res: args.res,

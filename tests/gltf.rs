@@ -298,7 +298,7 @@ fn gltf_negative_scale_keeps_outward_normals() {
 }
 
 #[test]
-fn gltf_point_light_and_camera_come_through() {
+fn gltf_point_spot_and_directional_lights_and_camera_come_through() {
     let dir = temp_dir("lights");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Floor", None);
@@ -341,11 +341,51 @@ fn gltf_point_light_and_camera_come_through() {
             _ => None,
         })
         .collect();
-    assert_eq!(points.len(), 2, "the point light and the spot light");
+    assert_eq!(points.len(), 1, "the point light");
     assert!(close(points[0].0, DVec3::new(1., 2., 0.)));
     assert!(close(points[0].1, Rgb::new(8., 4., 2.)));
-    assert!(close(points[1].0, DVec3::new(0., 3., 0.)));
-    assert!(scene.features.point_lights);
+    // The spot keeps its cone (glTF's defaults: inner 0, outer as given) and shines along the
+    // node's −Z; the directional light is a sun without a disc, shining along −Z too, so its
+    // direction (towards the light) is +Z.
+    let spots: Vec<_> = scene
+        .lights
+        .lights
+        .iter()
+        .filter(|l| matches!(l, Light::Spot { .. }))
+        .collect();
+    assert_eq!(spots.len(), 1);
+    let Light::Spot {
+        position,
+        direction,
+        intensity,
+        cos_inner,
+        cos_outer,
+    } = spots[0]
+    else {
+        unreachable!()
+    };
+    assert!(close(*position, DVec3::new(0., 3., 0.)));
+    assert!(close(*direction, DVec3::NEG_Z));
+    assert!(close(*intensity, Rgb::splat(2.0)));
+    assert!((cos_inner - 1.0).abs() < 1e-12 && (cos_outer - 0.5f64.cos()).abs() < 1e-7);
+    let suns: Vec<_> = scene
+        .lights
+        .lights
+        .iter()
+        .filter_map(|l| match l {
+            Light::Distant {
+                direction,
+                irradiance,
+                half_angle,
+                ..
+            } => Some((*direction, *irradiance, *half_angle)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(suns.len(), 1);
+    assert!(close(suns[0].0, DVec3::Z) && close(suns[0].1, Rgb::splat(3.0)));
+    assert_eq!(suns[0].2, 0.0);
+    assert!(scene.features.point_lights && scene.features.spot_lights && scene.features.sun);
     assert!(!scene.features.area_lights);
     assert_eq!(scene.cameras.len(), 1);
     let cam = &scene.cameras[0];
@@ -356,8 +396,7 @@ fn gltf_point_light_and_camera_come_through() {
     assert!((cam.fov_y - 0.8).abs() < 1e-6);
     assert!((cam.aspect.unwrap() - 1.5).abs() < 1e-6);
     let w = scene.report.warnings.join("\n");
-    assert!(w.contains("spot") && w.contains("cone is ignored"), "{w}");
-    assert!(w.contains("directional") && w.contains("skipped"), "{w}");
+    assert!(!w.contains("spot") && !w.contains("directional"), "{w}");
     assert!(w.contains("orthographic"), "{w}");
     assert!(w.contains("lights.gltf"), "{w}");
 }

@@ -11,6 +11,7 @@ mod gltf;
 mod layers;
 mod merge;
 mod mis;
+mod outdoor;
 mod pinned;
 mod stability;
 mod support;

@@ -19,7 +19,7 @@ fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> J
     Job {
         scene: scene_path("cornell_mirror.obj"),
         domain: DomainArg::Volume { res, bbox },
-        point_lights: vec![],
+        lights: vec![],
         flatland: false,
         checkpoint_every: None,
         resume: None,
@@ -277,7 +277,7 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
             window: Some([-1.0, 0.0, 1.0, 2.0]),
             res: n,
         },
-        point_lights: vec![],
+        lights: vec![],
         flatland: false,
         checkpoint_every: None,
         resume: None,

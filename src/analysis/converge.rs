@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 #[derive(Clone, Debug)]
 pub struct ConvergeJob {
     pub scene: PathBuf,
-    pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
+    pub lights: Vec<crate::scene::Light>,
     pub slice: String,
     pub window: Option<[f64; 4]>,
     /// Cells along the longer side; `None`: the reference's, or 64.
@@ -536,7 +536,7 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         }
         None => None,
     };
-    let scene = load_scene_with_lights(&job.scene, &job.point_lights)?;
+    let scene = load_scene_with_lights(&job.scene, &job.lights)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }

@@ -85,7 +85,8 @@ pub struct Job {
     pub scene: PathBuf,
     pub domain: DomainArg,
     /// Extra point lights: position, radiant intensity.
-    pub point_lights: Vec<(glam::DVec3, glam::DVec3)>,
+    /// Lights from the command line (`--point-light`, `--sun`, `--sky`).
+    pub lights: Vec<crate::scene::Light>,
     pub estimator: EstimatorArgs,
     /// How many samples, when to stop, and which stripe of the grid (`render.tile`, `--tile i/N`).
     pub render: RenderOptions,
@@ -240,7 +241,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
         check_writable(&job.output)?;
     }
     let t_load = Instant::now();
-    let mut scene = load_scene_with_lights(&job.scene, &job.point_lights)?;
+    let mut scene = load_scene_with_lights(&job.scene, &job.lights)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
@@ -334,16 +335,37 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
     Ok(outcomes)
 }
 
-/// Records the command-line point lights in the field's metadata: they are part of the scene, and
-/// merging refuses fields computed with other lights.
+/// Records the command-line lights in the field's metadata (`point_lights`, `sun`, `sky`, in
+/// their flags' syntax): they are part of the scene, and merging refuses fields computed with
+/// other lights.
 fn annotate_point_lights(field: &mut Field, job: &Job) {
-    if !job.point_lights.is_empty() {
-        let lights: Vec<String> = job
-            .point_lights
-            .iter()
-            .map(|(p, i)| format!("{}:{}", fmt_vec(*p), fmt_vec(*i)))
-            .collect();
-        field.meta.insert("point_lights".into(), lights.join(";"));
+    use crate::scene::Light;
+    let (mut points, mut suns, mut skies) = (Vec::new(), Vec::new(), Vec::new());
+    for l in &job.lights {
+        match l {
+            Light::Point {
+                position,
+                intensity,
+            } => points.push(format!("{}:{}", fmt_vec(*position), fmt_vec(*intensity))),
+            Light::Distant {
+                direction,
+                irradiance,
+                half_angle,
+                ..
+            } => suns.push(format!(
+                "{}:{}:{}",
+                fmt_vec(*direction),
+                fmt_vec(*irradiance),
+                (2.0 * half_angle).to_degrees()
+            )),
+            Light::Sky { radiance } => skies.push(fmt_vec(*radiance)),
+            Light::Area { .. } | Light::Spot { .. } => {}
+        }
+    }
+    for (key, list) in [("point_lights", points), ("sun", suns), ("sky", skies)] {
+        if !list.is_empty() {
+            field.meta.insert(key.into(), list.join(";"));
+        }
     }
 }
 

@@ -120,13 +120,13 @@ fn record_rays(
 pub fn bench(
     out: &mut impl std::io::Write,
     path: &std::path::Path,
-    point_lights: &[(glam::DVec3, glam::DVec3)],
+    lights: &[crate::scene::Light],
     estimator: &crate::run::EstimatorArgs,
     (slice, window, res): (&crate::domain::slice::SliceArg, Option<[f64; 4]>, usize),
     flatland: bool,
     opts: &RenderOptions,
 ) -> anyhow::Result<()> {
-    let mut scene = crate::scene::load::load_scene_with_lights(path, point_lights)?;
+    let mut scene = crate::scene::load::load_scene_with_lights(path, lights)?;
     let plane = crate::domain::slice::resolve_plane(slice, &scene, window, res)?;
     let params = if flatland {
         crate::run::prepare_flatland(&mut scene, &plane, estimator)?

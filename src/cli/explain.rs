@@ -9,16 +9,16 @@ use std::io::Write;
 use std::path::Path;
 
 /// Writes the explanation of a run of `estimator` on the scene at `path` (with extra
-/// `point_lights`) to `out`; `flatland` is the slice (with its window and resolution) of a
+/// `lights` from the command line) to `out`; `flatland` is the slice (with its window and resolution) of a
 /// flatland run, whose cross-section it describes too. Warnings of the loader go to stderr.
 pub fn explain(
     out: &mut impl Write,
     path: &Path,
-    point_lights: &[(glam::DVec3, glam::DVec3)],
+    lights: &[crate::scene::Light],
     estimator: &EstimatorArgs,
     flatland: Option<(&SliceArg, Option<[f64; 4]>, usize)>,
 ) -> anyhow::Result<()> {
-    let mut scene = load_scene_with_lights(path, point_lights)?;
+    let mut scene = load_scene_with_lights(path, lights)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
@@ -45,17 +45,28 @@ pub fn explain(
         };
         writeln!(out, "  {:<20} {:?}{emits}", m.name, m.bsdf)?;
     }
-    let (area, point) = scene
-        .lights
-        .lights
-        .iter()
-        .fold((0, 0), |(a, p), l| match l {
-            Light::Area { .. } => (a + 1, p),
-            Light::Point { .. } => (a, p + 1),
-        });
+    let mut counts = [0usize; 5];
+    for l in &scene.lights.lights {
+        counts[match l {
+            Light::Area { .. } => 0,
+            Light::Point { .. } => 1,
+            Light::Spot { .. } => 2,
+            Light::Distant { .. } => 3,
+            Light::Sky { .. } => 4,
+        }] += 1;
+    }
+    let mut kinds = format!(
+        "{} emissive triangles, {} point lights",
+        counts[0], counts[1]
+    );
+    for (n, what) in counts[2..].iter().zip(["spot lights", "suns", "skies"]) {
+        if *n > 0 {
+            kinds += &format!(", {n} {what}");
+        }
+    }
     writeln!(
         out,
-        "lights     {area} emissive triangles, {point} point lights, total power {:.4}",
+        "lights     {kinds}, total power {:.4}",
         scene.lights.total_power()
     )?;
     writeln!(out, "cameras    {}", scene.cameras.len())?;

@@ -24,6 +24,54 @@ pub fn parse_point_light(s: &str) -> Result<(DVec3, DVec3), String> {
     Ok((pos, int))
 }
 
+/// Parses `--sun x,y,z:r,g,b[:diameter]`: the direction towards the sun (any length), the
+/// irradiance it gives a surface facing it, and its angular diameter in degrees (default
+/// [`crate::scene::DEFAULT_SUN_DIAMETER_DEG`]; 0 for a Dirac delta in direction).
+pub fn parse_sun(s: &str) -> Result<crate::scene::Light, String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    if !(2..=3).contains(&parts.len()) {
+        return Err(format!("'{s}': expected x,y,z:r,g,b[:diameter in degrees]"));
+    }
+    let three = |t: &str, what: &str, names: &str| {
+        parse_floats::<3>(t, names)
+            .map(DVec3::from)
+            .map_err(|e| format!("'{s}': {what}: {e}"))
+    };
+    let dir = three(parts[0], "direction", "x,y,z")?;
+    let e = three(parts[1], "irradiance", "r,g,b")?;
+    let Some(direction) = dir.try_normalize() else {
+        return Err(format!("'{s}': the direction must be finite and not zero"));
+    };
+    if e.min_element() < 0.0 {
+        return Err(format!("'{s}': irradiance must be ≥ 0"));
+    }
+    let diameter = match parts.get(2) {
+        None => crate::scene::DEFAULT_SUN_DIAMETER_DEG,
+        Some(t) => t
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|d| (0.0..180.0).contains(d))
+            .ok_or_else(|| {
+                format!("'{s}': the angular diameter must be a number of degrees in [0, 180)")
+            })?,
+    };
+    Ok(crate::scene::Light::distant(
+        direction,
+        e,
+        0.5 * diameter.to_radians(),
+    ))
+}
+
+/// Parses `--sky r,g,b`: constant radiance from every direction that leaves the scene.
+pub fn parse_sky(s: &str) -> Result<crate::scene::Light, String> {
+    let radiance = DVec3::from(parse_floats::<3>(s, "r,g,b")?);
+    if radiance.min_element() < 0.0 {
+        return Err(format!("'{s}': radiance must be ≥ 0"));
+    }
+    Ok(crate::scene::Light::Sky { radiance })
+}
+
 /// Parses `X,Y,Z` (`--eye`, `--target`, `--up`).
 pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
     parse_floats(s, "x,y,z").map(DVec3::from)

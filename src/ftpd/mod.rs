@@ -167,10 +167,19 @@ pub fn radiance_direction<K: Kernel>(
         // Light passing x along ω arrives from −ω.
         let r = radiance::<K>(scene, x, -omega, max_bounces, s, &mut st);
         *rays += st.rays;
-        let direct = r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf);
+        let direct = if r.escaped {
+            // One balance-heuristic weight per distant light seen along −ω.
+            let mut sum = Rgb::ZERO;
+            lights.escaped::<K::Space>(-omega, |le, p_light| {
+                sum += le / (p_uniform + (1.0 - alpha) * p_light);
+            });
+            sum
+        } else {
+            r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf)
+        };
         return (omega, direct + r.rest / p_uniform);
     }
-    let Some(ls) = lights.sample::<K::Space>(x, u_l, u) else {
+    let Some(ls) = lights.sample(sp, x, u_l, u) else {
         // A light that faces away: this strategy contributes nothing here.
         return (sp.uniform(s.next_2d()), Rgb::ZERO);
     };

@@ -14,6 +14,11 @@ pub struct Features {
     pub dielectric: bool,
     pub area_lights: bool,
     pub point_lights: bool,
+    pub spot_lights: bool,
+    /// A distant light (the sun).
+    pub sun: bool,
+    /// Constant radiance from every escaping direction.
+    pub sky: bool,
 }
 
 impl Features {
@@ -43,6 +48,9 @@ impl Features {
             match l {
                 Light::Area { .. } => f.area_lights = true,
                 Light::Point { .. } => f.point_lights = true,
+                Light::Spot { .. } => f.spot_lights = true,
+                Light::Distant { .. } => f.sun = true,
+                Light::Sky { .. } => f.sky = true,
             }
         }
         f
@@ -58,6 +66,9 @@ impl fmt::Display for Features {
             (self.dielectric, "dielectric"),
             (self.area_lights, "area-lights"),
             (self.point_lights, "point-lights"),
+            (self.spot_lights, "spot-lights"),
+            (self.sun, "sun"),
+            (self.sky, "sky"),
         ]
         .iter()
         .filter(|(on, _)| *on)

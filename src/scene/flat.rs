@@ -349,33 +349,102 @@ impl FlatScene {
                  (material '{name}') crosses {label} with its normal {deg}° out of the plane{more}"
             );
         }
-        for l in &scene.lights.lights {
-            if let Light::Point {
-                position,
-                intensity,
-            } = l
-            {
-                let off = plane.distance(*position);
-                if off.abs() > 1e-9 * scene.extent().max(position.abs().max_element()) {
-                    anyhow::bail!(
-                        "{file}: --flatland: the point light at ({}, {}, {}) lies {} off the slice \
-                         plane {label}; in flatland, point lights must lie in the plane",
-                        position.x,
-                        position.y,
-                        position.z,
-                        off.abs()
-                    );
-                }
-                lights.push(Light::Point {
-                    position: *position - plane.normal * off,
-                    intensity: *intensity,
-                });
+        let off_plane = |what: &str, off: f64| -> anyhow::Result<()> {
+            anyhow::bail!(
+                "{file}: --flatland: the {what} lies {off} off the slice plane {label}; in \
+                 flatland, lights must lie in the plane"
+            )
+        };
+        // In-plane directions: an out-of-plane component must be rounding only.
+        let in_plane_dir = |what: &str, d: DVec3| -> anyhow::Result<DVec3> {
+            let out = d.dot(plane.normal).abs();
+            match plane.in_plane(d) {
+                Some(v) if out <= MAX_NORMAL_OUT_OF_PLANE => Ok(v),
+                _ => anyhow::bail!(
+                    "{file}: --flatland: the {what} ({}, {}, {}) is not in the slice plane \
+                     {label}; in flatland, light directions must lie in the plane",
+                    d.x,
+                    d.y,
+                    d.z
+                ),
             }
+        };
+        let tol = |p: DVec3| 1e-9 * scene.extent().max(p.abs().max_element());
+        let mut others = Vec::new();
+        for l in &scene.lights.lights {
+            match l {
+                Light::Area { .. } => {}
+                Light::Point {
+                    position,
+                    intensity,
+                } => {
+                    let off = plane.distance(*position);
+                    if off.abs() > tol(*position) {
+                        off_plane(
+                            &format!(
+                                "point light at ({}, {}, {})",
+                                position.x, position.y, position.z
+                            ),
+                            off.abs(),
+                        )?;
+                    }
+                    others.push(Light::Point {
+                        position: *position - plane.normal * off,
+                        intensity: *intensity,
+                    });
+                }
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                } => {
+                    let off = plane.distance(*position);
+                    if off.abs() > tol(*position) {
+                        off_plane(
+                            &format!(
+                                "spot light at ({}, {}, {})",
+                                position.x, position.y, position.z
+                            ),
+                            off.abs(),
+                        )?;
+                    }
+                    others.push(Light::Spot {
+                        position: *position - plane.normal * off,
+                        direction: in_plane_dir("spot light's direction", *direction)?,
+                        intensity: *intensity,
+                        cos_inner: *cos_inner,
+                        cos_outer: *cos_outer,
+                    });
+                }
+                Light::Distant {
+                    direction,
+                    irradiance,
+                    half_angle,
+                    ..
+                } => others.push(Light::distant(
+                    in_plane_dir("sun direction", *direction)?,
+                    *irradiance,
+                    *half_angle,
+                )),
+                Light::Sky { radiance } => others.push(Light::Sky {
+                    radiance: *radiance,
+                }),
+            }
+        }
+        for l in others {
+            lights.push(l);
         }
         Ok(FlatScene {
             plane,
             label: label.to_string(),
-            lights: FlatLights::new(lights, light_of_prim),
+            lights: FlatLights::new(
+                lights,
+                light_of_prim,
+                scene.lights.center,
+                scene.lights.radius,
+            ),
             bsdfs: scene
                 .materials
                 .iter()

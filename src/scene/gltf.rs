@@ -28,8 +28,9 @@
 //! Lights (`KHR_lights_punctual`): a point light becomes an isotropic point light at the node's world
 //! position with intensity `color × intensity`. glTF gives that intensity in candela (lm/sr); it is
 //! used as is as radiant intensity in scene units (per steradian), with no photometric conversion,
-//! and `range` is ignored. Spot lights are added as point lights with a warning (the cone is
-//! ignored); directional lights are skipped with a warning.
+//! and `range` is ignored. Spot lights keep their cone and glTF's smooth falloff between the inner
+//! and outer angle. A directional light becomes a sun without a disc (a Dirac delta in direction,
+//! as glTF defines it): its intensity, in lux, is used as the irradiance.
 //!
 //! Cameras: perspective cameras become [`Camera`]s (eye at the node's world origin, looking along its
 //! world −Z with world +Y up, `yfov`, `aspectRatio`); orthographic ones are skipped with a warning.
@@ -37,7 +38,7 @@
 use crate::math::Rgb;
 use crate::scene::material::Bsdf;
 use crate::scene::material::{Material, conserve_energy};
-use crate::scene::{Camera, LoadReport, Scene};
+use crate::scene::{Camera, Light, LoadReport, Scene};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::khr_lights_punctual::Kind as LightKind;
 use ::gltf::mesh::{Mode, Semantic};
@@ -96,6 +97,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         triangles: Vec::new(),
         tri_material: Vec::new(),
         points: Vec::new(),
+        others: Vec::new(),
         cameras: Vec::new(),
     };
     loader.convert_materials(&doc);
@@ -109,6 +111,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         triangles,
         tri_material,
         points,
+        others,
         cameras,
         ..
     } = loader;
@@ -141,6 +144,9 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     scene.cameras = cameras;
     for (position, intensity) in points {
         scene.add_point_light(position, intensity);
+    }
+    for light in others {
+        scene.add_light(light);
     }
     Ok(scene)
 }
@@ -334,6 +340,8 @@ struct Loader {
     tri_material: Vec<u32>,
     /// Point lights: world position and intensity.
     points: Vec<(DVec3, Rgb)>,
+    /// Spot and directional lights.
+    others: Vec<Light>,
     cameras: Vec<Camera>,
 }
 
@@ -668,19 +676,31 @@ impl Loader {
         let intensity =
             (Rgb::new(r as f64, g as f64, b as f64) * light.intensity() as f64).max(Rgb::ZERO);
         let position = world.transform_point3(DVec3::ZERO);
-        match light.kind() {
-            LightKind::Point => self.points.push((position, intensity)),
-            LightKind::Spot { .. } => {
-                self.warn(format!(
-                    "spot {label}: the cone is ignored; added as a point light"
-                ));
-                self.points.push((position, intensity));
+        // Spots and directional lights shine along the node's local −Z.
+        let axis = world.transform_vector3(DVec3::NEG_Z).try_normalize();
+        match (light.kind(), axis) {
+            (LightKind::Point, _) => self.points.push((position, intensity)),
+            (
+                LightKind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                },
+                Some(direction),
+            ) => self.others.push(Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner: (inner_cone_angle as f64).cos(),
+                cos_outer: (outer_cone_angle as f64).cos(),
+            }),
+            // glTF gives a directional light's intensity in lux: used as the irradiance, with no
+            // photometric conversion, and as a Dirac delta (glTF's lights have no extent).
+            (LightKind::Directional, Some(direction)) => {
+                self.others.push(Light::distant(-direction, intensity, 0.0))
             }
-            LightKind::Directional => {
-                self.warn(format!(
-                    "directional {label}: directional lights are not supported; skipped"
-                ));
-            }
+            (_, None) => self.warn(format!(
+                "{label}: degenerate node transform (no direction); skipped"
+            )),
         }
     }
 }

@@ -17,6 +17,15 @@ pub trait Shape: Clone + std::fmt::Debug + PartialEq + Send + Sync + 'static {
     /// The measure of all directions: 4π, or 2π; the power of an isotropic point light is this ×
     /// its intensity.
     const FULL_ANGLE: f64;
+    /// The measure of the directions within `alpha` of an axis: 2π(1 − cos α) = 4π sin²(α/2)
+    /// steradians, or 2α radians.
+    fn cone_measure(alpha: f64) -> f64;
+    /// ∫ cos θ over those directions, θ measured from the axis: π sin²α, or 2 sin α. A light of
+    /// radiance L uniform over the cone gives this × L of irradiance to a surface facing it.
+    fn cone_cosine_integral(alpha: f64) -> f64;
+    /// The cross-section of the scene's bounding ball of radius `r` (π r², or 2r): the power of a
+    /// distant light of irradiance E that reaches the scene is this × E.
+    fn cross_section(r: f64) -> f64;
 }
 
 /// A triangle of the scene, by its three vertices.
@@ -26,6 +35,15 @@ pub struct Triangle(pub [DVec3; 3]);
 impl Shape for Triangle {
     const COSINE_INTEGRAL: f64 = PI;
     const FULL_ANGLE: f64 = 4.0 * PI;
+    fn cone_measure(alpha: f64) -> f64 {
+        4.0 * PI * (0.5 * alpha).sin().powi(2)
+    }
+    fn cone_cosine_integral(alpha: f64) -> f64 {
+        PI * alpha.sin().powi(2)
+    }
+    fn cross_section(r: f64) -> f64 {
+        PI * r * r
+    }
 }
 
 /// A segment in the flatland plane, from `a` to `b`.
@@ -38,6 +56,15 @@ pub struct Segment {
 impl Shape for Segment {
     const COSINE_INTEGRAL: f64 = 2.0;
     const FULL_ANGLE: f64 = TAU;
+    fn cone_measure(alpha: f64) -> f64 {
+        2.0 * alpha
+    }
+    fn cone_cosine_integral(alpha: f64) -> f64 {
+        2.0 * alpha.sin()
+    }
+    fn cross_section(r: f64) -> f64 {
+        2.0 * r
+    }
 }
 
 /// A light source, with emitters of shape `S` ([`Triangle`] in 3D, [`Segment`] in flatland).
@@ -55,16 +82,88 @@ pub enum Light<S = Triangle> {
     /// Isotropic point light of radiant intensity `intensity` (per steradian; per radian in
     /// flatland).
     Point { position: DVec3, intensity: Rgb },
+    /// A spot light: a point light whose intensity along `direction` (unit) is `intensity`, full
+    /// inside the cone of cosine `cos_inner`, none outside `cos_outer`, with glTF's smooth falloff
+    /// (`KHR_lights_punctual`) between.
+    Spot {
+        position: DVec3,
+        direction: DVec3,
+        intensity: Rgb,
+        cos_inner: f64,
+        cos_outer: f64,
+    },
+    /// Light from beyond the scene from one direction (the sun): `direction` (unit) points towards
+    /// it and `irradiance` is what it gives a surface facing it. With `half_angle` > 0 its radiance
+    /// `radiance` is uniform over the cone of directions within `half_angle` (the sun's angular
+    /// radius); with 0 it is a Dirac delta in direction.
+    Distant {
+        direction: DVec3,
+        irradiance: Rgb,
+        half_angle: f64,
+        /// cos(half_angle): directions with a larger cosine to `direction` see the disc.
+        cos_max: f64,
+        /// `irradiance` / ∫ cos over the cone (0 for a delta).
+        radiance: Rgb,
+        /// The cone's measure (steradians or radians; 0 for a delta).
+        measure: f64,
+    },
+    /// Constant radiance `radiance` from every direction that leaves the scene (a uniform sky).
+    Sky { radiance: Rgb },
 }
 
 impl<S: Shape> Light<S> {
-    /// Total emitted power (luminance), the light-selection weight.
-    pub fn power(&self) -> f64 {
+    /// The sun: irradiance `irradiance` from the unit `direction`, spread over a disc of angular
+    /// radius `half_angle` (radians; 0 for a Dirac delta).
+    pub fn distant(direction: DVec3, irradiance: Rgb, half_angle: f64) -> Light<S> {
+        let (radiance, measure) = if half_angle > 0.0 {
+            (
+                irradiance / S::cone_cosine_integral(half_angle),
+                S::cone_measure(half_angle),
+            )
+        } else {
+            (Rgb::ZERO, 0.0)
+        };
+        Light::Distant {
+            direction,
+            irradiance,
+            half_angle,
+            cos_max: half_angle.cos(),
+            radiance,
+            measure,
+        }
+    }
+
+    /// Seen by rays that leave the scene (sky, or a sun with a disc), so a path that escapes
+    /// collects it.
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Sky { .. })
+            || matches!(self, Light::Distant { half_angle, .. } if *half_angle > 0.0)
+    }
+
+    /// Outside the scene (sky and sun): shadow rays towards it run past the scene's bounds.
+    pub fn is_distant(&self) -> bool {
+        matches!(self, Light::Sky { .. } | Light::Distant { .. })
+    }
+}
+
+impl<S: Shape> Light<S> {
+    /// Total emitted power (luminance), the light-selection weight; `radius` is that of the
+    /// scene's bounding ball, which distant lights fill.
+    pub fn power(&self, radius: f64) -> f64 {
         match self {
             Light::Area {
                 measure, emission, ..
             } => S::COSINE_INTEGRAL * measure * luminance(*emission).max(0.0),
-            Light::Point { intensity, .. } => S::FULL_ANGLE * luminance(*intensity).max(0.0),
+            // An upper bound for a spot: a selection weight need not be exact.
+            Light::Point { intensity, .. } | Light::Spot { intensity, .. } => {
+                S::FULL_ANGLE * luminance(*intensity).max(0.0)
+            }
+            Light::Distant { irradiance, .. } => {
+                S::cross_section(radius) * luminance(*irradiance).max(0.0)
+            }
+            Light::Sky { radiance } => {
+                S::FULL_ANGLE * S::cross_section(radius) * luminance(*radiance).max(0.0)
+            }
         }
     }
 }
@@ -127,6 +226,12 @@ pub struct Lights<S = Triangle> {
     pub(crate) choice: PowerCdf,
     /// For each scene triangle, its index in `lights` or `u32::MAX`.
     pub(crate) light_of_prim: Vec<u32>,
+    /// The lights that rays leaving the scene see ([`Light::is_infinite`]); empty in scenes
+    /// without, which then never look.
+    pub(crate) infinite: Vec<u32>,
+    /// The scene's bounding ball, which distant lights fill and their shadow rays leave.
+    pub(crate) center: DVec3,
+    pub(crate) radius: f64,
 }
 
 impl<S> Default for Lights<S> {
@@ -135,6 +240,9 @@ impl<S> Default for Lights<S> {
             lights: Vec::new(),
             choice: PowerCdf::default(),
             light_of_prim: Vec::new(),
+            infinite: Vec::new(),
+            center: DVec3::ZERO,
+            radius: 1.0,
         }
     }
 }
@@ -144,12 +252,36 @@ pub type LightSet = Lights<Triangle>;
 
 impl<S: Shape> Lights<S> {
     /// `light_of_prim[t]` is the index in `lights` of triangle t's light, or `u32::MAX`.
-    pub(crate) fn new(lights: Vec<Light<S>>, light_of_prim: Vec<u32>) -> Lights<S> {
-        Lights {
-            choice: PowerCdf::new(lights.iter().map(Light::power)),
+    /// `center` and `radius` bound the scene.
+    pub(crate) fn new(
+        lights: Vec<Light<S>>,
+        light_of_prim: Vec<u32>,
+        center: DVec3,
+        radius: f64,
+    ) -> Lights<S> {
+        let mut set = Lights {
             lights,
             light_of_prim,
-        }
+            center,
+            radius,
+            ..Lights::default()
+        };
+        set.rebuild();
+        set
+    }
+
+    /// Adds a light that is not a triangle of the scene.
+    pub(crate) fn push(&mut self, light: Light<S>) {
+        self.lights.push(light);
+        self.rebuild();
+    }
+
+    fn rebuild(&mut self) {
+        let r = self.radius;
+        self.choice = PowerCdf::new(self.lights.iter().map(|l| l.power(r)));
+        self.infinite = (0..self.lights.len() as u32)
+            .filter(|&i| self.lights[i as usize].is_infinite())
+            .collect();
     }
 
     pub fn is_empty(&self) -> bool {
@@ -157,7 +289,13 @@ impl<S: Shape> Lights<S> {
     }
 
     pub fn total_power(&self) -> f64 {
-        self.lights.iter().map(Light::power).sum()
+        self.lights.iter().map(|l| l.power(self.radius)).sum()
+    }
+
+    /// How far a shadow ray from `x` towards a distant light must run to leave the scene's
+    /// bounding ball.
+    pub fn beyond(&self, x: DVec3) -> f64 {
+        (x - self.center).length() + 2.0 * self.radius
     }
 }
 
@@ -169,6 +307,8 @@ impl LightSet {
         normals: &[DVec3],
         tri_material: &[u32],
         materials: &[Material],
+        center: DVec3,
+        radius: f64,
     ) -> LightSet {
         let mut lights = Vec::new();
         let mut light_of_prim = vec![u32::MAX; triangles.len()];
@@ -191,14 +331,13 @@ impl LightSet {
                 emission: m.emission,
             });
         }
-        Lights::new(lights, light_of_prim)
+        Lights::new(lights, light_of_prim, center, radius)
     }
 
     pub(super) fn add_point(&mut self, position: DVec3, intensity: Rgb) {
-        self.lights.push(Light::Point {
+        self.push(Light::Point {
             position,
             intensity,
         });
-        self.choice = PowerCdf::new(self.lights.iter().map(Light::power));
     }
 }

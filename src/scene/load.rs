@@ -12,10 +12,7 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
 }
 
 /// Loads a scene and adds point lights (position, radiant intensity) to it.
-pub fn load_scene_with_lights(
-    path: &Path,
-    point_lights: &[(glam::DVec3, glam::DVec3)],
-) -> anyhow::Result<Scene> {
+pub fn load_scene_with_lights(path: &Path, lights: &[scene::Light]) -> anyhow::Result<Scene> {
     let mut scene = match extension(path).as_deref() {
         Some("toml") => {
             let sc = scene::sidecar::read(path)?;
@@ -39,8 +36,8 @@ pub fn load_scene_with_lights(
         }
         _ => load_mesh(path)?,
     };
-    for (p, i) in point_lights {
-        scene.add_point_light(*p, *i);
+    for l in lights {
+        scene.add_light(l.clone());
     }
     Ok(scene)
 }

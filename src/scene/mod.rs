@@ -19,6 +19,10 @@ use std::path::{Path, PathBuf};
 
 pub use features::Features;
 pub use light::{Light, LightSet};
+
+/// The sun's angular diameter when a scene or flag does not give one, degrees (as seen from the
+/// Earth).
+pub const DEFAULT_SUN_DIAMETER_DEG: f64 = 0.53;
 pub use material::Material;
 
 /// Axis-aligned bounding box in scene units.
@@ -227,8 +231,25 @@ impl Scene {
             tri_normals.push(ng);
         }
         let accel = Accel::new(&positions, &kept)?;
-        let lights =
-            LightSet::from_emitters(&positions, &kept, &tri_normals, &kept_mat, &materials);
+        let extent = {
+            let d = bounds.diagonal();
+            if d > 0.0 && d.is_finite() { d } else { 1.0 }
+        };
+        // The bounding ball that distant lights fill (about the origin for an empty scene).
+        let center = if bounds.min.x <= bounds.max.x {
+            (bounds.min + bounds.max) * 0.5
+        } else {
+            DVec3::ZERO
+        };
+        let lights = LightSet::from_emitters(
+            &positions,
+            &kept,
+            &tri_normals,
+            &kept_mat,
+            &materials,
+            center,
+            0.5 * extent,
+        );
         let features = Features::of(&materials, &kept_mat, &lights);
         let mut tri_hit = crate::accel::vec_with_huge_pages(kept.len());
         tri_hit.extend(
@@ -256,10 +277,7 @@ impl Scene {
             report,
             cameras: Vec::new(),
             named_slices: Vec::new(),
-            extent: {
-                let d = bounds.diagonal();
-                if d > 0.0 && d.is_finite() { d } else { 1.0 }
-            },
+            extent,
             tri_hit,
             tri_shading,
             flat: None,
@@ -272,6 +290,18 @@ impl Scene {
     pub fn add_point_light(&mut self, position: DVec3, intensity: Rgb) {
         self.lights.add_point(position, intensity);
         self.features.point_lights = true;
+    }
+
+    /// Adds a light that is not a triangle (spot, sun, sky), and says so in the feature set.
+    pub fn add_light(&mut self, light: Light) {
+        match &light {
+            Light::Point { .. } => self.features.point_lights = true,
+            Light::Spot { .. } => self.features.spot_lights = true,
+            Light::Distant { .. } => self.features.sun = true,
+            Light::Sky { .. } => self.features.sky = true,
+            Light::Area { .. } => self.features.area_lights = true,
+        }
+        self.lights.push(light);
     }
 
     /// Prepares a flatland run on `plane` (named `label`, e.g. `z=0`, in messages): checks that the

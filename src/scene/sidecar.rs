@@ -7,6 +7,21 @@
 //! position = [0.0, 1.5, 0.0]
 //! intensity = [5.0, 5.0, 5.0]     # radiant intensity (per steradian), RGB, scene units
 //!
+//! [[spot_light]]                  # glTF's spot: full inside inner_deg, none outside outer_deg
+//! position = [0.0, 1.9, 0.0]
+//! direction = [0.0, -1.0, 0.0]
+//! intensity = [5.0, 5.0, 5.0]     # radiant intensity on the axis (per steradian)
+//! inner_deg = 20.0                # optional, default 0
+//! outer_deg = 30.0                # optional, default 45
+//!
+//! [[sun]]                         # light from beyond the scene
+//! direction = [0.3, 1.0, 0.2]     # towards the sun
+//! irradiance = [3.0, 3.0, 3.0]    # on a surface facing it
+//! diameter_deg = 0.53             # optional, default 0.53; 0: a Dirac delta
+//!
+//! [sky]                           # uniform sky
+//! radiance = [0.2, 0.3, 0.5]
+//!
 //! [[camera]]
 //! name = "front"
 //! eye = [0.0, 1.0, 3.5]
@@ -19,7 +34,7 @@
 //! plane = "z=0"
 //! ```
 
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, Light, Scene};
 use anyhow::{Context, bail};
 use glam::DVec3;
 use serde::Deserialize;
@@ -32,6 +47,11 @@ pub struct Sidecar {
     #[serde(default)]
     pub point_light: Vec<PointLightSpec>,
     #[serde(default)]
+    pub spot_light: Vec<SpotLightSpec>,
+    #[serde(default)]
+    pub sun: Vec<SunSpec>,
+    pub sky: Option<SkySpec>,
+    #[serde(default)]
     pub camera: Vec<CameraSpec>,
     #[serde(default)]
     pub slice: Vec<SliceSpecEntry>,
@@ -42,6 +62,30 @@ pub struct Sidecar {
 pub struct PointLightSpec {
     pub position: [f64; 3],
     pub intensity: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLightSpec {
+    pub position: [f64; 3],
+    pub direction: [f64; 3],
+    pub intensity: [f64; 3],
+    pub inner_deg: Option<f64>,
+    pub outer_deg: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SunSpec {
+    pub direction: [f64; 3],
+    pub irradiance: [f64; 3],
+    pub diameter_deg: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkySpec {
+    pub radiance: [f64; 3],
 }
 
 #[derive(Debug, Deserialize)]
@@ -77,6 +121,43 @@ pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
                 i + 1
             );
         }
+    }
+    let rgb_ok = |v: &[f64; 3]| v.iter().all(|x| x.is_finite() && *x >= 0.0);
+    let dir_ok = |v: &[f64; 3]| DVec3::from(*v).try_normalize().is_some();
+    for (i, l) in sc.spot_light.iter().enumerate() {
+        let (inner, outer) = (l.inner_deg.unwrap_or(0.0), l.outer_deg.unwrap_or(45.0));
+        let valid = l.position.iter().all(|v| v.is_finite())
+            && dir_ok(&l.direction)
+            && rgb_ok(&l.intensity)
+            && 0.0 <= inner
+            && inner < outer
+            && outer <= 90.0;
+        if !valid {
+            bail!(
+                "{}: spot_light #{}: position must be finite, direction finite and not zero, \
+                 intensity finite and ≥ 0, and 0 ≤ inner_deg < outer_deg ≤ 90",
+                path.display(),
+                i + 1
+            );
+        }
+    }
+    for (i, l) in sc.sun.iter().enumerate() {
+        let d = l
+            .diameter_deg
+            .unwrap_or(crate::scene::DEFAULT_SUN_DIAMETER_DEG);
+        if !dir_ok(&l.direction) || !rgb_ok(&l.irradiance) || !(0.0..180.0).contains(&d) {
+            bail!(
+                "{}: sun #{}: direction must be finite and not zero, irradiance finite and ≥ 0, \
+                 and 0 ≤ diameter_deg < 180",
+                path.display(),
+                i + 1
+            );
+        }
+    }
+    if let Some(sky) = &sc.sky
+        && !rgb_ok(&sky.radiance)
+    {
+        bail!("{}: sky: radiance must be finite and ≥ 0", path.display());
     }
     for (i, c) in sc.camera.iter().enumerate() {
         if !(c.fov > 0.0 && c.fov < 180.0) {
@@ -117,6 +198,30 @@ pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
 pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
     for l in &sc.point_light {
         scene.add_point_light(DVec3::from(l.position), DVec3::from(l.intensity));
+    }
+    for l in &sc.spot_light {
+        scene.add_light(Light::Spot {
+            position: DVec3::from(l.position),
+            direction: DVec3::from(l.direction).normalize(),
+            intensity: DVec3::from(l.intensity),
+            cos_inner: l.inner_deg.unwrap_or(0.0).to_radians().cos(),
+            cos_outer: l.outer_deg.unwrap_or(45.0).to_radians().cos(),
+        });
+    }
+    for l in &sc.sun {
+        let d = l
+            .diameter_deg
+            .unwrap_or(crate::scene::DEFAULT_SUN_DIAMETER_DEG);
+        scene.add_light(Light::distant(
+            DVec3::from(l.direction).normalize(),
+            DVec3::from(l.irradiance),
+            0.5 * d.to_radians(),
+        ));
+    }
+    if let Some(sky) = &sc.sky {
+        scene.add_light(Light::Sky {
+            radiance: DVec3::from(sky.radiance),
+        });
     }
     for c in &sc.camera {
         scene.cameras.push(camera_of(c)?);

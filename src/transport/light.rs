@@ -86,6 +86,16 @@ pub(crate) fn emitter_pdf(
     p_choice * falloff(d2, dist, dims) / (measure * cos_l)
 }
 
+/// glTF's spot falloff (`KHR_lights_punctual`): with `cd` the cosine between the spot's axis and
+/// the direction to the receiver, `t = clamp((cd − cos_outer) / max(0.001, cos_inner − cos_outer),
+/// 0, 1)` and the intensity scales by t².
+#[inline]
+pub fn spot_falloff(cd: f64, cos_inner: f64, cos_outer: f64) -> f64 {
+    let scale = 1.0 / (cos_inner - cos_outer).max(0.001);
+    let t = ((cd - cos_outer) * scale).clamp(0.0, 1.0);
+    t * t
+}
+
 /// The connection from `x` to an isotropic point light of radiant intensity `intensity` (per
 /// steradian in 3D, per radian in flatland) chosen with probability `p_choice`: what arrives is
 /// `I / dist^(dims−1)`, and only light sampling finds it (`delta`).
@@ -120,6 +130,7 @@ impl<S: Shape> Lights<S> {
     #[inline]
     pub fn sample<D: Space<Shape = S>>(
         &self,
+        sp: &D,
         x: DVec3,
         u_light: f64,
         u: (f64, f64),
@@ -145,7 +156,79 @@ impl<S: Shape> Lights<S> {
                 position,
                 intensity,
             } => connect_point(x, *position, *intensity, p_choice, D::DIMS),
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let mut ls = connect_point(x, *position, *intensity, p_choice, D::DIMS)?;
+                ls.li *= spot_falloff(-ls.wi.dot(*direction), *cos_inner, *cos_outer);
+                Some(ls)
+            }
+            Light::Distant {
+                direction,
+                irradiance,
+                half_angle,
+                radiance,
+                measure,
+                ..
+            } => {
+                let dist = self.beyond(x);
+                if *half_angle > 0.0 {
+                    Some(LightSample {
+                        wi: sp.cone(*direction, *half_angle, u),
+                        dist,
+                        li: *radiance,
+                        pdf: p_choice / measure,
+                        delta: false,
+                    })
+                } else {
+                    Some(LightSample {
+                        wi: *direction,
+                        dist,
+                        li: *irradiance,
+                        pdf: p_choice,
+                        delta: true,
+                    })
+                }
+            }
+            Light::Sky { radiance } => Some(LightSample {
+                wi: sp.uniform(u),
+                dist: self.beyond(x),
+                li: *radiance,
+                pdf: p_choice * D::PDF_UNIFORM,
+                delta: false,
+            }),
         }
+    }
+
+    /// The radiance that a ray leaving the scene along `d` collects from each light it sees
+    /// ([`Light::is_infinite`]: the sky, a sun with a disc), each with the density with which
+    /// [`sample`](Self::sample) picks `d` for that light: `f(radiance, density)` per light.
+    #[inline]
+    pub fn escaped<D: Space<Shape = S>>(&self, d: DVec3, mut f: impl FnMut(Rgb, f64)) {
+        for &i in &self.infinite {
+            let p = self.choice.prob(i as usize);
+            match &self.lights[i as usize] {
+                Light::Sky { radiance } => f(*radiance, p * D::PDF_UNIFORM),
+                Light::Distant {
+                    direction,
+                    cos_max,
+                    radiance,
+                    measure,
+                    ..
+                } if d.dot(*direction) >= *cos_max => f(*radiance, p / measure),
+                _ => {}
+            }
+        }
+    }
+
+    /// Whether rays leaving the scene see any light ([`escaped`](Self::escaped) finds some).
+    #[inline(always)]
+    pub fn has_infinite(&self) -> bool {
+        !self.infinite.is_empty()
     }
 
     /// Density (per steradian, or radian) with which [`sample`](Self::sample) picks the point `y`

@@ -99,6 +99,12 @@ impl Space for Sphere {
     }
 
     #[inline(always)]
+    fn cone(&self, axis: DVec3, alpha: f64, u: (f64, f64)) -> DVec3 {
+        let h = (0.5 * alpha).sin();
+        Frame::from_z(axis).to_world(sample_uniform_cone_1mc(u, 2.0 * h * h))
+    }
+
+    #[inline(always)]
     fn cosine(&self, n: DVec3, u: (f64, f64)) -> DVec3 {
         Frame::from_z(n).to_world(sample_cosine_hemisphere(u))
     }
@@ -198,6 +204,12 @@ impl Space for Flatland {
             2.0 * half.sin(),
             half.tan() / tan_half_max,
         )
+    }
+
+    #[inline(always)]
+    fn cone(&self, axis: DVec3, alpha: f64, u: (f64, f64)) -> DVec3 {
+        let (s, c) = (alpha * (2.0 * u.0 - 1.0)).sin_cos();
+        self.rotate(axis, c, s)
     }
 
     /// θ = asin(2u − 1) from the normal: density cos θ / 2 per radian.

@@ -147,14 +147,19 @@ fn power_heuristic(a: f64, b: f64) -> f64 {
 }
 
 /// A radiance estimate split by what can also be reached by sampling the lights from the start
-/// point: the emission of the first surface seen (`direct`, with the solid-angle density `direct_pdf`
-/// with which light sampling at the start point picks that surface point) and everything else
-/// (`rest`: light reflected by the first surface and beyond).
+/// point: the emission of the first surface seen, or of the sky and sun when the start ray leaves
+/// the scene (`direct`, with the solid-angle density `direct_pdf` with which light sampling at the
+/// start point picks that surface point) and everything else (`rest`: light reflected by the first
+/// surface and beyond).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Radiance {
     pub direct: Rgb,
     pub direct_pdf: f64,
     pub rest: Rgb,
+    /// The start ray left the scene: `direct` is what the sky and sun discs give along it, and
+    /// each of them has its own light-sampling density (see `Lights::escaped`), not
+    /// `direct_pdf`.
+    pub escaped: bool,
 }
 
 impl Radiance {
@@ -190,6 +195,23 @@ pub fn radiance<K: Kernel>(
     loop {
         st.rays += 1;
         let Some(hit) = trace::intersect::<K>(scene, origin, d, f64::INFINITY) else {
+            // Leaving the scene: the sky and a sun disc, if there are any.
+            if lights.has_infinite() {
+                if depth == 0 {
+                    // The start direction's own MIS is its caller's (`escaped` again, per light).
+                    lights.escaped::<K::Space>(d, |le, _| out.direct += le);
+                    out.escaped = true;
+                } else {
+                    lights.escaped::<K::Space>(d, |le, p_light| {
+                        let w = if prev_delta {
+                            1.0
+                        } else {
+                            power_heuristic(prev_pdf, p_light)
+                        };
+                        l += beta * le * w;
+                    });
+                }
+            }
             break;
         };
         if depth == 0 {
@@ -219,7 +241,7 @@ pub fn radiance<K: Kernel>(
         if !bsdf.is_delta() && !lights_empty {
             let u_l = s.next_f64();
             let u = s.next_2d();
-            if let Some(ls) = lights.sample::<K::Space>(hit.p, u_l, u) {
+            if let Some(ls) = lights.sample(sp, hit.p, u_l, u) {
                 let f = bsdf.eval_in::<K::Space>(lobe, wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
                 if f != Rgb::ZERO {
                     st.rays += 1;

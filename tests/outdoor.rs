@@ -1,0 +1,385 @@
+//! Lights of the outdoors: the sun (a Dirac delta, or a disc of uniform radiance), a uniform sky and
+//! spot lights, in 3D and in flatland, against closed forms that do not come from the code:
+//! - a Lambertian surface of albedo ρ under irradiance E reflects radiance ρ E / π (3D) or ρ E / 2
+//!   (flatland, where f = ρ/2); the sun at angle θ to the normal gives E cos θ, also with a disc
+//!   (∫ L cos over a cone about s is L (n·s) π sin²α, or L (n·s) 2 sin α in flatland, as long as
+//!   the disc is above the horizon);
+//! - a sky of radiance L gives irradiance π L (3D) or 2 L (flatland), so the plane reflects ρ L;
+//!   inside a closed box no sky light arrives;
+//! - a spot light follows glTF's `KHR_lights_punctual` falloff, written out here from the
+//!   specification.
+//!
+//! Monte Carlo checks use fixed seeds and a tolerance of 4 standard errors computed from the same
+//! samples; estimates whose every sample is the same number (next-event estimation of a delta
+//! light) are checked to rounding.
+
+use crate::bsdf::mean_and_se;
+use crate::geometry::scene_path;
+use ftpd3d::kernel::{Radiance3D, RadianceFlat};
+use ftpd3d::math::Rgb;
+use ftpd3d::rng::Sampler;
+use ftpd3d::scene::flat::Flatland;
+use ftpd3d::scene::load::load_scene;
+use ftpd3d::scene::{Light, Material, Scene};
+use ftpd3d::transport::walk::{RadianceStats, radiance};
+use glam::{DVec3, Vec3};
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// The shipped 20 × 20 plane at y = 0 (albedo 0.8) with `light` added; flatland on z = 0 when
+/// `flat`.
+fn plane_with(light: Light, flat: bool) -> Scene {
+    let mut scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    scene.add_light(light);
+    if flat {
+        let pl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
+        scene.prepare_flatland(pl, "z=0").unwrap();
+    }
+    scene
+}
+
+const RHO: f64 = 0.8;
+
+/// Mean and standard error of the radiance (luminance of grey = any channel) arriving at `x`
+/// from the plane point `q`.
+fn radiance_at(scene: &Scene, x: DVec3, q: DVec3, flat: bool, n: usize, seed: u64) -> (f64, f64) {
+    let (mean, se, _, _) = radiance_stats(scene, x, q, flat, n, seed);
+    (mean, se)
+}
+
+/// [`radiance_at`] with the smallest and largest sample.
+fn radiance_stats(
+    scene: &Scene,
+    x: DVec3,
+    q: DVec3,
+    flat: bool,
+    n: usize,
+    seed: u64,
+) -> (f64, f64, f64, f64) {
+    let mut s = Sampler::new(seed, 0, 0);
+    let (mut sum, mut sum2) = (0.0, 0.0);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for _ in 0..n {
+        let mut st = RadianceStats::default();
+        let look = (q - x).normalize();
+        let r = if flat {
+            radiance::<RadianceFlat>(scene, x, look, 16, &mut s, &mut st)
+        } else {
+            radiance::<Radiance3D>(scene, x, look, 16, &mut s, &mut st)
+        };
+        let l = r.total();
+        assert!(l.x == l.y && l.y == l.z && l.x.is_finite());
+        sum += l.x;
+        sum2 += l.x * l.x;
+        lo = lo.min(l.x);
+        hi = hi.max(l.x);
+    }
+    let (mean, se) = mean_and_se(sum, sum2, n);
+    (mean, se, lo, hi)
+}
+
+/// Every sample equals `expected` to rounding.
+fn all_equal(lo: f64, hi: f64, expected: f64) -> bool {
+    let tol = 1e-13 * expected.abs().max(1e-300);
+    (lo - expected).abs() <= tol && (hi - expected).abs() <= tol
+}
+
+/// A delta sun: every estimate is next-event estimation of one direction, so each sample is
+/// ρ/π · E cos θ (ρ/2 · E cos θ in flatland) to rounding.
+#[test]
+fn delta_sun_over_a_diffuse_plane_gives_e_cos_theta() {
+    let e = 2.5;
+    for flat in [false, true] {
+        for theta_deg in [0.0f64, 30.0, 75.0] {
+            let t = theta_deg.to_radians();
+            let dir = DVec3::new(t.sin(), t.cos(), 0.0);
+            let scene = plane_with(Light::distant(dir, Rgb::splat(e), 0.0), flat);
+            let brdf = if flat { RHO / 2.0 } else { RHO / PI };
+            let expected = brdf * e * t.cos();
+            let x = DVec3::new(0.2, 1.0, 0.0);
+            for qx in [-2.0, 0.0, 3.0] {
+                let q = DVec3::new(qx, 0.0, 0.0);
+                let (_, _, lo, hi) = radiance_stats(&scene, x, q, flat, 64, 5);
+                assert!(
+                    all_equal(lo, hi, expected),
+                    "flat {flat}, θ {theta_deg}°: samples in [{lo}, {hi}] vs {expected}"
+                );
+            }
+        }
+    }
+}
+
+/// A sun with a disc (here 10°, wide enough for the disc to matter): light sampling over the cone
+/// and BSDF samples that reach the disc, weighted by MIS, give E cos θ on average.
+#[test]
+fn sun_with_a_disc_gives_e_cos_theta_within_4_standard_errors() {
+    let e = 2.0;
+    for flat in [false, true] {
+        for theta_deg in [0.0f64, 50.0] {
+            let t = theta_deg.to_radians();
+            let dir = DVec3::new(t.sin(), t.cos(), 0.0);
+            let half = 5.0f64.to_radians();
+            let scene = plane_with(Light::distant(dir, Rgb::splat(e), half), flat);
+            let brdf = if flat { RHO / 2.0 } else { RHO / PI };
+            let expected = brdf * e * t.cos();
+            let x = DVec3::new(0.0, 1.0, 0.0);
+            let (mean, se) = radiance_at(&scene, x, DVec3::new(0.5, 0.0, 0.0), flat, 40_000, 7);
+            eprintln!("flat {flat}, θ {theta_deg}°: {mean:.6} ± {se:.6} vs {expected:.6}");
+            assert!(se > 0.0, "a disc is sampled, not a delta");
+            assert!(
+                (mean - expected).abs() <= 4.0 * se,
+                "flat {flat}, θ {theta_deg}°: {mean} ± {se} vs {expected}"
+            );
+        }
+    }
+}
+
+/// Rays that leave the scene see the disc exactly within its angular radius: the radiance seen
+/// looking straight at the sun is E / (π sin²α) (3D) or E / (2 sin α) (flatland), and none just
+/// outside it.
+#[test]
+fn looking_at_the_sun_disc_sees_its_radiance_and_nothing_beside_it() {
+    let (e, half) = (3.0, 2.0f64.to_radians());
+    for flat in [false, true] {
+        let dir = DVec3::new(0.6, 0.8, 0.0);
+        let scene = plane_with(Light::distant(dir, Rgb::splat(e), half), flat);
+        let expected = if flat {
+            e / (2.0 * half.sin())
+        } else {
+            e / (PI * half.sin().powi(2))
+        };
+        let x = DVec3::new(0.0, 1.0, 0.0);
+        let mut s = Sampler::new(3, 0, 0);
+        let mut st = RadianceStats::default();
+        let hit = if flat {
+            radiance::<RadianceFlat>(&scene, x, dir, 4, &mut s, &mut st)
+        } else {
+            radiance::<Radiance3D>(&scene, x, dir, 4, &mut s, &mut st)
+        };
+        assert!(hit.escaped);
+        assert!(
+            (hit.direct.x - expected).abs() <= 1e-12 * expected,
+            "{hit:?}"
+        );
+        // 1.1 α away, in the plane z = 0 (so also in flatland's plane).
+        let a = 1.1 * half;
+        let beside = DVec3::new(
+            dir.x * a.cos() - dir.y * a.sin(),
+            dir.x * a.sin() + dir.y * a.cos(),
+            0.0,
+        );
+        let miss = if flat {
+            radiance::<RadianceFlat>(&scene, x, beside, 4, &mut s, &mut st)
+        } else {
+            radiance::<Radiance3D>(&scene, x, beside, 4, &mut s, &mut st)
+        };
+        assert_eq!(miss.total(), Rgb::ZERO, "flat {flat}");
+    }
+}
+
+/// A uniform sky over the plane: irradiance π L (3D) or 2 L (flatland), so the plane reflects
+/// ρ L in both.
+#[test]
+fn sky_over_a_diffuse_plane_gives_rho_times_its_radiance() {
+    let l = 1.5;
+    for flat in [false, true] {
+        let scene = plane_with(
+            Light::Sky {
+                radiance: Rgb::splat(l),
+            },
+            flat,
+        );
+        let x = DVec3::new(0.0, 1.0, 0.0);
+        let (mean, se) = radiance_at(&scene, x, DVec3::new(-0.7, 0.0, 0.0), flat, 40_000, 11);
+        let expected = RHO * l;
+        eprintln!("flat {flat}: {mean:.6} ± {se:.6} vs {expected:.6}");
+        assert!(se > 0.0);
+        assert!(
+            (mean - expected).abs() <= 4.0 * se,
+            "flat {flat}: {mean} ± {se} vs {expected}"
+        );
+        // Looking up: the sky itself.
+        let mut s = Sampler::new(2, 0, 0);
+        let mut st = RadianceStats::default();
+        let up = if flat {
+            radiance::<RadianceFlat>(&scene, x, DVec3::Y, 4, &mut s, &mut st)
+        } else {
+            radiance::<Radiance3D>(&scene, x, DVec3::Y, 4, &mut s, &mut st)
+        };
+        assert_eq!(up.total(), Rgb::splat(l));
+    }
+}
+
+/// A closed cube (faces towards the inside) under a sky and a sun: no light gets in.
+#[test]
+fn no_sky_or_sun_light_reaches_the_inside_of_a_closed_box() {
+    let c = [
+        [-1.0, -1.0, -1.0],
+        [1.0, -1.0, -1.0],
+        [1.0, 1.0, -1.0],
+        [-1.0, 1.0, -1.0],
+        [-1.0, -1.0, 1.0],
+        [1.0, -1.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [-1.0, 1.0, 1.0],
+    ];
+    let positions: Vec<Vec3> = c.iter().map(|p| Vec3::from_array(*p)).collect();
+    let quads = [
+        [0, 1, 2, 3],
+        [4, 7, 6, 5],
+        [0, 4, 5, 1],
+        [3, 2, 6, 7],
+        [0, 3, 7, 4],
+        [1, 5, 6, 2],
+    ];
+    let triangles: Vec<[u32; 3]> = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    let n = triangles.len();
+    let mut scene = Scene::build(
+        Path::new("closed-box"),
+        positions,
+        Vec::new(),
+        triangles,
+        vec![0; n],
+        vec![Material::diffuse("wall", Rgb::splat(0.9))],
+        Default::default(),
+    )
+    .unwrap();
+    scene.add_light(Light::Sky { radiance: Rgb::ONE });
+    scene.add_light(Light::distant(DVec3::Y, Rgb::splat(5.0), 0.01));
+    let mut s = Sampler::new(13, 0, 0);
+    for _ in 0..5000 {
+        let look = ftpd3d::transport::sampling::sample_uniform_sphere(s.next_2d());
+        let mut st = RadianceStats::default();
+        let r = radiance::<Radiance3D>(
+            &scene,
+            DVec3::new(0.1, -0.2, 0.3),
+            look,
+            16,
+            &mut s,
+            &mut st,
+        );
+        assert_eq!(r.total(), Rgb::ZERO);
+    }
+}
+
+/// glTF's spot falloff, from the `KHR_lights_punctual` specification.
+fn gltf_spot(cd: f64, inner: f64, outer: f64) -> f64 {
+    let scale = 1.0 / f64::max(0.001, inner.cos() - outer.cos());
+    let offset = -outer.cos() * scale;
+    let a = (cd * scale + offset).clamp(0.0, 1.0);
+    a * a
+}
+
+/// A spot light pointing down at the plane: ρ/π · I · falloff · cos θ / d² inside its cone, in
+/// its smooth edge and outside (0).
+#[test]
+fn spot_light_follows_the_gltf_falloff() {
+    let (inner, outer) = (20.0f64.to_radians(), 35.0f64.to_radians());
+    let (pos, i) = (DVec3::new(0.0, 2.0, 0.0), 4.0);
+    let dir = DVec3::new(0.0, -1.0, 0.0);
+    let scene = plane_with(
+        Light::Spot {
+            position: pos,
+            direction: dir,
+            intensity: Rgb::splat(i),
+            cos_inner: inner.cos(),
+            cos_outer: outer.cos(),
+        },
+        false,
+    );
+    let x = DVec3::new(0.0, 1.0, 0.5);
+    let mut seen = [false; 3];
+    for qx in [0.3, 0.8, 1.0, 1.2, 2.0] {
+        let q = DVec3::new(qx, 0.0, 0.0);
+        let to = pos - q;
+        let d = to.length();
+        let cd = (-to / d).dot(dir);
+        let f = gltf_spot(cd, inner, outer);
+        seen[if f == 1.0 {
+            0
+        } else if f > 0.0 {
+            1
+        } else {
+            2
+        }] = true;
+        let expected = RHO / PI * i * f * (to.y / d) / (d * d);
+        let (_, _, lo, hi) = radiance_stats(&scene, x, q, false, 32, 17);
+        assert!(
+            all_equal(lo, hi, expected),
+            "q {qx}: samples in [{lo}, {hi}] vs {expected}"
+        );
+    }
+    assert!(
+        seen.iter().all(|s| *s),
+        "inside, edge and outside all checked"
+    );
+}
+
+/// The radiance-weighted FTPD estimator's direction weights average to the fluence ∫ L dω. Under
+/// a sky of radiance L and a sun with a disc, at height h = 1 over the centre of the 20 × 20 plane,
+/// which covers the solid angle Ω_p = 4 asin(a² / (a² + h²)) (a = 10): the sky's L over the
+/// 4π − Ω_p that miss the plane (the sky surrounds the scene, also below a finite plane's
+/// horizon), L_sun Ω_sun from the disc, and the plane's radiance ρ L + ρ/π E cos θ over Ω_p. In
+/// flatland: L (2π − θ_p), L_sun 2α and ρ L + ρ/2 E cos θ over θ_p = 2 atan(a / h). Uniform directions and light sampling are
+/// combined by MIS, including for directions that leave the scene.
+#[test]
+fn fluence_under_sky_and_sun_matches_the_closed_form() {
+    use ftpd3d::ftpd::{Params, Weighting, sample_point};
+    let (l, e, half, theta) = (0.7, 2.0, 4.0f64.to_radians(), 30.0f64.to_radians());
+    let (a, h) = (10.0f64, 1.0f64);
+    for flat in [false, true] {
+        let mut scene = plane_with(
+            Light::Sky {
+                radiance: Rgb::splat(l),
+            },
+            false,
+        );
+        let dir = DVec3::new(theta.sin(), theta.cos(), 0.0);
+        scene.add_light(Light::distant(dir, Rgb::splat(e), half));
+        let pl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
+        if flat {
+            scene.prepare_flatland(pl, "z=0").unwrap();
+        }
+        let expected = if flat {
+            let l_sun = e / (2.0 * half.sin());
+            let theta_plane = 2.0 * (a / h).atan();
+            l * (2.0 * PI - theta_plane)
+                + l_sun * 2.0 * half
+                + (RHO * l + RHO / 2.0 * e * theta.cos()) * theta_plane
+        } else {
+            let l_sun = e / (PI * half.sin().powi(2));
+            let omega_sun = 2.0 * PI * (1.0 - half.cos());
+            let omega_plane = 4.0 * (a * a / (a * a + h * h)).asin();
+            l * (4.0 * PI - omega_plane)
+                + l_sun * omega_sun
+                + (RHO * l + RHO / PI * e * theta.cos()) * omega_plane
+        };
+        let p = Params {
+            t0: 0.5,
+            t1: 1.0,
+            theta_max: 0.1,
+            weighting: Weighting::Radiance,
+            max_bounces: 16,
+            flat: flat.then_some(pl),
+        };
+        let mut s = Sampler::new(19, 0, 0);
+        let n = 200_000;
+        let (mut sum, mut sum2) = (0.0, 0.0);
+        for _ in 0..n {
+            let w = sample_point(&scene, DVec3::new(0.0, h, 0.0), &p, &mut s)
+                .weight
+                .x;
+            sum += w;
+            sum2 += w * w;
+        }
+        let (mean, se) = mean_and_se(sum, sum2, n);
+        eprintln!("flat {flat}: fluence {mean:.5} ± {se:.5} vs {expected:.5}");
+        assert!(
+            (mean - expected).abs() <= 4.0 * se,
+            "flat {flat}: {mean} ± {se} vs {expected}"
+        );
+    }
+}
