@@ -370,6 +370,9 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
         "radiance-estimate",
         "area-lights",
         "point-lights",
+        "spot-lights",
+        "sun",
+        "sky",
         "light-sampling",
         "flatland",
     ];
@@ -435,6 +438,11 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
             &["--slice", "z=0", "--flatland", "--weight", "unweighted"],
             "lambertian-reflection mirror-reflection flatland".into(),
         ),
+        (
+            "diffuse_plane.obj",
+            &["--sun", "-0.3,1,0.2:3,3,3", "--sky", "0.2,0.3,0.5"],
+            "lambertian-reflection radiance-estimate sun sky light-sampling".into(),
+        ),
     ];
     for (scene, extra, simulates) in cases {
         let path = scene_path(scene);
@@ -483,6 +491,16 @@ fn flags_take_negative_numbers() {
             "--eye", "-1,1,3", "--target", "-0.2,1,0", "--up", "-0,1,0", "-o", "b.exr",
         ],
         &["--volume", "4", "--box", "-1,0,-1,1,2,1", "-o", "c.vti"],
+        &[
+            "--slice",
+            "z=0",
+            "--sun",
+            "-0.3,1,-0.2:3,3,3:0",
+            "--sky",
+            "0.2,0.3,0.5",
+            "-o",
+            "d.exr",
+        ],
     ];
     for args in runs {
         let mut all = vec![
@@ -501,6 +519,11 @@ fn flags_take_negative_numbers() {
     }
     let a = ftpd3d::output::exr::read_exr(&dir.join("a.exr")).unwrap();
     assert_eq!(a.meta["point_lights"], "-0.5,1.5,0:1,1,1");
+    let d = ftpd3d::output::exr::read_exr(&dir.join("d.exr")).unwrap();
+    // The direction is stored normalised, with the diameter in degrees.
+    let sun = &d.meta["sun"];
+    assert!(sun.starts_with('-') && sun.ends_with(":3,3,3:0"), "{sun}");
+    assert_eq!(d.meta["sky"], "0.2,0.3,0.5");
     std::fs::remove_dir_all(&dir).ok();
 }
 

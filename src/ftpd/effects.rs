@@ -74,6 +74,33 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
             },
         ),
         e(
+            "spot-lights",
+            radiance && f.spot_lights,
+            if radiance {
+                "no spot light"
+            } else {
+                "no radiance estimate"
+            },
+        ),
+        e(
+            "sun",
+            radiance && f.sun,
+            if radiance {
+                "no sun"
+            } else {
+                "no radiance estimate"
+            },
+        ),
+        e(
+            "sky",
+            radiance && f.sky,
+            if radiance {
+                "no sky: rays that leave the scene collect nothing"
+            } else {
+                "no radiance estimate"
+            },
+        ),
+        e(
             "light-sampling",
             radiance && has_lights,
             if radiance {
