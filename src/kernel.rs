@@ -21,6 +21,7 @@
 //! This module names scene data only: every layer from transport up may name a kernel.
 
 use crate::rng::Sampler;
+use crate::scene::env::Environment;
 use crate::scene::light::{Lights, Shape};
 use crate::scene::material::Bsdf;
 use crate::scene::{Hit, Scene};
@@ -92,6 +93,11 @@ pub trait Space: Send + Sync + 'static {
     /// The Phong BRDF per unit `ks` at cosine `cos_a` to the mirror direction, with `cos_i` and
     /// `cos_o` the cosines of the two directions to the shading normal.
     fn phong_brdf(lobe: &Self::Lobe, exponent: f64, cos_a: f64, cos_i: f64, cos_o: f64) -> f64;
+    /// A direction towards the environment map, with its density per steradian (radian); `None`
+    /// where the tables give none.
+    fn env_sample(env: &Environment, u: (f64, f64)) -> Option<(DVec3, f64)>;
+    /// The density of [`env_sample`](Self::env_sample) at the unit `d`.
+    fn env_pdf(env: &Environment, d: DVec3) -> f64;
     /// The point of an emitter's shape for the uniform `u` (uniform by area or length).
     fn point_on(shape: &Self::Shape, u: (f64, f64)) -> DVec3;
 }

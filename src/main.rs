@@ -4,8 +4,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use ftpd3d::analysis::converge::{self, ConvergeJob};
 use ftpd3d::app::{self, CameraArg, DomainArg, Job};
 use ftpd3d::cli::parse::{
-    parse_duration, parse_point_light, parse_size, parse_sky, parse_sun, parse_vec3, parse_volume,
-    parse_window,
+    parse_duration, parse_env, parse_point_light, parse_size, parse_sky, parse_sun, parse_vec3,
+    parse_volume, parse_window,
 };
 use ftpd3d::cli::{bench, explain, report};
 use ftpd3d::domain::slice::SliceArg;
@@ -133,6 +133,10 @@ struct EstimatorFlags {
     /// Add a uniform sky: radiance r,g,b from every direction that leaves the scene.
     #[arg(long, value_name = "R,G,B", value_parser = parse_sky)]
     sky: Option<ftpd3d::scene::Light>,
+    /// Add an environment map: a lat-long .exr or .hdr (+y up), its radiance × SCALE [default: 1],
+    /// turned about +y by ROT_DEG degrees [default: 0].
+    #[arg(long, value_name = "FILE[:SCALE[:ROT_DEG]]", allow_hyphen_values = true, value_parser = parse_env)]
+    env: Option<ftpd3d::scene::Light>,
     /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
@@ -160,6 +164,7 @@ impl EstimatorFlags {
         points
             .chain(self.sun.iter().cloned())
             .chain(self.sky.clone())
+            .chain(self.env.clone())
             .collect()
     }
 

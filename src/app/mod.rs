@@ -359,6 +359,11 @@ fn annotate_point_lights(field: &mut Field, job: &Job) {
                 (2.0 * half_angle).to_degrees()
             )),
             Light::Sky { radiance } => skies.push(fmt_vec(*radiance)),
+            Light::Env(env) => skies.push(format!(
+                "{}:{}",
+                env.map.source,
+                env.map.rotation.to_degrees()
+            )),
             Light::Area { .. } | Light::Spot { .. } => {}
         }
     }

@@ -52,14 +52,17 @@ pub fn explain(
             Light::Point { .. } => 1,
             Light::Spot { .. } => 2,
             Light::Distant { .. } => 3,
-            Light::Sky { .. } => 4,
+            Light::Sky { .. } | Light::Env(_) => 4,
         }] += 1;
     }
     let mut kinds = format!(
         "{} emissive triangles, {} point lights",
         counts[0], counts[1]
     );
-    for (n, what) in counts[2..].iter().zip(["spot lights", "suns", "skies"]) {
+    for (n, what) in counts[2..]
+        .iter()
+        .zip(["spot lights", "suns", "skies and environment maps"])
+    {
         if *n > 0 {
             kinds += &format!(", {n} {what}");
         }

@@ -72,6 +72,34 @@ pub fn parse_sky(s: &str) -> Result<crate::scene::Light, String> {
     Ok(crate::scene::Light::Sky { radiance })
 }
 
+/// Parses `--env FILE[:SCALE[:ROT_DEG]]` and reads the map: a lat-long `.exr` or `.hdr` (+y up),
+/// its radiance scaled by SCALE (default 1) and turned about +y by ROT_DEG degrees (default 0).
+pub fn parse_env(s: &str) -> Result<crate::scene::Light, String> {
+    // The file name may itself hold ':' only before the last two fields that parse as numbers.
+    let mut parts: Vec<&str> = s.split(':').collect();
+    let mut nums = Vec::new();
+    while parts.len() > 1 && nums.len() < 2 {
+        match parts.last().unwrap().trim().parse::<f64>() {
+            Ok(v) => {
+                nums.push(v);
+                parts.pop();
+            }
+            Err(_) => break,
+        }
+    }
+    nums.reverse();
+    let file = parts.join(":");
+    let (scale, rot) = (
+        nums.first().copied().unwrap_or(1.0),
+        nums.get(1).copied().unwrap_or(0.0),
+    );
+    let map = crate::scene::env::EnvMap::load(std::path::Path::new(&file), scale, rot)
+        .map_err(|e| format!("{e:#}"))?;
+    Ok(crate::scene::Light::Env(
+        crate::scene::env::Environment::new(map),
+    ))
+}
+
 /// Parses `X,Y,Z` (`--eye`, `--target`, `--up`).
 pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
     parse_floats(s, "x,y,z").map(DVec3::from)

@@ -50,7 +50,7 @@ impl Features {
                 Light::Point { .. } => f.point_lights = true,
                 Light::Spot { .. } => f.spot_lights = true,
                 Light::Distant { .. } => f.sun = true,
-                Light::Sky { .. } => f.sky = true,
+                Light::Sky { .. } | Light::Env(_) => f.sky = true,
             }
         }
         f

@@ -431,6 +431,7 @@ impl FlatScene {
                 Light::Sky { radiance } => others.push(Light::Sky {
                     radiance: *radiance,
                 }),
+                Light::Env(env) => others.push(Light::Env(env.in_plane(plane.e1, plane.e2))),
             }
         }
         for l in others {

@@ -3,6 +3,7 @@
 //! densities at the receiving point are light transport (`crate::transport::light`).
 
 use crate::math::{Rgb, luminance};
+use crate::scene::env::Environment;
 use crate::scene::material::Material;
 use glam::{DVec3, Vec3};
 use std::f64::consts::{PI, TAU};
@@ -109,6 +110,8 @@ pub enum Light<S = Triangle> {
     },
     /// Constant radiance `radiance` from every direction that leaves the scene (a uniform sky).
     Sky { radiance: Rgb },
+    /// Radiance from a lat-long HDR map in every direction that leaves the scene.
+    Env(Environment),
 }
 
 impl<S: Shape> Light<S> {
@@ -136,13 +139,16 @@ impl<S: Shape> Light<S> {
     /// Seen by rays that leave the scene (sky, or a sun with a disc), so a path that escapes
     /// collects it.
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Sky { .. })
+        matches!(self, Light::Sky { .. } | Light::Env(_))
             || matches!(self, Light::Distant { half_angle, .. } if *half_angle > 0.0)
     }
 
     /// Outside the scene (sky and sun): shadow rays towards it run past the scene's bounds.
     pub fn is_distant(&self) -> bool {
-        matches!(self, Light::Sky { .. } | Light::Distant { .. })
+        matches!(
+            self,
+            Light::Sky { .. } | Light::Env(_) | Light::Distant { .. }
+        )
     }
 }
 
@@ -164,6 +170,7 @@ impl<S: Shape> Light<S> {
             Light::Sky { radiance } => {
                 S::FULL_ANGLE * S::cross_section(radius) * luminance(*radiance).max(0.0)
             }
+            Light::Env(env) => S::FULL_ANGLE * S::cross_section(radius) * env.mean_weight(),
         }
     }
 }

@@ -26,7 +26,7 @@ pub fn load_scene_with_lights(path: &Path, lights: &[scene::Light]) -> anyhow::R
             }
             let mut scene = load_mesh(&mesh)
                 .with_context(|| format!("{}: loading its mesh", path.display()))?;
-            scene::sidecar::apply(&sc, &mut scene)?;
+            scene::sidecar::apply(&sc, path, &mut scene)?;
             scene.named_slices = sc
                 .slice
                 .iter()

@@ -2,6 +2,7 @@
 //! optional per-vertex shading normals, lights, bounds and the feature set. Built by a loader
 //! ([`obj`], [`gltf`]), then immutable.
 
+pub mod env;
 pub mod features;
 pub mod flat;
 pub mod gltf;
@@ -298,7 +299,7 @@ impl Scene {
             Light::Point { .. } => self.features.point_lights = true,
             Light::Spot { .. } => self.features.spot_lights = true,
             Light::Distant { .. } => self.features.sun = true,
-            Light::Sky { .. } => self.features.sky = true,
+            Light::Sky { .. } | Light::Env(_) => self.features.sky = true,
             Light::Area { .. } => self.features.area_lights = true,
         }
         self.lights.push(light);

@@ -22,6 +22,11 @@
 //! [sky]                           # uniform sky
 //! radiance = [0.2, 0.3, 0.5]
 //!
+//! [environment]                   # lat-long HDR map (.exr or .hdr), +y up
+//! file = "sky.hdr"                # relative to this file
+//! scale = 1.0                     # optional
+//! rotation_deg = 0.0              # optional: a turn about +y
+//!
 //! [[camera]]
 //! name = "front"
 //! eye = [0.0, 1.0, 3.5]
@@ -34,6 +39,7 @@
 //! plane = "z=0"
 //! ```
 
+use crate::scene::env::{EnvMap, Environment};
 use crate::scene::{Camera, Light, Scene};
 use anyhow::{Context, bail};
 use glam::DVec3;
@@ -51,6 +57,7 @@ pub struct Sidecar {
     #[serde(default)]
     pub sun: Vec<SunSpec>,
     pub sky: Option<SkySpec>,
+    pub environment: Option<EnvironmentSpec>,
     #[serde(default)]
     pub camera: Vec<CameraSpec>,
     #[serde(default)]
@@ -86,6 +93,14 @@ pub struct SunSpec {
 #[serde(deny_unknown_fields)]
 pub struct SkySpec {
     pub radiance: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSpec {
+    pub file: String,
+    pub scale: Option<f64>,
+    pub rotation_deg: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -194,8 +209,9 @@ pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
     })
 }
 
-/// Applies a sidecar's lights and cameras to a loaded scene.
-pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
+/// Applies a sidecar's lights and cameras to a loaded scene; `path` is the sidecar's own (files
+/// it names are relative to it).
+pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> anyhow::Result<()> {
     for l in &sc.point_light {
         scene.add_point_light(DVec3::from(l.position), DVec3::from(l.intensity));
     }
@@ -222,6 +238,16 @@ pub fn apply(sc: &Sidecar, scene: &mut Scene) -> anyhow::Result<()> {
         scene.add_light(Light::Sky {
             radiance: DVec3::from(sky.radiance),
         });
+    }
+    if let Some(env) = &sc.environment {
+        let file = path.parent().unwrap_or(Path::new(".")).join(&env.file);
+        let map = EnvMap::load(
+            &file,
+            env.scale.unwrap_or(1.0),
+            env.rotation_deg.unwrap_or(0.0),
+        )
+        .with_context(|| format!("{}: [environment]", path.display()))?;
+        scene.add_light(Light::Env(Environment::new(map)));
     }
     for c in &sc.camera {
         scene.cameras.push(camera_of(c)?);

@@ -201,6 +201,16 @@ impl<S: Shape> Lights<S> {
                 pdf: p_choice * D::PDF_UNIFORM,
                 delta: false,
             }),
+            Light::Env(env) => {
+                let (wi, pdf) = D::env_sample(env, u)?;
+                Some(LightSample {
+                    wi,
+                    dist: self.beyond(x),
+                    li: env.map.radiance(wi),
+                    pdf: p_choice * pdf,
+                    delta: false,
+                })
+            }
         }
     }
 
@@ -220,6 +230,7 @@ impl<S: Shape> Lights<S> {
                     measure,
                     ..
                 } if d.dot(*direction) >= *cos_max => f(*radiance, p / measure),
+                Light::Env(env) => f(env.map.radiance(d), p * D::env_pdf(env, d)),
                 _ => {}
             }
         }

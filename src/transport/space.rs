@@ -34,6 +34,7 @@
 use crate::kernel::{Flatland, Space, Sphere};
 use crate::math::Frame;
 use crate::rng::Sampler;
+use crate::scene::env::Environment;
 use crate::scene::flat::PhongLobe;
 use crate::scene::light::{Lights, Segment, Triangle};
 use crate::scene::material::Bsdf;
@@ -144,6 +145,14 @@ impl Space for Sphere {
         }
     }
 
+    fn env_sample(env: &Environment, u: (f64, f64)) -> Option<(DVec3, f64)> {
+        env.map.sample_sphere(u)
+    }
+
+    fn env_pdf(env: &Environment, d: DVec3) -> f64 {
+        env.map.pdf_sphere(d)
+    }
+
     #[inline(always)]
     fn point_on(shape: &Triangle, u: (f64, f64)) -> DVec3 {
         let v = &shape.0;
@@ -251,6 +260,22 @@ impl Space for Flatland {
     #[inline(always)]
     fn phong_brdf(lobe: &PhongLobe, _exponent: f64, cos_a: f64, _cos_i: f64, _cos_o: f64) -> f64 {
         lobe.brdf(cos_a)
+    }
+
+    fn env_sample(env: &Environment, u: (f64, f64)) -> Option<(DVec3, f64)> {
+        let (e1, e2, dist) = env.circle.as_ref()?;
+        let (x, i) = dist.sample(u.0)?;
+        let (s, c) = (TAU * x).sin_cos();
+        Some((*e1 * c + *e2 * s, dist.density(i) / TAU))
+    }
+
+    fn env_pdf(env: &Environment, d: DVec3) -> f64 {
+        let Some((e1, e2, dist)) = env.circle.as_ref() else {
+            return 0.0;
+        };
+        let phi = d.dot(*e2).atan2(d.dot(*e1)).rem_euclid(TAU);
+        let i = ((phi / TAU * dist.len() as f64) as usize).min(dist.len() - 1);
+        dist.density(i) / TAU
     }
 
     #[inline(always)]
