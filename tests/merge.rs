@@ -1199,7 +1199,16 @@ fn exr_part_0_is_all_f32_and_part_1_holds_the_exact_sums() {
             .map(|c| c.name.to_string())
             .collect()
     };
-    for want in ["ftpd", "ftpd.stderr", "valid", "samples", "fluence.R"] {
+    for want in [
+        "ftpd",
+        "R",
+        "G",
+        "B",
+        "ftpd.stderr",
+        "valid",
+        "samples",
+        "fluence.R",
+    ] {
         assert!(
             names(&parts[0]).iter().any(|n| n == want),
             "part 0 lacks {want}"
