@@ -4,7 +4,8 @@
 # systemd (containers): installs munge and Slurm, writes a minimal slurm.conf for one node,
 # "localhost" on 127.0.0.1 with this machine's CPUs, starts munged, slurmctld and slurmd in the
 # background and waits until `sinfo` shows the node idle. Running it again while the cluster is up
-# does nothing; after a change of this script's configuration it restarts the daemons.
+# does nothing (jobs keep running); after a change of this script's configuration it restarts the
+# daemons. A slurm.conf that this script did not write (a real cluster's) makes it stop untouched.
 #
 #   scripts/slurm-local.sh          # start (or check) the cluster
 #   scripts/slurm-local.sh stop     # stop the daemons this script started
@@ -103,11 +104,19 @@ node_state() {
     timeout 5 sinfo -h -n localhost -o %T 2>/dev/null | head -n 1
 }
 
+marker=$(printf '%s\n' "$new_conf" | head -n 1)
+if [ -f "$conf" ] && [ "$(head -n 1 "$conf")" != "$marker" ]; then
+    die "$conf was not written by this script; it leaves a real cluster's configuration alone"
+fi
+# Up already (idle, or busy with jobs, which a restart would kill): nothing to do.
 if [ -f "$conf" ] && [ "$(cat "$conf")" = "$new_conf" ] \
-    && pid_of "$spool/slurmctld.pid" >/dev/null && pid_of "$spool/slurmd.pid" >/dev/null \
-    && [ "$(node_state)" = idle ]; then
-    echo "slurm-local: already running; node localhost idle"
-    exit 0
+    && pid_of "$spool/slurmctld.pid" >/dev/null && pid_of "$spool/slurmd.pid" >/dev/null; then
+    case "$(node_state)" in
+        idle | mixed | allocated | completing)
+            echo "slurm-local: already running; node localhost $(node_state)"
+            exit 0
+            ;;
+    esac
 fi
 
 stop
