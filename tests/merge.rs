@@ -1,5 +1,6 @@
 //! Split runs and `ftpd3d merge`: seeds add their moments exactly, tiles reassemble the full run
-//! bit for bit, mismatched or repeated parts are refused, and the Slurm examples work without Slurm.
+//! bit for bit, mismatched or repeated parts are refused, and the Slurm examples work with a
+//! stand-in `sbatch` and, where there is one, on a real Slurm cluster.
 
 use crate::geometry::scene_path;
 use ftpd3d::field::Field;
@@ -558,6 +559,241 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Whether the real-Slurm test runs: `Ok(())` when `sbatch` is on PATH and the cluster answers,
+/// `Err(reason)` otherwise. CI (CI=true with FTPD3D_SLURM=1, set by `.ci/run` after
+/// `scripts/slurm-local.sh` started a cluster) must have one; FTPD3D_SLURM=0 skips it anywhere.
+fn real_slurm() -> Result<(), String> {
+    if std::env::var("FTPD3D_SLURM").is_ok_and(|v| v == "0") {
+        return Err("FTPD3D_SLURM=0".into());
+    }
+    match Command::new("sbatch").arg("--version").output() {
+        Err(e) => return Err(format!("no sbatch on PATH ({e})")),
+        Ok(o) if !o.status.success() => {
+            return Err(format!(
+                "sbatch --version failed: {}",
+                String::from_utf8_lossy(&o.stderr).trim()
+            ));
+        }
+        Ok(_) => {}
+    }
+    match Command::new("sinfo").args(["-h", "-o", "%P %a"]).output() {
+        Ok(o) if o.status.success() && !o.stdout.is_empty() => Ok(()),
+        Ok(o) => Err(format!(
+            "sbatch is on PATH but no Slurm controller answers (sinfo: {}); \
+             scripts/slurm-local.sh starts a single-node cluster",
+            String::from_utf8_lossy(&o.stderr).trim()
+        )),
+        Err(e) => Err(format!("sbatch is on PATH but sinfo is not ({e})")),
+    }
+}
+
+/// One line of `scontrol show job -o` per job (per array task once they have split).
+fn scontrol_jobs(id: &str) -> Vec<String> {
+    let out = Command::new("scontrol")
+        .args(["show", "job", "-o", id])
+        .output()
+        .expect("scontrol runs");
+    assert!(
+        out.status.success(),
+        "scontrol show job {id}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(String::from)
+        .collect()
+}
+
+/// The value of `key=` in a line of `scontrol show job -o`.
+fn job_field<'a>(line: &'a str, key: &str) -> &'a str {
+    line.split_whitespace()
+        .find_map(|w| w.strip_prefix(key).and_then(|w| w.strip_prefix('=')))
+        .unwrap_or_else(|| panic!("no {key} in: {line}"))
+}
+
+/// Every `*.log` file in `dir`, for failure messages.
+fn job_logs(dir: &Path) -> String {
+    let mut names: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "log"))
+        .collect();
+    names.sort();
+    names
+        .iter()
+        .map(|p| {
+            format!(
+                "--- {}\n{}",
+                p.display(),
+                std::fs::read_to_string(p).unwrap_or_default()
+            )
+        })
+        .collect()
+}
+
+/// The shipped examples on a real Slurm cluster: `submit.sh tiles` and `submit.sh seeds` queue
+/// their arrays and merge jobs through the real `sbatch`; once every job has ended, the merged
+/// tiles equal one full run bit for bit, and the merged seeds the same runs added in task order.
+/// Skipped, saying why, where there is no Slurm; CI starts one (`scripts/slurm-local.sh`) and
+/// fails here without it.
+#[test]
+fn slurm_examples_run_on_a_real_cluster() {
+    if let Err(why) = real_slurm() {
+        let ci = std::env::var("CI").is_ok_and(|v| v == "true");
+        let wanted = std::env::var("FTPD3D_SLURM").is_ok_and(|v| v == "1");
+        assert!(
+            !(ci && wanted),
+            "CI=true and FTPD3D_SLURM=1 ask for a real Slurm, but: {why}"
+        );
+        eprintln!("skipped slurm_examples_run_on_a_real_cluster: {why}");
+        return;
+    }
+    let dir = temp_dir("realslurm");
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/slurm");
+    let (res, spp, parts) = ("12", "4", 3);
+    // Both modes queued at once, then waited for together.
+    let mut jobs = Vec::new();
+    for mode in ["tiles", "seeds"] {
+        let work = dir.join(mode);
+        std::fs::create_dir_all(&work).unwrap();
+        let out = Command::new("bash")
+            .arg(examples.join("submit.sh"))
+            .arg(mode)
+            .current_dir(&work)
+            .env("FTPD3D", env!("CARGO_BIN_EXE_ftpd3d"))
+            .env("SLICE", "z=0")
+            .env("RES", res)
+            .env("SPP", spp)
+            .env("SEED", "1")
+            .env("PARTS", parts.to_string())
+            .env_remove("SCENE") // the default scene, found from this other directory
+            .env_remove("CPUS")
+            .env_remove("PARTITION")
+            .env_remove("OUT")
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{mode}: {stdout}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        // "array job N: 3 tasks (tiles)", then the merge job's id.
+        let array = stdout
+            .strip_prefix("array job ")
+            .and_then(|s| s.split(':').next())
+            .unwrap_or_else(|| panic!("{mode}: {stdout}"))
+            .to_string();
+        let merge = stdout.lines().last().unwrap().trim();
+        let merge = merge.split(';').next().unwrap().to_string();
+        assert!(
+            array.parse::<u64>().is_ok() && merge.parse::<u64>().is_ok(),
+            "{mode}: job ids from {stdout:?}"
+        );
+        jobs.push((mode, work, array, merge));
+    }
+
+    // Wait until every task and both merges have ended (2 minutes at most).
+    let active = [
+        "PENDING",
+        "CONFIGURING",
+        "RUNNING",
+        "COMPLETING",
+        "REQUEUED",
+        "RESIZING",
+    ];
+    let start = std::time::Instant::now();
+    loop {
+        let lines: Vec<String> = jobs
+            .iter()
+            .flat_map(|(_, _, a, m)| [scontrol_jobs(a), scontrol_jobs(m)].concat())
+            .collect();
+        if lines
+            .iter()
+            .all(|l| !active.contains(&job_field(l, "JobState")))
+        {
+            break;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(120) {
+            let logs: String = jobs.iter().map(|j| job_logs(&j.1)).collect();
+            panic!(
+                "Slurm jobs still not done after 2 minutes:\n{}\n{logs}",
+                lines.join("\n")
+            );
+        }
+        std::thread::sleep(std::time::Duration::from_millis(250));
+    }
+    eprintln!(
+        "real Slurm: both arrays and merges ended in {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+
+    let scene = cornell();
+    for (mode, work, array, merge) in &jobs {
+        let logs = job_logs(work);
+        // Every task ran under Slurm (its log is named after the real job id) and succeeded.
+        let tasks = scontrol_jobs(array);
+        assert_eq!(tasks.len(), parts, "{mode}: {tasks:?}");
+        for t in &tasks {
+            assert_eq!(
+                (job_field(t, "JobState"), job_field(t, "ExitCode")),
+                ("COMPLETED", "0:0"),
+                "{mode}: {t}\n{logs}"
+            );
+        }
+        for i in 0..parts {
+            let log = work.join(format!("ftpd3d-{mode}-{array}_{i}.log"));
+            assert!(log.is_file(), "{mode}: no {}\n{logs}", log.display());
+        }
+        let m = scontrol_jobs(merge);
+        assert_eq!(m.len(), 1, "{m:?}");
+        assert_eq!(
+            (job_field(&m[0], "JobState"), job_field(&m[0], "ExitCode")),
+            ("COMPLETED", "0:0"),
+            "{mode}: merge job {}\n{logs}",
+            m[0]
+        );
+        // The merge started only once every task had ended (timestamps to the second).
+        let last_end = tasks.iter().map(|t| job_field(t, "EndTime")).max().unwrap();
+        assert!(
+            job_field(&m[0], "StartTime") >= last_end,
+            "{mode}: merge started before the last task ended ({last_end}): {}",
+            m[0]
+        );
+        let all = read_exr(&work.join("all.exr")).unwrap_or_else(|e| panic!("{mode}: {e}\n{logs}"));
+        // The same field computed here, without Slurm.
+        let single = |seed: &str, name: &str| -> Field {
+            let (ok, err) = ftpd3d_in(
+                work,
+                &[
+                    "--scene", &scene, "--slice", "z=0", "--res", res, "--spp", spp, "--seed",
+                    seed, "--no-png", "--quiet", "-o", name,
+                ],
+            );
+            assert!(ok, "{err}");
+            read_exr(&work.join(name)).unwrap()
+        };
+        if *mode == "tiles" {
+            assert_eq!(all.meta.get("seed").map(String::as_str), Some("1"));
+            assert_eq!(all.meta.get("tile"), None, "{:?}", all.meta);
+            assert_same_cells(&all, &single("1", "full.exr"), "Slurm tiles merged");
+        } else {
+            assert_eq!(all.meta.get("seeds").map(String::as_str), Some("1,2,3"));
+            let mut sum = single("1", "s1.exr");
+            for seed in ["2", "3"] {
+                let f = single(seed, &format!("s{seed}.exr"));
+                for (c, o) in sum.cells.iter_mut().zip(&f.cells) {
+                    c.merge(o);
+                }
+            }
+            assert_same_cells(&all, &sum, "Slurm seeds merged");
+            assert!(all.cells.iter().all(|c| c.n == 12));
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A volume of the Cornell box, unweighted (fast) with 2 samples in 2 batches per voxel, plus
 /// `extra` flags; 6³ voxels unless `extra` has a `--volume`.
 fn run_volume(dir: &Path, extra: &[&str]) {
@@ -963,7 +1199,16 @@ fn exr_part_0_is_all_f32_and_part_1_holds_the_exact_sums() {
             .map(|c| c.name.to_string())
             .collect()
     };
-    for want in ["ftpd", "ftpd.stderr", "valid", "samples", "fluence.R"] {
+    for want in [
+        "ftpd",
+        "R",
+        "G",
+        "B",
+        "ftpd.stderr",
+        "valid",
+        "samples",
+        "fluence.R",
+    ] {
         assert!(
             names(&parts[0]).iter().any(|n| n == want),
             "part 0 lacks {want}"

@@ -1,13 +1,15 @@
 //! OpenEXR output of 2D fields (exr crate): a two-part file. Part 0 (`ftpd`) holds only f32 channels
 //! named by quantity and the run's description as string header attributes, so that every EXR
-//! reader (FreeImage, which refuses mixed channel types in a part, Blender, tev, OpenImageIO,
-//! Python OpenEXR) opens it as an image. Part 1 (`exact`) keeps the raw sums exact as pairs of u32
-//! channels holding the high and low 32 bits of each f64, with the exact sample and batch counts:
-//! what merge and resume read. (Files of earlier versions, one part with everything, still read.)
+//! reader (Blender, tev, OpenImageIO, Python OpenEXR, and FreeImage, which reads only part 0, only
+//! when all its channels have one type, and only `R`, `G`, `B`, `A` or `Y` of them) opens it as an
+//! image. Part 1 (`exact`) keeps the raw sums exact as pairs of u32 channels holding the high and
+//! low 32 bits of each f64, with the exact sample and batch counts: what merge and resume read.
+//! (Files of earlier versions, one part with everything, still read.)
 //!
 //! | channel                      | type | meaning                                                  |
 //! |------------------------------|------|----------------------------------------------------------|
 //! | `ftpd`                       | f32  | σ (eq. 14); 0 where `valid` = 0                          |
+//! | `R`, `G`, `B`                | f32  | σ again, as grey: what readers that know only colour images show (FreeImage) |
 //! | `ftpd.mean`, `ftpd.m2`       | f32  | weighted mean and second moment of Δ                     |
 //! | `ftpd.stderr`, `ftpd.relerr` | f32  | standard error of σ (delta method over the samples), /σ |
 //! | `weight`                     | f32  | mean contribution weight ΣP / samples                    |
@@ -63,6 +65,11 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     let mut f32ch =
         |name: &str, data: Vec<f32>| chans.push(AnyChannel::new(name, FlatSamples::F32(data)));
     f32ch("ftpd", per(&|k| vals[k].sigma));
+    // FreeImage's EXR loader knows only colour models (R,G,B[,A] or Y) and refuses a part whose
+    // channels are all named otherwise ("Unsupported color model"): σ as grey.
+    for c in ["R", "G", "B"] {
+        f32ch(c, per(&|k| vals[k].sigma));
+    }
     f32ch("ftpd.mean", per(&|k| vals[k].mean));
     f32ch("ftpd.m2", per(&|k| vals[k].m2));
     f32ch("ftpd.stderr", per(&|k| vals[k].stderr));
