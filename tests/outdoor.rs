@@ -605,3 +605,51 @@ fn constant_env_map_in_flatland_is_a_uniform_sky() {
     eprintln!("flatland constant map: {mean:.5} ± {se:.5} vs {expected:.5}");
     assert!((mean - expected).abs() <= 4.0 * se);
 }
+
+/// `--env FILE:SCALE:ROT` reads a lat-long EXR from the command line, `--explain` lists the sky
+/// it makes, a run records it in the field's metadata, and a missing or wrong file is an error
+/// that names it.
+#[test]
+fn env_flag_reads_an_exr_map() {
+    use exr::prelude::*;
+    let dir = crate::support::temp_dir("outdoor", "env_flag");
+    let path = dir.join("sky.exr");
+    let (w, h) = (16, 8);
+    write_rgb_file(&path, w, h, |x, y| {
+        (0.5 + x as f32 / w as f32, 0.4f32, 1.0 - y as f32 / h as f32)
+    })
+    .unwrap();
+    let plane = scene_path("diffuse_plane.obj");
+    let plane = plane.to_str().unwrap();
+    let env = format!("{}:2:90", path.display());
+    let r = crate::support::ftpd3d(Some(&dir), &["--scene", plane, "--env", &env, "--explain"]);
+    assert!(r.ok, "{}", r.err);
+    assert!(r.out.contains("1 skies and environment maps"), "{}", r.out);
+    assert!(
+        r.out
+            .lines()
+            .any(|l| l.starts_with("simulates") && l.contains(" sky")),
+        "{}",
+        r.out
+    );
+    let r = crate::support::ftpd3d(
+        Some(&dir),
+        &[
+            "--scene", plane, "--env", &env, "--slice", "z=0", "--res", "6", "--spp", "2",
+            "--quiet", "--no-png", "-o", "f.exr",
+        ],
+    );
+    assert!(r.ok, "{}", r.err);
+    let f = ftpd3d::output::exr::read_exr(&dir.join("f.exr")).unwrap();
+    assert_eq!(f.meta["sky"], format!("{}:2:90", path.display()));
+    let missing = dir.join("missing.hdr");
+    let m = format!("{}", missing.display());
+    let r = crate::support::ftpd3d(Some(&dir), &["--scene", plane, "--env", &m, "--explain"]);
+    assert!(!r.ok && r.err.contains(&m), "{}", r.err);
+    let txt = dir.join("sky.txt");
+    std::fs::write(&txt, "not an image").unwrap();
+    let t = format!("{}", txt.display());
+    let r = crate::support::ftpd3d(Some(&dir), &["--scene", plane, "--env", &t, "--explain"]);
+    assert!(!r.ok && r.err.contains("must be .exr or .hdr"), "{}", r.err);
+    std::fs::remove_dir_all(&dir).ok();
+}

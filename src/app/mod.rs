@@ -360,8 +360,9 @@ fn annotate_point_lights(field: &mut Field, job: &Job) {
             )),
             Light::Sky { radiance } => skies.push(fmt_vec(*radiance)),
             Light::Env(env) => skies.push(format!(
-                "{}:{}",
+                "{}:{}:{}",
                 env.map.source,
+                env.map.scale,
                 env.map.rotation.to_degrees()
             )),
             Light::Area { .. } | Light::Spot { .. } => {}

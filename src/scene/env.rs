@@ -91,6 +91,8 @@ pub struct EnvMap {
     pub texels: Vec<Rgb>,
     /// Turn about +y, radians.
     pub rotation: f64,
+    /// The factor the file's radiance was multiplied by.
+    pub scale: f64,
     /// Row choice ∝ the row's weight (3D).
     pub rows: Piecewise1D,
     /// Column choice within each row.
@@ -162,6 +164,7 @@ impl EnvMap {
             height,
             texels,
             rotation: rotation_deg.to_radians(),
+            scale,
             rows,
             cols,
             source: source.to_string(),
