@@ -653,3 +653,85 @@ fn env_flag_reads_an_exr_map() {
     assert!(!r.ok && r.err.contains("must be .exr or .hdr"), "{}", r.err);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The penumbra of a sun disc behind a straight edge: a black plate at height d = 1 covers x ≤ 0
+/// above the ground, the sun stands overhead with a 10° diameter. Across the shadow's edge the
+/// ground's radiance follows ρ/π times the visible part of the disc's irradiance, computed here by
+/// quadrature over the cone; the penumbra spans d·tan(diameter) (to within 1 %, the difference
+/// between 2 tan α and tan 2α): points more than half of it inside the shadow are exactly black,
+/// points more than half of it outside are fully lit.
+#[test]
+fn sun_disc_penumbra_behind_an_edge() {
+    let (e, half, d) = (3.0, 5.0f64.to_radians(), 1.0);
+    let positions: Vec<Vec3> = [
+        [-10.0, 0.0, -10.0],
+        [-10.0, 0.0, 10.0],
+        [10.0, 0.0, 10.0],
+        [10.0, 0.0, -10.0],
+        [-10.0, d, -10.0],
+        [0.0, d, -10.0],
+        [0.0, d, 10.0],
+        [-10.0, d, 10.0],
+    ]
+    .iter()
+    .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
+    .collect();
+    let triangles = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+    let mut scene = Scene::build(
+        Path::new("penumbra"),
+        positions,
+        Vec::new(),
+        triangles,
+        vec![0, 0, 1, 1],
+        vec![
+            Material::diffuse("ground", Rgb::splat(RHO)),
+            Material::diffuse("plate", Rgb::ZERO),
+        ],
+        Default::default(),
+    )
+    .unwrap();
+    scene.add_light(Light::distant(DVec3::Y, Rgb::splat(e), half));
+    let l_sun = e / (PI * half.sin().powi(2));
+    // Irradiance from the visible part of the disc at ground point x (midpoint rule over the cone).
+    let visible_irradiance = |x: f64| {
+        let (nt, np) = (400, 800);
+        let mut sum = 0.0;
+        for i in 0..nt {
+            let t = half * (i as f64 + 0.5) / nt as f64;
+            for j in 0..np {
+                let p = 2.0 * PI * (j as f64 + 0.5) / np as f64;
+                let x_hit = x + d * t.tan() * p.cos();
+                if x_hit > 0.0 {
+                    sum += t.cos() * t.sin();
+                }
+            }
+        }
+        l_sun * sum * (half / nt as f64) * (2.0 * PI / np as f64)
+    };
+    let w = d * (2.0 * half).tan();
+    let eye = DVec3::new(0.0, 0.5, 2.0);
+    for k in -8..=8 {
+        let x = 0.75 * w * k as f64 / 4.0;
+        let q = DVec3::new(x, 0.0, 0.0);
+        let (mean, se, lo, hi) = radiance_stats(&scene, eye, q, false, 4000, (60 + k) as u64);
+        let expected = RHO / PI * visible_irradiance(x);
+        eprintln!("x = {x:+.4}: {mean:.5} ± {se:.5} vs {expected:.5}");
+        if x < -0.5 * w * 1.01 {
+            assert!(
+                lo == 0.0 && hi == 0.0,
+                "x = {x}: in the umbra, but [{lo}, {hi}]"
+            );
+        } else {
+            assert!(
+                (mean - expected).abs() <= 4.0 * se + 2e-3 * RHO / PI * e,
+                "x = {x}: {mean} ± {se} vs {expected}"
+            );
+        }
+        if x > 0.5 * w * 1.01 {
+            assert!(
+                (expected / (RHO / PI * e) - 1.0).abs() < 2e-3,
+                "fully lit at {x}"
+            );
+        }
+    }
+}
