@@ -42,15 +42,35 @@ impl Default for EstimatorArgs {
 pub const DEFAULT_T0_OF_DIAGONAL: f64 = 0.1;
 pub const DEFAULT_T1_OF_DIAGONAL: f64 = 0.5;
 
+/// Estimator settings that cannot run, as typed values; the command line names its flags in the
+/// message (`cli::errors`), other callers their own.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("the shortest run length t0 = {t0} must be finite and ≥ 0")]
+    RunLengthNegative { t0: f64 },
+    #[error("the longest run length t1 = {t1} must be finite and > 0")]
+    RunLengthNotPositive { t1: f64 },
+    #[error("t0 = {t0} is larger than t1 = {t1}: the run-length interval [t0, t1] is empty")]
+    RunLengthsEmpty { t0: f64, t1: f64 },
+    #[error("the perturbation half-angle {angle_deg}° must lie strictly between 0 and 90 degrees")]
+    AngleOutOfRange { angle_deg: f64 },
+    /// Radiance weighting in a scene without lights.
+    #[error("radiance weighting: {scene} has no lights ({ways})")]
+    NoLights { scene: String, ways: &'static str },
+    /// Flatland radiance weighting, and no light meets the plane.
+    #[error("flatland radiance weighting: no light of {scene} meets the slice plane {plane}")]
+    NoLightInPlane { scene: String, plane: String },
+}
+
 impl EstimatorArgs {
     /// Checks the values and fills scene-relative defaults.
-    pub fn resolve(&self, scene: &Scene) -> anyhow::Result<Params> {
+    pub fn resolve(&self, scene: &Scene) -> Result<Params, ParamError> {
         self.resolve_with_extent(scene, scene.extent())
     }
 
     /// [`resolve`](Self::resolve) with run-length defaults relative to the length `d` instead of the
     /// scene diagonal (flatland uses the diagonal of the scene's cross-section).
-    pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> anyhow::Result<Params> {
+    pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> Result<Params, ParamError> {
         self.resolve_from(scene, 0.0, d)
     }
 
@@ -58,39 +78,40 @@ impl EstimatorArgs {
     /// scene starts, `dist + [0.1 D, 0.5 D]` with `dist` the distance from the eye to the scene's
     /// bounds, so that pairs from a camera outside the scene reach it (walks that end in empty
     /// space are never deflected).
-    pub fn resolve_for_camera(&self, scene: &Scene, eye: glam::DVec3) -> anyhow::Result<Params> {
+    pub fn resolve_for_camera(
+        &self,
+        scene: &Scene,
+        eye: glam::DVec3,
+    ) -> Result<Params, ParamError> {
         self.resolve_from(scene, scene.bounds.distance(eye), scene.extent())
     }
 
     /// Defaults `offset + [0.1 d, 0.5 d]`.
-    fn resolve_from(&self, scene: &Scene, offset: f64, d: f64) -> anyhow::Result<Params> {
+    fn resolve_from(&self, scene: &Scene, offset: f64, d: f64) -> Result<Params, ParamError> {
         let t0 = self.t0.unwrap_or(offset + DEFAULT_T0_OF_DIAGONAL * d);
         let t1 = self
             .t1
             .unwrap_or(offset + DEFAULT_T1_OF_DIAGONAL * d)
             .max(if self.t1.is_none() { t0 } else { 0.0 });
         if !t0.is_finite() || t0 < 0.0 {
-            bail!("--t0 {t0}: the shortest run length must be finite and ≥ 0");
+            return Err(ParamError::RunLengthNegative { t0 });
         }
         if !t1.is_finite() || t1 <= 0.0 {
-            bail!("--t1 {t1}: the longest run length must be finite and > 0");
+            return Err(ParamError::RunLengthNotPositive { t1 });
         }
         if t0 > t1 {
-            bail!("--t0 {t0} is larger than --t1 {t1}: the run-length interval [t0, t1] is empty");
+            return Err(ParamError::RunLengthsEmpty { t0, t1 });
         }
         if !(self.angle_deg > 0.0 && self.angle_deg < 90.0) {
-            bail!(
-                "--angle {}: the perturbation half-angle must lie strictly between 0 and 90 degrees",
-                self.angle_deg
-            );
+            return Err(ParamError::AngleOutOfRange {
+                angle_deg: self.angle_deg,
+            });
         }
         if self.weighting == Weighting::Radiance && scene.lights.is_empty() {
-            bail!(
-                "--weight radiance: {} has no lights ({}); add one with --point-light \
-                 X,Y,Z:R,G,B (position and radiant intensity), or use --weight unweighted",
-                scene.source.display(),
-                ways_to_light(scene)
-            );
+            return Err(ParamError::NoLights {
+                scene: scene.source.display().to_string(),
+                ways: ways_to_light(scene),
+            });
         }
         Ok(Params {
             t0,
@@ -151,13 +172,11 @@ pub fn prepare_flatland(
     scene.prepare_flatland(fl, &plane.label)?;
     let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
     if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {
-        bail!(
-            "--flatland --weight radiance: no light of {} meets the slice plane {} (emissive \
-             triangles must cross it, point lights lie in it); use --weight unweighted or another \
-             slice",
-            scene.source.display(),
-            plane.label
-        );
+        return Err(ParamError::NoLightInPlane {
+            scene: scene.source.display().to_string(),
+            plane: plane.label.clone(),
+        }
+        .into());
     }
     params.flat = Some(fl);
     Ok(params)

@@ -570,7 +570,7 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
             e.weighting = *w;
             e.resolve(&scene)
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>, _>>()?;
     let quiet = job.quiet;
     let say = |s: &str| {
         if !quiet {

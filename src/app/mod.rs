@@ -149,7 +149,7 @@ pub fn resolve_camera(
     // An eye on a surface starts on its front side (once per run).
     let mut camera = camera;
     camera.eye = scene.off_surfaces(camera.eye);
-    CameraView::new(camera, size.0, size.1)
+    Ok(CameraView::new(camera, size.0, size.1)?)
 }
 
 /// What [`run_job`] did.

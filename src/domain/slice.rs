@@ -5,9 +5,9 @@
 //! Axis slices: `x=c` spans (u, v) = (z, y), `y=c` spans (x, z), `z=c` spans (x, y), so that y (up
 //! in the shipped scenes) is vertical in images whenever the plane contains it.
 
+use super::DomainError;
 use crate::scene::flat::Flatland;
 use crate::scene::{Aabb, Scene};
-use anyhow::bail;
 use glam::DVec3;
 use std::fmt;
 use std::str::FromStr;
@@ -94,24 +94,28 @@ impl Plane {
         spec: SliceSpec,
         window: Option<[f64; 4]>,
         res: usize,
-    ) -> anyhow::Result<Plane> {
+    ) -> Result<Plane, DomainError> {
         if bounds.is_empty() {
-            bail!("--slice {spec}: the scene has no geometry to take bounds from; give --window");
+            return Err(DomainError::SliceWithoutBounds {
+                slice: spec.to_string(),
+            });
         }
         let k = spec.axis.index();
         let (lo, hi) = (bounds.min[k], bounds.max[k]);
         if spec.value < lo || spec.value > hi {
-            bail!(
-                "--slice {spec}: outside the scene bounds, which span {lo} to {hi} along that axis"
-            );
+            return Err(DomainError::SliceOutsideBounds {
+                slice: spec.to_string(),
+                lo,
+                hi,
+            });
         }
         let (u, v) = spec.axis.plane_axes();
         let (u0, v0, u1, v1) = match window {
             Some([a, b, c, d]) => {
                 if !(c > a && d > b) {
-                    bail!(
-                        "--window {a},{b},{c},{d}: needs u0 < u1 and v0 < v1 (an empty rectangle)"
-                    );
+                    return Err(DomainError::EmptyWindow {
+                        window: [a, b, c, d],
+                    });
                 }
                 (a, b, c, d)
             }
@@ -144,12 +148,16 @@ impl Plane {
         size: (f64, f64),
         res: usize,
         label: String,
-    ) -> anyhow::Result<Plane> {
+    ) -> Result<Plane, DomainError> {
         if res == 0 {
-            bail!("--res must be at least 1");
+            return Err(DomainError::NoCells);
         }
         if !(size.0 > 0.0 && size.1 > 0.0 && size.0.is_finite() && size.1.is_finite()) {
-            bail!("plane {label}: size {} x {} is empty", size.0, size.1);
+            return Err(DomainError::EmptyPlane {
+                label,
+                w: size.0,
+                h: size.1,
+            });
         }
         let (width, height) = if size.0 >= size.1 {
             (
@@ -254,18 +262,13 @@ impl FromStr for PlaneSpec {
 
 impl Plane {
     /// An arbitrary plane (see [`PlaneSpec`]) with `res` cells along the longer side.
-    pub fn from_spec(bounds: &Aabb, spec: &PlaneSpec, res: usize) -> anyhow::Result<Plane> {
+    pub fn from_spec(bounds: &Aabb, spec: &PlaneSpec, res: usize) -> Result<Plane, DomainError> {
         let n = spec.normal;
         let up = spec
             .up
             .unwrap_or(if n.y.abs() > 0.99 { DVec3::Z } else { DVec3::Y });
         let Some(v) = (up - n * up.dot(n)).try_normalize() else {
-            bail!(
-                "--plane: up ({}, {}, {}) is parallel to the normal",
-                up.x,
-                up.y,
-                up.z
-            );
+            return Err(DomainError::UpAlongNormal { up });
         };
         let u = v.cross(n);
         let label = format!(
@@ -276,7 +279,7 @@ impl Plane {
             Some((w, h)) => ((-0.5 * w, -0.5 * h), (0.5 * w, 0.5 * h)),
             None => {
                 if bounds.is_empty() {
-                    bail!("--plane: the scene has no bounds to cover; give size=w,h");
+                    return Err(DomainError::PlaneWithoutBounds);
                 }
                 let (mut lo, mut hi) = (
                     (f64::INFINITY, f64::INFINITY),
@@ -359,28 +362,31 @@ impl SliceArg {
 }
 
 /// Resolves `--slice`: `AXIS=VALUE`, or the name of a slice in the sidecar scene file.
-pub fn resolve_slice(arg: &str, scene: &Scene) -> anyhow::Result<SliceSpec> {
+pub fn resolve_slice(arg: &str, scene: &Scene) -> Result<SliceSpec, DomainError> {
     if arg.contains('=') {
-        return arg
-            .parse::<SliceSpec>()
-            .map_err(|e| anyhow::anyhow!("--slice {e}"));
+        return arg.parse::<SliceSpec>().map_err(DomainError::SliceSyntax);
     }
     match scene.named_slices.iter().find(|(n, _)| n == arg) {
-        Some((_, plane)) => plane
-            .parse::<SliceSpec>()
-            .map_err(|e| anyhow::anyhow!("--slice {arg}: the scene file's plane {e}")),
-        None if scene.named_slices.is_empty() => {
-            bail!("--slice {arg}: expected AXIS=VALUE such as z=1.2 (the scene names no slices)")
+        Some((_, plane)) => {
+            plane
+                .parse::<SliceSpec>()
+                .map_err(|message| DomainError::NamedSliceSyntax {
+                    name: arg.to_string(),
+                    message,
+                })
         }
-        None => bail!(
-            "--slice {arg}: not AXIS=VALUE and not a slice of the scene file (it names: {})",
-            scene
+        None if scene.named_slices.is_empty() => Err(DomainError::NoNamedSlices {
+            name: arg.to_string(),
+        }),
+        None => Err(DomainError::UnknownSlice {
+            name: arg.to_string(),
+            names: scene
                 .named_slices
                 .iter()
                 .map(|(n, _)| n.as_str())
                 .collect::<Vec<_>>()
-                .join(", ")
-        ),
+                .join(", "),
+        }),
     }
 }
 
@@ -391,7 +397,7 @@ pub fn resolve_plane(
     scene: &Scene,
     window: Option<[f64; 4]>,
     res: usize,
-) -> anyhow::Result<Plane> {
+) -> Result<Plane, DomainError> {
     match arg {
         SliceArg::Axis(a) => {
             Plane::axis_slice(&scene.bounds, resolve_slice(a, scene)?, window, res)
