@@ -9,6 +9,8 @@ use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::render::{self, Hooks, Progress, RenderOptions, RunStats, Schedule};
 use crate::rng::Sampler;
+pub use crate::run_info::fmt_vec;
+use crate::run_info::{CameraInfo, CellCount, DomainKind, PlaneInfo, RunInfo, VolumeInfo};
 use crate::scene::flat::Flatland;
 use crate::scene::{self, Scene};
 use anyhow::bail;
@@ -182,60 +184,49 @@ pub fn prepare_flatland(
     Ok(params)
 }
 
-/// Describes the run in the field's metadata (EXR header attributes).
+/// The description of a run of `domain` (files store it as attributes, see [`crate::run_info`]);
+/// the caller places it (plane, camera or volume) and adds what only it knows (command-line point
+/// lights).
 pub fn describe_run(
-    field: &mut Field,
     scene: &Scene,
     params: &Params,
     opts: &RenderOptions,
-    domain: &str,
-) {
-    let m = &mut field.meta;
-    m.insert(
-        "tool".into(),
-        format!("ftpd3d {}", env!("CARGO_PKG_VERSION")),
-    );
-    m.insert("embree".into(), crate::embree_version().into());
-    m.insert("scene".into(), scene.source.display().to_string());
-    m.insert("domain".into(), domain.into());
-    m.insert("weighting".into(), params.weighting.to_string());
-    m.insert("t0".into(), format!("{:e}", params.t0));
-    m.insert("t1".into(), format!("{:e}", params.t1));
-    m.insert(
-        "angle_deg".into(),
-        format!("{}", params.theta_max.to_degrees()),
-    );
-    m.insert("max_bounces".into(), params.max_bounces.to_string());
-    m.insert("seed".into(), opts.seed.to_string());
-    m.insert(
-        "spp".into(),
-        if opts.budget.cap_spp {
-            opts.spp.to_string()
+    domain: DomainKind,
+) -> RunInfo {
+    RunInfo {
+        tool: Some(format!("ftpd3d {}", env!("CARGO_PKG_VERSION"))),
+        embree: Some(crate::embree_version().into()),
+        scene: Some(scene.source.display().to_string()),
+        domain: Some(domain),
+        weighting: Some(params.weighting),
+        t0: Some(params.t0),
+        t1: Some(params.t1),
+        angle_deg: Some(params.theta_max.to_degrees()),
+        max_bounces: Some(params.max_bounces),
+        seed: Some(opts.seed),
+        spp: Some(if opts.budget.cap_spp {
+            CellCount::Each(opts.spp as u64)
         } else {
-            "none".into()
-        },
-    );
-    m.insert("batches".into(), opts.batches.to_string());
-    m.insert("schedule".into(), Schedule::of(opts).key());
-    m.insert(
-        "adaptive".into(),
-        match opts.adaptive {
+            CellCount::Uncapped
+        }),
+        batches: Some(CellCount::Each(opts.batches as u64)),
+        schedule: Some(Schedule::of(opts).key()),
+        adaptive: Some(match opts.adaptive {
             Some(a) => format!("max {}x", a.max_share),
             None => "off".into(),
-        },
-    );
-    m.insert(
-        "budget.time".into(),
-        opts.budget.time.map_or_else(|| "none".into(), fmt_duration),
-    );
-    m.insert(
-        "budget.target_error".into(),
-        opts.budget
-            .target_error
-            .map_or_else(|| "none".into(), |t| t.to_string()),
-    );
-    m.insert("features".into(), scene.features.to_string());
-    m.insert("flatland".into(), params.flat.is_some().to_string());
+        }),
+        budget_time: Some(opts.budget.time.map_or_else(|| "none".into(), fmt_duration)),
+        budget_target_error: Some(
+            opts.budget
+                .target_error
+                .map_or_else(|| "none".into(), |t| t.to_string()),
+        ),
+        features: Some(scene.features.to_string()),
+        flatland: params.flat.is_some(),
+        kernel: Some(ftpd::kernel_for(params).to_string()),
+        tiles: opts.tile.into_iter().collect(),
+        ..RunInfo::default()
+    }
 }
 
 /// Runs FTPD over a plane (the whole grid, or the stripe `opts.tile`); the field comes back with
@@ -249,13 +240,15 @@ pub fn run_plane(
 ) -> anyhow::Result<(Field, RunStats)> {
     check_flatland(scene, plane, params)?;
     let (mut field, stats) = run_domain(scene, &PlaneDomain::new(plane, scene), params, opts)?;
-    describe_run(&mut field, scene, params, opts, "slice");
-    field.meta.extend(plane_meta(plane));
+    field.set_info(&RunInfo {
+        plane: Some(plane_info(plane)),
+        ..describe_run(scene, params, opts, DomainKind::Slice)
+    });
     Ok((field, stats))
 }
 
 /// Runs FTPD over any domain (the whole grid, or the stripe `opts.tile`) with the kernel `params`
-/// needs ([`ftpd::kernel_for`]).
+/// needs ([`ftpd::kernel_for`]); the field comes back without a description ([`describe_run`]).
 pub fn run_domain(
     scene: &Scene,
     domain: &dyn Domain,
@@ -277,12 +270,6 @@ pub fn run_domain(
         &mut Progress::default(),
         Hooks::default(),
     )?;
-    field
-        .meta
-        .insert("kernel".into(), ftpd::kernel_for(params).to_string());
-    if let Some(t) = opts.tile {
-        field.meta.insert("tile".into(), t.to_string());
-    }
     Ok((field, stats))
 }
 
@@ -385,37 +372,27 @@ pub fn check_flatland(scene: &Scene, plane: &Plane, params: &Params) -> anyhow::
     }
 }
 
-/// The metadata that places a slice.
-pub fn plane_meta(plane: &Plane) -> Vec<(String, String)> {
-    vec![
-        ("plane".into(), plane.label.clone()),
-        ("plane.origin".into(), fmt_vec(plane.origin)),
-        ("plane.u".into(), fmt_vec(plane.u_axis)),
-        ("plane.v".into(), fmt_vec(plane.v_axis)),
-        (
-            "plane.size".into(),
-            format!("{},{}", plane.size.0, plane.size.1),
-        ),
-    ]
+/// Where a slice lies, for its description.
+pub fn plane_info(plane: &Plane) -> PlaneInfo {
+    PlaneInfo {
+        label: plane.label.clone(),
+        origin: plane.origin,
+        u: plane.u_axis,
+        v: plane.v_axis,
+        size: plane.size,
+    }
 }
 
-/// The metadata that places a camera image.
-pub fn camera_meta(view: &CameraView) -> Vec<(String, String)> {
+/// Where a camera image is taken from, for its description.
+pub fn camera_info(view: &CameraView) -> CameraInfo {
     let c = &view.camera;
-    vec![
-        ("camera".into(), c.name.clone()),
-        ("camera.eye".into(), fmt_vec(c.eye)),
-        ("camera.forward".into(), fmt_vec(c.forward)),
-        ("camera.up".into(), fmt_vec(c.up)),
-        (
-            "camera.fov_y_deg".into(),
-            format!("{}", c.fov_y.to_degrees()),
-        ),
-    ]
-}
-
-pub fn fmt_vec(v: glam::DVec3) -> String {
-    format!("{},{},{}", v.x, v.y, v.z)
+    CameraInfo {
+        name: c.name.clone(),
+        eye: c.eye,
+        forward: c.forward,
+        up: c.up,
+        fov_y_deg: c.fov_y.to_degrees(),
+    }
 }
 
 /// `1h02m03s`, `4m05s`, `12.3s`: a duration as `cli::parse::parse_duration` reads it back (in
@@ -443,8 +420,10 @@ pub fn run_camera(
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
     let (mut field, stats) = run_domain(scene, view, params, opts)?;
-    describe_run(&mut field, scene, params, opts, "camera");
-    field.meta.extend(camera_meta(view));
+    field.set_info(&RunInfo {
+        camera: Some(camera_info(view)),
+        ..describe_run(scene, params, opts, DomainKind::Camera)
+    });
     Ok((field, stats))
 }
 
@@ -520,18 +499,12 @@ pub fn estimate_time(
     }
 }
 
-/// The metadata that places a volume.
-pub fn volume_meta(volume: &Volume) -> Vec<(String, String)> {
-    let (lo, hi) = (volume.origin, volume.max_corner());
-    vec![
-        (
-            "volume.box".into(),
-            format!("{},{},{},{},{},{}", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z),
-        ),
-        (
-            "volume.dims".into(),
-            format!("{},{},{}", volume.nx, volume.ny, volume.nz),
-        ),
-        ("volume.spacing".into(), fmt_vec(volume.spacing)),
-    ]
+/// Where a volume lies, for its description.
+pub fn volume_info(volume: &Volume) -> VolumeInfo {
+    VolumeInfo {
+        min: volume.origin,
+        max: volume.max_corner(),
+        dims: volume.dims(),
+        spacing: volume.spacing,
+    }
 }

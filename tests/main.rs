@@ -12,6 +12,7 @@ mod layers;
 mod merge;
 mod mis;
 mod pinned;
+mod run_info;
 mod stability;
 mod support;
 mod valid;

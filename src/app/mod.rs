@@ -16,13 +16,14 @@ use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::domain::volume::Volume;
 use crate::domain::{CameraView, Domain, MAX_RES, Plane, PlaneDomain, VolumeRes};
 use crate::field::Field;
-use crate::ftpd::{self, Params};
+use crate::ftpd::Params;
 use crate::output::check_writable;
 use crate::render::{self, ErrorStats, Hooks, Progress, RenderOptions, RunStats, Schedule};
 use crate::run::{
-    EstimatorArgs, camera_meta, check_flatland, describe_run, estimate_time, fmt_vec, plane_meta,
-    prepare_flatland, run_domain_progressive, volume_meta,
+    EstimatorArgs, camera_info, check_flatland, describe_run, estimate_time, fmt_vec, plane_info,
+    prepare_flatland, run_domain_progressive, volume_info,
 };
+use crate::run_info::{DomainKind, RunInfo};
 use crate::scene::load::{extension, load_scene_with_lights};
 use crate::scene::{self, Scene};
 use anyhow::{Context, bail};
@@ -334,19 +335,6 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
     Ok(outcomes)
 }
 
-/// Records the command-line point lights in the field's metadata: they are part of the scene, and
-/// merging refuses fields computed with other lights.
-fn annotate_point_lights(field: &mut Field, job: &Job) {
-    if !job.point_lights.is_empty() {
-        let lights: Vec<String> = job
-            .point_lights
-            .iter()
-            .map(|(p, i)| format!("{}:{}", fmt_vec(*p), fmt_vec(*i)))
-            .collect();
-        field.meta.insert("point_lights".into(), lights.join(";"));
-    }
-}
-
 fn say(job: &Job, s: String) {
     if !job.quiet {
         eprintln!("{s}");
@@ -363,9 +351,9 @@ fn run_domain_job(
 ) -> anyhow::Result<RunOutcome> {
     let opts = &job.render;
     let (name, kind) = match domain {
-        JobDomain::Plane(p) => (format!("slice {}", p.label), "slice"),
-        JobDomain::Camera(v) => (format!("camera '{}'", v.camera.name), "camera"),
-        JobDomain::Volume(_) => ("volume".to_string(), "volume"),
+        JobDomain::Plane(p) => (format!("slice {}", p.label), DomainKind::Slice),
+        JobDomain::Camera(v) => (format!("camera '{}'", v.camera.name), DomainKind::Camera),
+        JobDomain::Volume(_) => ("volume".to_string(), DomainKind::Volume),
     };
     let plane_domain;
     let dom: &dyn Domain = match domain {
@@ -383,28 +371,37 @@ fn run_domain_job(
         JobDomain::Volume(v) => write_volume_progress(f, p, v, output, png),
         _ => write_progress(f, p, output, png),
     };
-    let kernel = ftpd::kernel_for(params);
     if let JobDomain::Plane(p) = domain {
         check_flatland(scene, p, params)?;
     }
-    let mut fresh = Field::new(w, h, d);
-    describe_run(&mut fresh, scene, params, opts, kind);
-    fresh.meta.extend(match domain {
-        JobDomain::Plane(p) => plane_meta(p),
-        JobDomain::Camera(v) => camera_meta(v),
-        JobDomain::Volume(v) => volume_meta(v),
-    });
-    fresh.meta.insert("kernel".into(), kernel.to_string());
-    annotate_point_lights(&mut fresh, job);
-    if let Some(t) = opts.tile {
-        fresh.meta.insert("tile".into(), t.to_string());
-    }
+    // The run's description; the command-line point lights are part of the scene (merge refuses
+    // fields computed with other lights).
+    let mut info = RunInfo {
+        plane: match domain {
+            JobDomain::Plane(p) => Some(plane_info(p)),
+            _ => None,
+        },
+        camera: match domain {
+            JobDomain::Camera(v) => Some(camera_info(v)),
+            _ => None,
+        },
+        volume: match domain {
+            JobDomain::Volume(v) => Some(volume_info(v)),
+            _ => None,
+        },
+        point_lights: job.point_lights.clone(),
+        ..describe_run(scene, params, opts, kind)
+    };
     let (mut field, mut progress) = match &job.resume {
-        None => (fresh, Progress::default()),
+        None => {
+            let mut fresh = Field::new(w, h, d);
+            fresh.set_info(&info);
+            (fresh, Progress::default())
+        }
         Some(path) => {
             let (mut f, p) = read_progress(path)?;
-            check_resume(path, &f, &fresh.meta, (w, h, d))?;
-            f.meta = fresh.meta;
+            check_resume(path, &f, &info, (w, h, d))?;
+            f.set_info(&info);
             say(
                 job,
                 format!(
@@ -501,7 +498,7 @@ fn run_domain_job(
         if last_checkpoint.elapsed() < every {
             return Ok(());
         }
-        mark_progress(f, p, opts, true, None);
+        mark_progress(f, &mut info, p, opts, true, None);
         write(f, p, false)?;
         last_checkpoint = Instant::now();
         say(
@@ -543,7 +540,14 @@ fn run_domain_job(
         );
     }
     let partial = !stats.stop.is_complete();
-    mark_progress(&mut field, &progress, opts, partial, Some(stats.stop));
+    mark_progress(
+        &mut field,
+        &mut info,
+        &progress,
+        opts,
+        partial,
+        Some(stats.stop),
+    );
     say(job, summary(&field, &stats, &error, params));
     write(&field, &progress, job.png)?;
     say(
