@@ -88,6 +88,22 @@ impl EstimatorArgs {
         self.resolve_from(scene, scene.bounds.distance(eye), scene.extent())
     }
 
+    /// [`resolve`](Self::resolve) for a slice: the default run lengths start where the scene starts
+    /// as seen from the slice, `dist + [0.1 D, 0.5 D]` with `dist` the distance between the
+    /// slice's rectangle and the scene's bounds ([`Plane::distance_to_box`]): 0 when they overlap
+    /// (every default slice, whose rectangle covers the bounds), so only a window or plane placed
+    /// away from the scene moves them.
+    pub fn resolve_for_plane(&self, scene: &Scene, plane: &Plane) -> Result<Params, ParamError> {
+        self.resolve_from(scene, plane_offset(scene, plane), scene.extent())
+    }
+
+    /// [`resolve`](Self::resolve) for a volume over `bbox`: `dist + [0.1 D, 0.5 D]` with `dist`
+    /// the distance between the box and the scene's bounds (0 when they overlap, as the default
+    /// box, the bounds themselves, does).
+    pub fn resolve_for_box(&self, scene: &Scene, bbox: &scene::Aabb) -> Result<Params, ParamError> {
+        self.resolve_from(scene, box_offset(&scene.bounds, bbox), scene.extent())
+    }
+
     /// Defaults `offset + [0.1 d, 0.5 d]`.
     fn resolve_from(&self, scene: &Scene, offset: f64, d: f64) -> Result<Params, ParamError> {
         let t0 = self.t0.unwrap_or(offset + DEFAULT_T0_OF_DIAGONAL * d);
@@ -124,6 +140,28 @@ impl EstimatorArgs {
             flat: None,
         })
     }
+}
+
+/// Where a slice's default run lengths start: the distance between its rectangle and the scene's
+/// bounds, 0 for a scene without bounds and for distances below 1e-9 of the scene's size (a
+/// rectangle touching the bounds overlaps them).
+pub fn plane_offset(scene: &Scene, plane: &Plane) -> f64 {
+    if scene.bounds.is_empty() {
+        return 0.0;
+    }
+    let d = plane.distance_to_box(&scene.bounds);
+    if d > 1e-9 * scene.extent() { d } else { 0.0 }
+}
+
+/// The distance between two boxes (0 when they overlap).
+pub fn box_offset(bounds: &scene::Aabb, bbox: &scene::Aabb) -> f64 {
+    if bounds.is_empty() {
+        return 0.0;
+    }
+    let gap = (bounds.min - bbox.max)
+        .max(bbox.min - bounds.max)
+        .max(glam::DVec3::ZERO);
+    gap.length()
 }
 
 /// What would have made a light in the scene's own format, for messages about a scene without.
@@ -164,7 +202,8 @@ pub fn flat_extent(bounds: &scene::Aabb, fl: &Flatland) -> f64 {
 
 /// Sets up a flatland run on `plane`: validates and prepares the scene
 /// ([`Scene::prepare_flatland`]), resolves the estimator settings with run-length defaults relative
-/// to the cross-section's diagonal, and returns them with [`Params::flat`] set.
+/// to the cross-section's diagonal (starting, as for any slice, at the distance from the plane's
+/// rectangle to the scene, [`plane_offset`]), and returns them with [`Params::flat`] set.
 pub fn prepare_flatland(
     scene: &mut Scene,
     plane: &Plane,
@@ -172,7 +211,11 @@ pub fn prepare_flatland(
 ) -> anyhow::Result<Params> {
     let fl = plane.flatland();
     scene.prepare_flatland(fl, &plane.label)?;
-    let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
+    let mut params = args.resolve_from(
+        scene,
+        plane_offset(scene, plane),
+        flat_extent(&scene.bounds, &fl),
+    )?;
     if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {
         return Err(ParamError::NoLightInPlane {
             scene: scene.source.display().to_string(),

@@ -1,6 +1,8 @@
 //! The run's typed description ([`ftpd3d::run_info::RunInfo`]): files written by the code before it
-//! still read, resume and merge; `flatland` must match.
+//! still read, resume and merge; `flatland` must match; slices and volumes away from the scene get
+//! run lengths that reach it.
 
+use crate::geometry::scene_path;
 use crate::support::{ftpd3d, temp_dir};
 use ftpd3d::output::exr::read_exr;
 use ftpd3d::run_info::{CellCount, DomainKind, Remaining};
@@ -136,4 +138,126 @@ fn flatland_must_match_for_merge_and_a_bad_attribute_is_named() {
         "{e:#}"
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A slice window (and a volume box) away from the scene: the default run lengths start where the
+/// scene starts as seen from it, so pairs reach the scene (on 5c13cb1 every σ was 0); run lengths
+/// given too short for that are warned about, naming --t0/--t1.
+#[test]
+fn windows_and_boxes_away_from_the_scene_reach_it() {
+    let dir = temp_dir("run_info", "far_window");
+    let cornell = scene_path("cornell_mirror.obj");
+    let cornell = cornell.to_str().unwrap();
+    // x = 0 spans (z, y): the window lies 2 in front of the room's z = 1 wall.
+    let common = [
+        "--scene",
+        cornell,
+        "--slice",
+        "x=0",
+        "--window",
+        "3,0.5,4,1.5",
+        "--res",
+        "4",
+        "--spp",
+        "32",
+        "--weight",
+        "unweighted",
+        "--no-png",
+    ];
+    let mut args = common.to_vec();
+    args.extend(["-o", "far.exr"]);
+    let r = ftpd3d(Some(&dir), &args);
+    assert!(r.ok, "{}", r.err);
+    assert!(!r.err.contains("no pair was deflected"), "{}", r.err);
+    let f = read_exr(&dir.join("far.exr")).unwrap();
+    let info = f.info("far.exr").unwrap();
+    let d = 12f64.sqrt();
+    let near = |x: Option<f64>, y: f64| x.is_some_and(|x| (x - y).abs() < 1e-12);
+    assert!(near(info.t0, 2.0 + 0.1 * d), "{:?}", info.t0);
+    assert!(near(info.t1, 2.0 + 0.5 * d), "{:?}", info.t1);
+    assert!(f.values().iter().any(|v| v.sigma > 0.0));
+    // Too short to get there: warned about, naming the flags.
+    let mut args = common.to_vec();
+    args.extend(["--t0", "0.5", "--t1", "1", "-o", "short.exr"]);
+    let r = ftpd3d(Some(&dir), &args);
+    assert!(r.ok, "{}", r.err);
+    assert!(
+        r.err.contains("no pair was deflected") && r.err.contains("--t0/--t1"),
+        "{}",
+        r.err
+    );
+    // A box beside the room: the same offset.
+    let r = ftpd3d(
+        Some(&dir),
+        &[
+            "--scene",
+            cornell,
+            "--volume",
+            "2",
+            "--box",
+            "-0.5,0.5,3,0.5,1.5,4",
+            "--spp",
+            "32",
+            "--weight",
+            "unweighted",
+            "--no-png",
+            "-o",
+            "far.vti",
+        ],
+    );
+    assert!(r.ok, "{}", r.err);
+    assert!(!r.err.contains("no pair was deflected"), "{}", r.err);
+    let v = ftpd3d::output::vti::read_vti(&dir.join("far.vti")).unwrap();
+    assert!(near(v.field.info("far.vti").unwrap().t0, 2.0 + 0.1 * d));
+    assert!(v.field.values().iter().any(|v| v.sigma > 0.0));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The offset is the distance between the slice's rectangle and the scene's bounds: exact for
+/// axis slices, by search for tilted planes; 0 wherever they meet.
+#[test]
+fn plane_to_box_distances() {
+    use ftpd3d::domain::Plane;
+    use ftpd3d::scene::Aabb;
+    use glam::DVec3;
+    let b = Aabb {
+        min: DVec3::new(-1.0, 0.0, -1.0),
+        max: DVec3::new(1.0, 2.0, 1.0),
+    };
+    let axis = |w: [f64; 4]| {
+        Plane::axis_slice(&b, "x=0".parse().unwrap(), Some(w), 4)
+            .unwrap()
+            .distance_to_box(&b)
+    };
+    assert_eq!(axis([-1.0, 0.0, 1.0, 2.0]), 0.0);
+    assert_eq!(axis([0.5, 1.5, 3.0, 4.0]), 0.0, "overlapping a corner");
+    assert_eq!(axis([3.0, 0.5, 4.0, 1.5]), 2.0);
+    assert_eq!(axis([4.0, 6.0, 5.0, 7.0]), 5.0, "3-4-5 from the corner");
+    // A plane tilted 45° about y, centred 3 beyond the box's x = 1 face along the normal.
+    let spec = ftpd3d::domain::slice::PlaneSpec {
+        origin: DVec3::new(4.0, 1.0, 0.0),
+        normal: DVec3::new(1.0, 0.0, 1.0).normalize(),
+        up: None,
+        size: Some((0.5, 0.5)),
+    };
+    let p = Plane::from_spec(&b, &spec, 4).unwrap();
+    // Against the least distance over a fine grid of the rectangle's points.
+    let n = 400;
+    let mut best = f64::INFINITY;
+    for i in 0..=n {
+        for j in 0..=n {
+            let (s, t) = (i as f64 / n as f64, j as f64 / n as f64);
+            let c = p.origin + p.u_axis * p.size.0 * s + p.v_axis * p.size.1 * t;
+            best = best.min(b.distance(c));
+        }
+    }
+    let d = p.distance_to_box(&b);
+    assert!(d <= best + 1e-12 && d > best - 1e-3, "{d} against {best}");
+    assert!(d > 2.0, "{d}");
+    let through = ftpd3d::domain::slice::PlaneSpec {
+        origin: DVec3::new(0.0, 1.0, 0.0),
+        ..spec
+    };
+    let p = Plane::from_spec(&b, &through, 4).unwrap();
+    assert!(p.distance_to_box(&b) < 1e-12);
 }

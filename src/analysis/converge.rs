@@ -567,7 +567,7 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         .map(|w| {
             let mut e = job.estimator.clone();
             e.weighting = *w;
-            e.resolve(&scene)
+            e.resolve_for_plane(&scene, &plane)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let quiet = job.quiet;

@@ -258,10 +258,10 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                 let plane = resolve_plane(arg, &scene, *window, *res)?;
                 let out = slice_output(&job.output, arg, k, slices.len());
                 check_writable(&out)?;
+                if !job.flatland {
+                    job.estimator.resolve_for_plane(&scene, &plane)?;
+                }
                 domains.push((JobDomain::Plane(plane), out));
-            }
-            if !job.flatland {
-                job.estimator.resolve(&scene)?;
             }
         }
         DomainArg::Camera { camera, size } => {
@@ -279,8 +279,8 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
             ));
         }
         DomainArg::Volume { res, bbox } => {
-            job.estimator.resolve(&scene)?;
             let bbox = Volume::resolve_box(&scene.bounds, *bbox)?;
+            job.estimator.resolve_for_box(&scene, &bbox)?;
             // Refused before anything is allocated (the resumed file included).
             let (available, measured) = available_memory();
             let dims = check_volume_memory(*res, bbox.max - bbox.min, available, measured)?;
@@ -321,8 +321,15 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                 }
                 params
             }
+            JobDomain::Plane(plane) => job.estimator.resolve_for_plane(&scene, plane)?,
             JobDomain::Camera(view) => job.estimator.resolve_for_camera(&scene, view.camera.eye)?,
-            _ => job.estimator.resolve(&scene)?,
+            JobDomain::Volume(v) => job.estimator.resolve_for_box(
+                &scene,
+                &scene::Aabb {
+                    min: v.origin,
+                    max: v.max_corner(),
+                },
+            )?,
         };
         let outcome = run_domain_job(job, &scene, domain, &params, out)?;
         let interrupted = !outcome.stats.stop.is_complete()

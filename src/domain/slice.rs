@@ -194,6 +194,60 @@ impl Plane {
         Flatland::new(self.origin, self.u_axis, self.v_axis)
     }
 
+    /// The distance between the plane's rectangle and the box `b` (0 when they meet). An axis
+    /// slice's rectangle is itself an axis-aligned box, and two such boxes are apart by the length
+    /// of their per-axis gaps (exact, and exactly 0 when they overlap). Otherwise the closest
+    /// points of two disjoint convex polytopes lie on a vertex and a face or on two edges, so the
+    /// least of the rectangle's edges against the box and the box's edges against the rectangle is
+    /// the distance; each is convex along its edge and found by golden-section search (to about
+    /// 1e-12 of the edge's length).
+    pub fn distance_to_box(&self, b: &Aabb) -> f64 {
+        let (s0, s1) = self.size;
+        let corners = [
+            self.origin,
+            self.origin + self.u_axis * s0,
+            self.origin + self.u_axis * s0 + self.v_axis * s1,
+            self.origin + self.v_axis * s1,
+        ];
+        let axis_aligned = |a: DVec3| a.to_array().iter().filter(|x| **x != 0.0).count() == 1;
+        if axis_aligned(self.u_axis) && axis_aligned(self.v_axis) {
+            let (lo, hi) = corners
+                .iter()
+                .fold((corners[0], corners[0]), |(lo, hi), c| {
+                    (lo.min(*c), hi.max(*c))
+                });
+            return (b.min - hi).max(lo - b.max).max(DVec3::ZERO).length();
+        }
+        let to_rect = |p: DVec3| {
+            let d = p - self.origin;
+            let (a, c) = (
+                d.dot(self.u_axis).clamp(0.0, s0),
+                d.dot(self.v_axis).clamp(0.0, s1),
+            );
+            (p - (self.origin + self.u_axis * a + self.v_axis * c)).length()
+        };
+        let box_corner = |k: usize| {
+            DVec3::new(
+                if k & 1 == 0 { b.min.x } else { b.max.x },
+                if k & 2 == 0 { b.min.y } else { b.max.y },
+                if k & 4 == 0 { b.min.z } else { b.max.z },
+            )
+        };
+        let mut best = f64::INFINITY;
+        for k in 0..4 {
+            let (p, q) = (corners[k], corners[(k + 1) % 4]);
+            best = best.min(min_along(p, q, &|x| b.distance(x)));
+        }
+        for k in 0..8 {
+            for bit in [1, 2, 4] {
+                if k & bit == 0 {
+                    best = best.min(min_along(box_corner(k), box_corner(k | bit), &to_rect));
+                }
+            }
+        }
+        best
+    }
+
     /// Point of cell `idx` (row-major from the bottom row) at offset `jitter` ∈ [0,1)² in the cell.
     #[inline]
     pub fn point(&self, idx: usize, jitter: (f64, f64)) -> DVec3 {
@@ -202,6 +256,27 @@ impl Plane {
         let fv = (j as f64 + jitter.1) / self.height as f64;
         self.origin + self.u_axis * (fu * self.size.0) + self.v_axis * (fv * self.size.1)
     }
+}
+
+/// The least of the convex function `f` on the segment from `p` to `q`: golden-section search.
+fn min_along(p: DVec3, q: DVec3, f: &dyn Fn(DVec3) -> f64) -> f64 {
+    let at = |t: f64| f(p + (q - p) * t);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (0.0f64, 1.0f64);
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fd) = (at(c), at(d));
+    for _ in 0..60 {
+        if fc <= fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - g * (b - a);
+            fc = at(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + g * (b - a);
+            fd = at(d);
+        }
+    }
+    at(0.0).min(at(1.0)).min(fc).min(fd)
 }
 
 /// An arbitrary plane: `origin=x,y,z normal=x,y,z [up=x,y,z] [size=w,h]` (keys in any order,
