@@ -2,6 +2,7 @@
 //! merge by addition (see [`crate::ftpd::moments::Moments::merge`]).
 
 use crate::ftpd::moments::{CellValue, Moments};
+use crate::run_info::{InfoError, RunInfo};
 use std::collections::BTreeMap;
 
 /// A 2D grid of accumulators; row 0 is the bottom row (v minimal), cell (i, j) = `cells[j * width + i]`.
@@ -12,8 +13,9 @@ pub struct Field {
     pub height: usize,
     pub depth: usize,
     pub cells: Vec<Moments>,
-    /// Key/value description of the run (scene, plane, parameters, seed, versions, ...), written as
-    /// header attributes.
+    /// The description of the run (scene, plane, parameters, seed, versions, ...) as the file's
+    /// attributes hold it: set with [`Field::set_info`], read with [`Field::info`] (the typed
+    /// [`RunInfo`]); the attributes as such are what the writers store.
     pub meta: BTreeMap<String, String>,
 }
 
@@ -38,6 +40,16 @@ impl Field {
 
     pub fn valid(&self) -> Vec<bool> {
         self.cells.iter().map(|c| c.finalize().valid).collect()
+    }
+
+    /// The run's description, typed; `file` names the field in errors.
+    pub fn info(&self, file: &str) -> Result<RunInfo, InfoError> {
+        RunInfo::from_attributes(&self.meta, file)
+    }
+
+    /// Describes the run by `info` (replacing any earlier description).
+    pub fn set_info(&mut self, info: &RunInfo) {
+        self.meta = info.to_attributes();
     }
 
     pub fn total_samples(&self) -> u64 {

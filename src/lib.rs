@@ -6,7 +6,8 @@
 //! [`scene`] (data: geometry, materials, lights, flatland preparation) → [`kernel`] (the four
 //! compile-time kernels, the space of directions) → [`transport`] (walks, BSDFs and lights, written
 //! once for 3D and flatland) → [`ftpd`] (one sample, moments) → [`domain`] (where samples start)
-//! → [`render`], [`run`] (the driver and the runs built on it) → [`field`], [`output`], [`merge`],
+//! → [`render`], [`run`] (the driver and the runs built on it) → [`field`] (with [`run_info`], the
+//! run's typed description), [`output`], [`merge`],
 //! [`analysis`] → [`app`], [`cli`] (jobs and the command line). The README's Architecture section has a paragraph per module.
 
 // `!(x > 0.0)` is how this crate rejects NaN along with non-positive values; keep that idiom.
@@ -26,6 +27,7 @@ pub mod output;
 pub mod render;
 pub mod rng;
 pub mod run;
+pub mod run_info;
 pub mod scene;
 pub mod transport;
 

@@ -631,7 +631,7 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", ftpd3d::cli::errors::message(&e));
             ExitCode::FAILURE
         }
     }

@@ -21,70 +21,21 @@
 //! geometry (`Origin`, `Spacing`) must match as well. Fields and volumes are
 //! not mixed, and the output is written in the inputs' format.
 
-use crate::domain::Tile;
 use crate::field::Field;
 use crate::output::{self, vti::Vti};
-use anyhow::{Context, bail};
-use std::collections::{BTreeMap, BTreeSet};
-use std::ops::Range;
+pub use crate::run_info::Part;
+use crate::run_info::{CellCount, ESTIMATE_KEYS, Remaining, RunInfo};
+use anyhow::bail;
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-/// Metadata keys that describe what a run estimates: merged fields must agree on every one (absent
-/// on both counts as agreeing), and so must a resumed run with its file (which checks a few keys
-/// more).
-pub const MUST_MATCH: &[&str] = &[
-    "scene",
-    "domain",
-    "plane",
-    "plane.origin",
-    "plane.u",
-    "plane.v",
-    "plane.size",
-    "camera",
-    "camera.eye",
-    "camera.forward",
-    "camera.up",
-    "camera.fov_y_deg",
-    "weighting",
-    "t0",
-    "t1",
-    "angle_deg",
-    "max_bounces",
-    "features",
-    "point_lights",
-    "volume.box",
-];
-
-/// Keys the merge writes itself rather than carrying over.
-const REWRITTEN: &[&str] = &[
-    "seed",
-    "seeds",
-    "tile",
-    "parts",
-    "spp",
-    "batches",
-    "merged",
-    "tool",
-    // Progress of the run: recomputed for the merged field (totals, not one input's values).
-    "samples",
-    "elapsed",
-    "passes",
-    "partial",
-    "pass.inflight",
-    "remaining.samples",
-    "remaining.time",
-    "stop",
-];
-
-/// One seed over a range of grid rows.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Part {
-    pub seed: u64,
-    pub rows: Range<usize>,
-}
+/// The attributes that describe what a run estimates ([`ESTIMATE_KEYS`], among them `flatland`):
+/// merged fields must agree on every one (compared as typed values; absent on both counts as
+/// agreeing), and so must a resumed run with its file (which checks a few more).
+pub const MUST_MATCH: &[&str] = ESTIMATE_KEYS;
 
 /// Checks that `b` (read from `b_name`) describes the same run as `a` (from `a_name`): grid size
-/// and every key of [`MUST_MATCH`]. The message names the file and the key, e.g.
+/// and every attribute of [`MUST_MATCH`]. The message names the file and the attribute, e.g.
 /// `b.exr: t1 = 2e0 differs from a.exr's 1.5e0`.
 pub fn check_same_run(a_name: &str, a: &Field, b_name: &str, b: &Field) -> anyhow::Result<()> {
     if (a.width, a.height, a.depth) != (b.width, b.height, b.depth) {
@@ -94,17 +45,22 @@ pub fn check_same_run(a_name: &str, a: &Field, b_name: &str, b: &Field) -> anyho
             grid(a)
         );
     }
-    for key in MUST_MATCH {
-        match (a.meta.get(*key), b.meta.get(*key)) {
-            (Some(x), Some(y)) if x != y => {
-                bail!("{b_name}: {key} = {y} differs from {a_name}'s {x}")
-            }
-            (Some(x), None) => bail!("{b_name}: has no {key}, while {a_name} has {key} = {x}"),
-            (None, Some(y)) => bail!("{b_name}: {key} = {y}, while {a_name} has no {key}"),
-            _ => {}
-        }
+    check_same_info(a_name, &a.info(a_name)?, b_name, &b.info(b_name)?)
+}
+
+/// [`check_same_run`] of two descriptions.
+fn check_same_info(a_name: &str, a: &RunInfo, b_name: &str, b: &RunInfo) -> anyhow::Result<()> {
+    let Some(key) = a.first_difference(b, MUST_MATCH) else {
+        return Ok(());
+    };
+    let (am, bm) = (a.to_attributes(), b.to_attributes());
+    match (am.get(key), bm.get(key)) {
+        (Some(x), Some(y)) => bail!("{b_name}: {key} = {y} differs from {a_name}'s {x}"),
+        (Some(x), None) => bail!("{b_name}: has no {key}, while {a_name} has {key} = {x}"),
+        (None, Some(y)) => bail!("{b_name}: {key} = {y}, while {a_name} has no {key}"),
+        // Values that differ yet print alike (0 and -0 do not: they print apart).
+        (None, None) => bail!("{b_name}: {key} differs from {a_name}'s"),
     }
-    Ok(())
 }
 
 /// `WxH`, or `WxHxD` for a volume.
@@ -117,7 +73,7 @@ fn grid(f: &Field) -> String {
 }
 
 /// The rows tiles and parts count in: a 2D grid's rows, a volume's z layers (as
-/// [`Tile::cells`] splits them).
+/// [`crate::domain::Tile::cells`] splits them).
 pub fn rows(f: &Field) -> usize {
     if f.depth > 1 { f.depth } else { f.height }
 }
@@ -134,39 +90,23 @@ fn row_of(f: &Field, k: usize) -> usize {
 /// The parts of a field: its `parts` attribute, or else its `seed` over its `tile`'s rows (all
 /// rows without a tile).
 pub fn parts_of(name: &str, f: &Field) -> anyhow::Result<Vec<Part>> {
-    if let Some(p) = f.meta.get("parts") {
-        return p
-            .split(';')
-            .filter(|s| !s.trim().is_empty())
-            .map(|s| parse_part(s).with_context(|| format!("{name}: parts = {p}")))
-            .collect();
-    }
-    let seed = f
-        .meta
-        .get("seed")
-        .with_context(|| format!("{name}: no seed attribute (not a field written by ftpd3d?)"))?;
-    let seed = seed
-        .parse::<u64>()
-        .map_err(|_| anyhow::anyhow!("{name}: seed = {seed} is not a whole number"))?;
-    let rows = match f.meta.get("tile") {
-        Some(t) => t
-            .parse::<Tile>()
-            .map_err(|e| anyhow::anyhow!("{name}: tile {e}"))?
-            .rows(rows(f)),
-        None => 0..rows(f),
-    };
-    Ok(vec![Part { seed, rows }])
+    parts_in(name, &f.info(name)?, f)
 }
 
-fn parse_part(s: &str) -> anyhow::Result<Part> {
-    let bad = || anyhow::anyhow!("'{s}' is not SEED@ROW0-ROW1");
-    let (seed, rows) = s.trim().split_once('@').ok_or_else(bad)?;
-    let (r0, r1) = rows.split_once('-').ok_or_else(bad)?;
-    let n = |t: &str| t.trim().parse::<usize>().map_err(|_| bad());
-    Ok(Part {
-        seed: seed.trim().parse().map_err(|_| bad())?,
-        rows: n(r0)?..n(r1)?,
-    })
+/// [`parts_of`] with the field's description read.
+fn parts_in(name: &str, info: &RunInfo, f: &Field) -> anyhow::Result<Vec<Part>> {
+    if let Some(p) = &info.parts {
+        return Ok(p.clone());
+    }
+    let Some(seed) = info.seed else {
+        bail!("{name}: no seed attribute (not a field written by ftpd3d?)");
+    };
+    let rows = match info.tiles.as_slice() {
+        [] => 0..rows(f),
+        [t] => t.rows(rows(f)),
+        _ => bail!("{name}: several tiles and no parts attribute: its header is damaged"),
+    };
+    Ok(vec![Part { seed, rows }])
 }
 
 /// Sorted, with adjacent or overlapping row ranges of one seed joined.
@@ -185,14 +125,6 @@ fn coalesce(mut parts: Vec<Part>) -> Vec<Part> {
     out
 }
 
-fn fmt_parts(parts: &[Part]) -> String {
-    parts
-        .iter()
-        .map(|p| format!("{}@{}-{}", p.seed, p.rows.start, p.rows.end))
-        .collect::<Vec<_>>()
-        .join(";")
-}
-
 /// The result of [`merge_fields`]: the summed field and what the user should know.
 #[derive(Debug)]
 pub struct Merged {
@@ -200,34 +132,52 @@ pub struct Merged {
     pub warnings: Vec<String>,
 }
 
+/// The distinct values of a text attribute over the inputs, sorted and joined with `; ` (one
+/// value when they agree); `None` when no input has it.
+fn join_text<'a>(values: impl Iterator<Item = Option<&'a String>>) -> Option<String> {
+    let set: BTreeSet<&str> = values.flatten().map(String::as_str).collect();
+    (!set.is_empty()).then(|| set.into_iter().collect::<Vec<_>>().join("; "))
+}
+
+/// The one value all inputs have, if they do.
+fn agreed<T: PartialEq + Clone>(values: impl Iterator<Item = Option<T>>) -> Option<T> {
+    let v: Vec<Option<T>> = values.collect();
+    match v.first() {
+        Some(Some(x)) if v.iter().all(|y| y.as_ref() == Some(x)) => Some(x.clone()),
+        _ => None,
+    }
+}
+
 /// Merges named fields: checks them ([`check_same_run`], parts), adds their sums in the given order
-/// (the first field's sums, plus the second's, ...) and writes the merged metadata: `parts`,
-/// `seeds` (the distinct seeds merged), `seed` (when there is one), `tile` (only while the rows
-/// are not all covered), `spp` (from the sample counts: `N`, or `MIN-MAX` when cells differ),
-/// `batches` (per row, summed over the inputs covering it), `merged` (the input names).
+/// (the first field's sums, plus the second's, ...) and describes the merged field: what the run
+/// estimates from the inputs (they agree on it), the other text attributes joined where the
+/// inputs differ, and afresh `parts`, `seeds` (the distinct seeds merged), `seed` (when there is
+/// one), `tile` (only while the rows are not all covered), `spp` (from the sample counts: `N`, or
+/// `MIN-MAX` when cells differ), `batches` (per row, summed over the inputs covering it),
+/// `merged` (the input names) and the progress totals ([`progress_totals`]).
 pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
     let Some((first_name, first)) = inputs.first() else {
         bail!("merge: no input fields");
     };
+    let infos = inputs
+        .iter()
+        .map(|(name, f)| f.info(name))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut warnings = Vec::new();
     let mut all_parts: Vec<(Part, usize)> = Vec::new();
+    let mut parts_per_input = Vec::with_capacity(inputs.len());
     for (k, (name, f)) in inputs.iter().enumerate() {
         if f.cells.len() != f.width * f.height * f.depth {
             bail!("{name}: {} cells for a {} grid", f.cells.len(), grid(f));
         }
         check_same_run(first_name, first, name, f)?;
-        let parts = parts_of(name, f)?;
+        let parts = parts_in(name, &infos[k], f)?;
+        parts_per_input.push(parts.clone());
         // Cells outside the rows the file claims must be empty, or its metadata lies.
         let mut covered = vec![false; rows(f)];
         for p in &parts {
             if p.rows.end > rows(f) {
-                bail!(
-                    "{name}: part {}@{}-{} lies outside its {} rows",
-                    p.seed,
-                    p.rows.start,
-                    p.rows.end,
-                    rows(f)
-                );
+                bail!("{name}: part {p} lies outside its {} rows", rows(f));
             }
             covered[p.rows.clone()].iter_mut().for_each(|c| *c = true);
         }
@@ -275,65 +225,64 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
         }
     }
 
-    // Metadata: the run's description from the first file; other keys kept when all agree.
-    let mut meta: BTreeMap<String, String> = BTreeMap::new();
-    let keys: BTreeSet<&String> = inputs.iter().flat_map(|(_, f)| f.meta.keys()).collect();
-    for key in keys {
-        if REWRITTEN.contains(&key.as_str()) {
-            continue;
+    // What the run estimates, from the first input (they all agree on it).
+    let one = &infos[0];
+    let mut info = RunInfo {
+        scene: one.scene.clone(),
+        domain: one.domain,
+        plane: one.plane.clone(),
+        camera: one.camera.clone(),
+        volume: one.volume.clone(),
+        weighting: one.weighting,
+        t0: one.t0,
+        t1: one.t1,
+        angle_deg: one.angle_deg,
+        max_bounces: one.max_bounces,
+        features: one.features.clone(),
+        point_lights: one.point_lights.clone(),
+        sun: one.sun.clone(),
+        sky: one.sky.clone(),
+        flatland: one.flatland,
+        tool: Some(format!("ftpd3d {}", env!("CARGO_PKG_VERSION"))),
+        ..RunInfo::default()
+    };
+    // Text attributes the inputs may differ on: kept, joined where they do.
+    info.embree = join_text(infos.iter().map(|i| i.embree.as_ref()));
+    info.kernel = join_text(infos.iter().map(|i| i.kernel.as_ref()));
+    info.schedule = join_text(infos.iter().map(|i| i.schedule.as_ref()));
+    info.adaptive = join_text(infos.iter().map(|i| i.adaptive.as_ref()));
+    info.budget_time = join_text(infos.iter().map(|i| i.budget_time.as_ref()));
+    info.budget_target_error = join_text(infos.iter().map(|i| i.budget_target_error.as_ref()));
+    let extra_keys: BTreeSet<&String> = infos.iter().flat_map(|i| i.extra.keys()).collect();
+    for key in extra_keys {
+        if let Some(v) = join_text(infos.iter().map(|i| i.extra.get(key))) {
+            info.extra.insert(key.clone(), v);
         }
-        let values: BTreeSet<&str> = inputs
-            .iter()
-            .filter_map(|(_, f)| f.meta.get(key).map(String::as_str))
-            .collect();
-        meta.insert(
-            key.clone(),
-            values.into_iter().collect::<Vec<_>>().join("; "),
-        );
     }
-    let tools: BTreeSet<&str> = inputs
-        .iter()
-        .filter_map(|(_, f)| f.meta.get("tool").map(String::as_str))
-        .collect();
+    let tools: BTreeSet<&str> = infos.iter().filter_map(|i| i.tool.as_deref()).collect();
     if tools.len() > 1 {
         warnings.push(format!(
             "the inputs were written by different versions ({})",
             tools.iter().copied().collect::<Vec<_>>().join(", ")
         ));
     }
-    meta.insert(
-        "tool".into(),
-        format!("ftpd3d {}", env!("CARGO_PKG_VERSION")),
-    );
     let parts = coalesce(all_parts.iter().map(|(p, _)| p.clone()).collect());
     let seeds: BTreeSet<u64> = parts.iter().map(|p| p.seed).collect();
-    meta.insert(
-        "seeds".into(),
-        seeds
-            .iter()
-            .map(u64::to_string)
-            .collect::<Vec<_>>()
-            .join(","),
-    );
+    info.seeds = seeds.iter().copied().collect();
     if seeds.len() == 1 {
-        meta.insert("seed".into(), seeds.iter().next().expect("one").to_string());
+        info.seed = seeds.first().copied();
     }
-    meta.insert("parts".into(), fmt_parts(&parts));
     let h = rows(&field);
     let mut covered = vec![false; h];
     for p in &parts {
         covered[p.rows.clone()].iter_mut().for_each(|c| *c = true);
     }
+    info.parts = Some(parts);
     if covered.iter().any(|c| !c) {
-        let tiles: BTreeSet<&str> = inputs
-            .iter()
-            .filter_map(|(_, f)| f.meta.get("tile").map(String::as_str))
-            .flat_map(|t| t.split(','))
-            .collect();
-        meta.insert(
-            "tile".into(),
-            tiles.into_iter().collect::<Vec<_>>().join(","),
-        );
+        let mut tiles: Vec<_> = infos.iter().flat_map(|i| i.tiles.iter().copied()).collect();
+        tiles.sort_by_key(|t| t.to_string());
+        tiles.dedup();
+        info.tiles = tiles;
         warnings.push(format!(
             "the merged field covers {} of {h} rows: merge the missing tiles too for a full grid",
             covered.iter().filter(|c| **c).count()
@@ -341,21 +290,17 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
     }
     let counts: BTreeSet<u64> = field.cells.iter().map(|c| c.n).filter(|&n| n > 0).collect();
     if let (Some(lo), Some(hi)) = (counts.first(), counts.last()) {
-        meta.insert(
-            "spp".into(),
-            if lo == hi {
-                lo.to_string()
-            } else {
-                format!("{lo}-{hi}")
-            },
-        );
+        info.spp = Some(CellCount::range(*lo, *hi));
     }
     // Batches per row: every input adds its batch count to the rows it covers.
     let mut row_batches = vec![Some(0u64); h];
-    for (name, f) in &inputs {
-        let b = f.meta.get("batches").and_then(|b| b.parse::<u64>().ok());
-        for p in parts_of(name, f)? {
-            for r in p.rows {
+    for (i, parts) in infos.iter().zip(&parts_per_input) {
+        let b = match i.batches {
+            Some(CellCount::Each(n)) => Some(n),
+            _ => None,
+        };
+        for p in parts {
+            for r in p.rows.clone() {
                 row_batches[r] = match (row_batches[r], b) {
                     (Some(x), Some(y)) => Some(x + y),
                     _ => None,
@@ -370,73 +315,49 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
     if !per_row.contains(&None) {
         let v: Vec<u64> = per_row.into_iter().flatten().collect();
         if let (Some(lo), Some(hi)) = (v.first(), v.last()) {
-            meta.insert(
-                "batches".into(),
-                if lo == hi {
-                    lo.to_string()
-                } else {
-                    format!("{lo}-{hi}")
-                },
-            );
+            info.batches = Some(CellCount::range(*lo, *hi));
         }
     }
-    meta.insert(
-        "merged".into(),
-        inputs
-            .iter()
-            .map(|(n, _)| n.as_str())
-            .collect::<Vec<_>>()
-            .join(";"),
-    );
-    progress_totals(&mut meta, &inputs, &field);
-    field.meta = meta;
+    info.merged = inputs.iter().map(|(n, _)| n.clone()).collect();
+    progress_totals(&mut info, &infos, &field);
+    field.set_info(&info);
     Ok(Merged { field, warnings })
 }
 
-/// The progress keys of a merged field describe the merged field: `samples` is its total,
-/// `elapsed` the compute seconds of all inputs together, `remaining.samples` what the inputs still
-/// lacked of their budgets (added; `unbounded` if any input had no sample cap), `partial` and
-/// `pass.inflight` true if any input was; `passes` and `stop` are kept only where all inputs agree.
-/// A merged field is not resumable (`--resume` takes one run's file), so nothing else is needed.
-fn progress_totals(meta: &mut BTreeMap<String, String>, inputs: &[(String, Field)], field: &Field) {
-    meta.insert("samples".into(), field.total_samples().to_string());
-    let get = |k: &str| -> Vec<Option<&str>> {
-        inputs
-            .iter()
-            .map(|(_, f)| f.meta.get(k).map(String::as_str))
-            .collect()
-    };
-    let elapsed: Option<f64> = get("elapsed")
-        .into_iter()
-        .map(|v| v.and_then(|v| v.parse::<f64>().ok()))
-        .sum();
-    if let Some(e) = elapsed {
-        meta.insert("elapsed".into(), e.to_string());
-    }
-    let remaining = get("remaining.samples");
-    if remaining.iter().all(Option::is_some) && !remaining.is_empty() {
-        let total: Option<u64> = remaining
-            .iter()
-            .map(|v| v.and_then(|v| v.parse::<u64>().ok()))
-            .sum();
-        meta.insert(
-            "remaining.samples".into(),
-            total.map_or_else(|| "unbounded".into(), |t| t.to_string()),
+/// The progress of a merged field describes the merged field: `samples` is its total, `elapsed`
+/// the compute seconds of all inputs together, `remaining.samples` what the inputs still lacked
+/// of their budgets (added; `unbounded` if any input had no sample cap), `partial` and
+/// `pass.inflight` true if any input was; `passes` and `stop` are kept only where all inputs
+/// agree. A merged field is not resumable (`--resume` takes one run's file), so nothing else is
+/// needed.
+fn progress_totals(info: &mut RunInfo, inputs: &[RunInfo], field: &Field) {
+    info.samples = Some(field.total_samples());
+    info.elapsed = inputs.iter().map(|i| i.elapsed).sum();
+    if !inputs.is_empty() && inputs.iter().all(|i| i.remaining_samples.is_some()) {
+        info.remaining_samples = Some(
+            match inputs
+                .iter()
+                .map(|i| match i.remaining_samples {
+                    Some(Remaining::Samples(n)) => Some(n),
+                    _ => None,
+                })
+                .sum::<Option<u64>>()
+            {
+                Some(n) => Remaining::Samples(n),
+                None => Remaining::Unbounded,
+            },
         );
     }
-    for key in ["partial", "pass.inflight"] {
-        let v = get(key);
-        if v.iter().any(Option::is_some) {
-            let any = v.contains(&Some("true"));
-            meta.insert(key.into(), any.to_string());
-        }
-    }
-    for key in ["passes", "stop"] {
-        let v: BTreeSet<Option<&str>> = get(key).into_iter().collect();
-        if let [Some(one)] = v.into_iter().collect::<Vec<_>>()[..] {
-            meta.insert(key.into(), one.to_string());
-        }
-    }
+    let any = |get: fn(&RunInfo) -> Option<bool>| {
+        let v: Vec<Option<bool>> = inputs.iter().map(get).collect();
+        v.iter()
+            .any(Option::is_some)
+            .then(|| v.contains(&Some(true)))
+    };
+    info.partial = any(|i| i.partial);
+    info.inflight = any(|i| i.inflight);
+    info.passes = agreed(inputs.iter().map(|i| i.passes));
+    info.stop = agreed(inputs.iter().map(|i| i.stop.clone()));
 }
 
 /// What `merge` reads and writes, by file extension.
@@ -576,6 +497,7 @@ pub fn merge_files(inputs: &[PathBuf], output: &Path, png: bool) -> anyhow::Resu
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::run_info::fmt_parts;
 
     #[test]
     fn parts_coalesce_and_print() {
@@ -583,7 +505,7 @@ mod tests {
         let c = coalesce(vec![p(2, 0, 4), p(1, 5, 9), p(1, 0, 5), p(1, 9, 9)]);
         assert_eq!(c, vec![p(1, 0, 9), p(2, 0, 4)]);
         assert_eq!(fmt_parts(&c), "1@0-9;2@0-4");
-        assert_eq!(parse_part(" 7@3-8").unwrap(), p(7, 3, 8));
-        assert!(parse_part("7:3-8").is_err());
+        assert_eq!(" 7@3-8".parse::<Part>().unwrap(), p(7, 3, 8));
+        assert!("7:3-8".parse::<Part>().is_err());
     }
 }

@@ -9,6 +9,8 @@ use crate::field::Field;
 use crate::ftpd::{self, Params, Weighting};
 use crate::render::{self, Hooks, Progress, RenderOptions, RunStats, Schedule};
 use crate::rng::Sampler;
+pub use crate::run_info::fmt_vec;
+use crate::run_info::{CameraInfo, CellCount, DomainKind, PlaneInfo, RunInfo, VolumeInfo};
 use crate::scene::flat::Flatland;
 use crate::scene::{self, Scene};
 use anyhow::bail;
@@ -42,15 +44,35 @@ impl Default for EstimatorArgs {
 pub const DEFAULT_T0_OF_DIAGONAL: f64 = 0.1;
 pub const DEFAULT_T1_OF_DIAGONAL: f64 = 0.5;
 
+/// Estimator settings that cannot run, as typed values; the command line names its flags in the
+/// message (`cli::errors`), other callers their own.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("the shortest run length t0 = {t0} must be finite and ≥ 0")]
+    RunLengthNegative { t0: f64 },
+    #[error("the longest run length t1 = {t1} must be finite and > 0")]
+    RunLengthNotPositive { t1: f64 },
+    #[error("t0 = {t0} is larger than t1 = {t1}: the run-length interval [t0, t1] is empty")]
+    RunLengthsEmpty { t0: f64, t1: f64 },
+    #[error("the perturbation half-angle {angle_deg}° must lie strictly between 0 and 90 degrees")]
+    AngleOutOfRange { angle_deg: f64 },
+    /// Radiance weighting in a scene without lights.
+    #[error("radiance weighting: {scene} has no lights ({ways})")]
+    NoLights { scene: String, ways: &'static str },
+    /// Flatland radiance weighting, and no light meets the plane.
+    #[error("flatland radiance weighting: no light of {scene} meets the slice plane {plane}")]
+    NoLightInPlane { scene: String, plane: String },
+}
+
 impl EstimatorArgs {
     /// Checks the values and fills scene-relative defaults.
-    pub fn resolve(&self, scene: &Scene) -> anyhow::Result<Params> {
+    pub fn resolve(&self, scene: &Scene) -> Result<Params, ParamError> {
         self.resolve_with_extent(scene, scene.extent())
     }
 
     /// [`resolve`](Self::resolve) with run-length defaults relative to the length `d` instead of the
     /// scene diagonal (flatland uses the diagonal of the scene's cross-section).
-    pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> anyhow::Result<Params> {
+    pub fn resolve_with_extent(&self, scene: &Scene, d: f64) -> Result<Params, ParamError> {
         self.resolve_from(scene, 0.0, d)
     }
 
@@ -58,39 +80,56 @@ impl EstimatorArgs {
     /// scene starts, `dist + [0.1 D, 0.5 D]` with `dist` the distance from the eye to the scene's
     /// bounds, so that pairs from a camera outside the scene reach it (walks that end in empty
     /// space are never deflected).
-    pub fn resolve_for_camera(&self, scene: &Scene, eye: glam::DVec3) -> anyhow::Result<Params> {
+    pub fn resolve_for_camera(
+        &self,
+        scene: &Scene,
+        eye: glam::DVec3,
+    ) -> Result<Params, ParamError> {
         self.resolve_from(scene, scene.bounds.distance(eye), scene.extent())
     }
 
+    /// [`resolve`](Self::resolve) for a slice: the default run lengths start where the scene starts
+    /// as seen from the slice, `dist + [0.1 D, 0.5 D]` with `dist` the distance between the
+    /// slice's rectangle and the scene's bounds ([`Plane::distance_to_box`]): 0 when they overlap
+    /// (every default slice, whose rectangle covers the bounds), so only a window or plane placed
+    /// away from the scene moves them.
+    pub fn resolve_for_plane(&self, scene: &Scene, plane: &Plane) -> Result<Params, ParamError> {
+        self.resolve_from(scene, plane_offset(scene, plane), scene.extent())
+    }
+
+    /// [`resolve`](Self::resolve) for a volume over `bbox`: `dist + [0.1 D, 0.5 D]` with `dist`
+    /// the distance between the box and the scene's bounds (0 when they overlap, as the default
+    /// box, the bounds themselves, does).
+    pub fn resolve_for_box(&self, scene: &Scene, bbox: &scene::Aabb) -> Result<Params, ParamError> {
+        self.resolve_from(scene, box_offset(&scene.bounds, bbox), scene.extent())
+    }
+
     /// Defaults `offset + [0.1 d, 0.5 d]`.
-    fn resolve_from(&self, scene: &Scene, offset: f64, d: f64) -> anyhow::Result<Params> {
+    fn resolve_from(&self, scene: &Scene, offset: f64, d: f64) -> Result<Params, ParamError> {
         let t0 = self.t0.unwrap_or(offset + DEFAULT_T0_OF_DIAGONAL * d);
         let t1 = self
             .t1
             .unwrap_or(offset + DEFAULT_T1_OF_DIAGONAL * d)
             .max(if self.t1.is_none() { t0 } else { 0.0 });
         if !t0.is_finite() || t0 < 0.0 {
-            bail!("--t0 {t0}: the shortest run length must be finite and ≥ 0");
+            return Err(ParamError::RunLengthNegative { t0 });
         }
         if !t1.is_finite() || t1 <= 0.0 {
-            bail!("--t1 {t1}: the longest run length must be finite and > 0");
+            return Err(ParamError::RunLengthNotPositive { t1 });
         }
         if t0 > t1 {
-            bail!("--t0 {t0} is larger than --t1 {t1}: the run-length interval [t0, t1] is empty");
+            return Err(ParamError::RunLengthsEmpty { t0, t1 });
         }
         if !(self.angle_deg > 0.0 && self.angle_deg < 90.0) {
-            bail!(
-                "--angle {}: the perturbation half-angle must lie strictly between 0 and 90 degrees",
-                self.angle_deg
-            );
+            return Err(ParamError::AngleOutOfRange {
+                angle_deg: self.angle_deg,
+            });
         }
         if self.weighting == Weighting::Radiance && scene.lights.is_empty() {
-            bail!(
-                "--weight radiance: {} has no lights ({}); add one with --point-light \
-                 X,Y,Z:R,G,B (position and radiant intensity), or use --weight unweighted",
-                scene.source.display(),
-                ways_to_light(scene)
-            );
+            return Err(ParamError::NoLights {
+                scene: scene.source.display().to_string(),
+                ways: ways_to_light(scene),
+            });
         }
         Ok(Params {
             t0,
@@ -101,6 +140,28 @@ impl EstimatorArgs {
             flat: None,
         })
     }
+}
+
+/// Where a slice's default run lengths start: the distance between its rectangle and the scene's
+/// bounds, 0 for a scene without bounds and for distances below 1e-9 of the scene's size (a
+/// rectangle touching the bounds overlaps them).
+pub fn plane_offset(scene: &Scene, plane: &Plane) -> f64 {
+    if scene.bounds.is_empty() {
+        return 0.0;
+    }
+    let d = plane.distance_to_box(&scene.bounds);
+    if d > 1e-9 * scene.extent() { d } else { 0.0 }
+}
+
+/// The distance between two boxes (0 when they overlap).
+pub fn box_offset(bounds: &scene::Aabb, bbox: &scene::Aabb) -> f64 {
+    if bounds.is_empty() {
+        return 0.0;
+    }
+    let gap = (bounds.min - bbox.max)
+        .max(bbox.min - bounds.max)
+        .max(glam::DVec3::ZERO);
+    gap.length()
 }
 
 /// What would have made a light in the scene's own format, for messages about a scene without.
@@ -141,7 +202,8 @@ pub fn flat_extent(bounds: &scene::Aabb, fl: &Flatland) -> f64 {
 
 /// Sets up a flatland run on `plane`: validates and prepares the scene
 /// ([`Scene::prepare_flatland`]), resolves the estimator settings with run-length defaults relative
-/// to the cross-section's diagonal, and returns them with [`Params::flat`] set.
+/// to the cross-section's diagonal (starting, as for any slice, at the distance from the plane's
+/// rectangle to the scene, [`plane_offset`]), and returns them with [`Params::flat`] set.
 pub fn prepare_flatland(
     scene: &mut Scene,
     plane: &Plane,
@@ -149,74 +211,65 @@ pub fn prepare_flatland(
 ) -> anyhow::Result<Params> {
     let fl = plane.flatland();
     scene.prepare_flatland(fl, &plane.label)?;
-    let mut params = args.resolve_with_extent(scene, flat_extent(&scene.bounds, &fl))?;
+    let mut params = args.resolve_from(
+        scene,
+        plane_offset(scene, plane),
+        flat_extent(&scene.bounds, &fl),
+    )?;
     if params.weighting == Weighting::Radiance && scene.flat().lights.is_empty() {
-        bail!(
-            "--flatland --weight radiance: no light of {} meets the slice plane {} (emissive \
-             triangles must cross it, point lights lie in it); use --weight unweighted or another \
-             slice",
-            scene.source.display(),
-            plane.label
-        );
+        return Err(ParamError::NoLightInPlane {
+            scene: scene.source.display().to_string(),
+            plane: plane.label.clone(),
+        }
+        .into());
     }
     params.flat = Some(fl);
     Ok(params)
 }
 
-/// Describes the run in the field's metadata (EXR header attributes).
+/// The description of a run of `domain` (files store it as attributes, see [`crate::run_info`]);
+/// the caller places it (plane, camera or volume) and adds what only it knows (command-line point
+/// lights).
 pub fn describe_run(
-    field: &mut Field,
     scene: &Scene,
     params: &Params,
     opts: &RenderOptions,
-    domain: &str,
-) {
-    let m = &mut field.meta;
-    m.insert(
-        "tool".into(),
-        format!("ftpd3d {}", env!("CARGO_PKG_VERSION")),
-    );
-    m.insert("embree".into(), crate::embree_version().into());
-    m.insert("scene".into(), scene.source.display().to_string());
-    m.insert("domain".into(), domain.into());
-    m.insert("weighting".into(), params.weighting.to_string());
-    m.insert("t0".into(), format!("{:e}", params.t0));
-    m.insert("t1".into(), format!("{:e}", params.t1));
-    m.insert(
-        "angle_deg".into(),
-        format!("{}", params.theta_max.to_degrees()),
-    );
-    m.insert("max_bounces".into(), params.max_bounces.to_string());
-    m.insert("seed".into(), opts.seed.to_string());
-    m.insert(
-        "spp".into(),
-        if opts.budget.cap_spp {
-            opts.spp.to_string()
+    domain: DomainKind,
+) -> RunInfo {
+    RunInfo {
+        tool: Some(format!("ftpd3d {}", env!("CARGO_PKG_VERSION"))),
+        embree: Some(crate::embree_version().into()),
+        scene: Some(scene.source.display().to_string()),
+        domain: Some(domain),
+        weighting: Some(params.weighting),
+        t0: Some(params.t0),
+        t1: Some(params.t1),
+        angle_deg: Some(params.theta_max.to_degrees()),
+        max_bounces: Some(params.max_bounces),
+        seed: Some(opts.seed),
+        spp: Some(if opts.budget.cap_spp {
+            CellCount::Each(opts.spp as u64)
         } else {
-            "none".into()
-        },
-    );
-    m.insert("batches".into(), opts.batches.to_string());
-    m.insert("schedule".into(), Schedule::of(opts).key());
-    m.insert(
-        "adaptive".into(),
-        match opts.adaptive {
+            CellCount::Uncapped
+        }),
+        batches: Some(CellCount::Each(opts.batches as u64)),
+        schedule: Some(Schedule::of(opts).key()),
+        adaptive: Some(match opts.adaptive {
             Some(a) => format!("max {}x", a.max_share),
             None => "off".into(),
-        },
-    );
-    m.insert(
-        "budget.time".into(),
-        opts.budget.time.map_or_else(|| "none".into(), fmt_duration),
-    );
-    m.insert(
-        "budget.target_error".into(),
-        opts.budget
-            .target_error
-            .map_or_else(|| "none".into(), |t| t.to_string()),
-    );
-    m.insert("features".into(), scene.features.to_string());
-    m.insert("flatland".into(), params.flat.is_some().to_string());
+        }),
+        budget_time: Some(opts.budget.time.map_or_else(|| "none".into(), fmt_duration)),
+        budget_target_error: Some(
+            opts.budget
+                .target_error
+                .map_or_else(|| "none".into(), |t| t.to_string()),
+        ),
+        features: Some(scene.features.to_string()),
+        flatland: params.flat.is_some(),
+        kernel: Some(ftpd::kernel_for(params).to_string()),
+        tiles: opts.tile.into_iter().collect(),
+        ..RunInfo::default()
+    }
 }
 
 /// Runs FTPD over a plane (the whole grid, or the stripe `opts.tile`); the field comes back with
@@ -230,13 +283,15 @@ pub fn run_plane(
 ) -> anyhow::Result<(Field, RunStats)> {
     check_flatland(scene, plane, params)?;
     let (mut field, stats) = run_domain(scene, &PlaneDomain::new(plane, scene), params, opts)?;
-    describe_run(&mut field, scene, params, opts, "slice");
-    field.meta.extend(plane_meta(plane));
+    field.set_info(&RunInfo {
+        plane: Some(plane_info(plane)),
+        ..describe_run(scene, params, opts, DomainKind::Slice)
+    });
     Ok((field, stats))
 }
 
 /// Runs FTPD over any domain (the whole grid, or the stripe `opts.tile`) with the kernel `params`
-/// needs ([`ftpd::kernel_for`]).
+/// needs ([`ftpd::kernel_for`]); the field comes back without a description ([`describe_run`]).
 pub fn run_domain(
     scene: &Scene,
     domain: &dyn Domain,
@@ -258,12 +313,6 @@ pub fn run_domain(
         &mut Progress::default(),
         Hooks::default(),
     )?;
-    field
-        .meta
-        .insert("kernel".into(), ftpd::kernel_for(params).to_string());
-    if let Some(t) = opts.tile {
-        field.meta.insert("tile".into(), t.to_string());
-    }
     Ok((field, stats))
 }
 
@@ -366,37 +415,27 @@ pub fn check_flatland(scene: &Scene, plane: &Plane, params: &Params) -> anyhow::
     }
 }
 
-/// The metadata that places a slice.
-pub fn plane_meta(plane: &Plane) -> Vec<(String, String)> {
-    vec![
-        ("plane".into(), plane.label.clone()),
-        ("plane.origin".into(), fmt_vec(plane.origin)),
-        ("plane.u".into(), fmt_vec(plane.u_axis)),
-        ("plane.v".into(), fmt_vec(plane.v_axis)),
-        (
-            "plane.size".into(),
-            format!("{},{}", plane.size.0, plane.size.1),
-        ),
-    ]
+/// Where a slice lies, for its description.
+pub fn plane_info(plane: &Plane) -> PlaneInfo {
+    PlaneInfo {
+        label: plane.label.clone(),
+        origin: plane.origin,
+        u: plane.u_axis,
+        v: plane.v_axis,
+        size: plane.size,
+    }
 }
 
-/// The metadata that places a camera image.
-pub fn camera_meta(view: &CameraView) -> Vec<(String, String)> {
+/// Where a camera image is taken from, for its description.
+pub fn camera_info(view: &CameraView) -> CameraInfo {
     let c = &view.camera;
-    vec![
-        ("camera".into(), c.name.clone()),
-        ("camera.eye".into(), fmt_vec(c.eye)),
-        ("camera.forward".into(), fmt_vec(c.forward)),
-        ("camera.up".into(), fmt_vec(c.up)),
-        (
-            "camera.fov_y_deg".into(),
-            format!("{}", c.fov_y.to_degrees()),
-        ),
-    ]
-}
-
-pub fn fmt_vec(v: glam::DVec3) -> String {
-    format!("{},{},{}", v.x, v.y, v.z)
+    CameraInfo {
+        name: c.name.clone(),
+        eye: c.eye,
+        forward: c.forward,
+        up: c.up,
+        fov_y_deg: c.fov_y.to_degrees(),
+    }
 }
 
 /// `1h02m03s`, `4m05s`, `12.3s`: a duration as `cli::parse::parse_duration` reads it back (in
@@ -424,8 +463,10 @@ pub fn run_camera(
     opts: &RenderOptions,
 ) -> anyhow::Result<(Field, RunStats)> {
     let (mut field, stats) = run_domain(scene, view, params, opts)?;
-    describe_run(&mut field, scene, params, opts, "camera");
-    field.meta.extend(camera_meta(view));
+    field.set_info(&RunInfo {
+        camera: Some(camera_info(view)),
+        ..describe_run(scene, params, opts, DomainKind::Camera)
+    });
     Ok((field, stats))
 }
 
@@ -501,18 +542,12 @@ pub fn estimate_time(
     }
 }
 
-/// The metadata that places a volume.
-pub fn volume_meta(volume: &Volume) -> Vec<(String, String)> {
-    let (lo, hi) = (volume.origin, volume.max_corner());
-    vec![
-        (
-            "volume.box".into(),
-            format!("{},{},{},{},{},{}", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z),
-        ),
-        (
-            "volume.dims".into(),
-            format!("{},{},{}", volume.nx, volume.ny, volume.nz),
-        ),
-        ("volume.spacing".into(), fmt_vec(volume.spacing)),
-    ]
+/// Where a volume lies, for its description.
+pub fn volume_info(volume: &Volume) -> VolumeInfo {
+    VolumeInfo {
+        min: volume.origin,
+        max: volume.max_corner(),
+        dims: volume.dims(),
+        spacing: volume.spacing,
+    }
 }

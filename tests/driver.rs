@@ -13,6 +13,7 @@ use ftpd3d::render::{
     self, Adaptive, Budget, Hooks, Progress, RenderOptions, RunStats, StopReason,
 };
 use ftpd3d::run::{self, EstimatorArgs};
+use ftpd3d::run_info::{DomainKind, RunInfo};
 use ftpd3d::scene::Scene;
 use ftpd3d::scene::load::load_scene;
 use std::path::PathBuf;
@@ -63,13 +64,18 @@ fn pool() -> rayon::ThreadPool {
 }
 
 impl Setup {
-    /// A new field with the metadata `run_job` gives it (what a resume is checked against).
+    /// The description `run_job` gives a run (what a resume is checked against).
+    fn info(&self, o: &RenderOptions) -> RunInfo {
+        RunInfo {
+            plane: Some(run::plane_info(&self.plane)),
+            ..run::describe_run(&self.scene, &self.params, o, DomainKind::Slice)
+        }
+    }
+
+    /// A new field so described.
     fn field(&self, o: &RenderOptions) -> Field {
         let mut f = Field::new(self.plane.width, self.plane.height, 1);
-        run::describe_run(&mut f, &self.scene, &self.params, o, "slice");
-        f.meta.extend(run::plane_meta(&self.plane));
-        let k = ftpd3d::ftpd::kernel_for(&self.params);
-        f.meta.insert("kernel".into(), k.to_string());
+        f.set_info(&self.info(o));
         f
     }
 
@@ -299,11 +305,18 @@ fn interrupted_and_resumed(
     }
     // Written, read back, resumed.
     let path = dir.join("partial.exr");
-    app::mark_progress(&mut field, &progress, o, true, Some(st.stop));
+    app::mark_progress(
+        &mut field,
+        &mut s.info(o),
+        &progress,
+        o,
+        true,
+        Some(st.stop),
+    );
     app::write_progress(&field, &progress, &path, false).unwrap();
     let fresh = s.field(o);
     let (mut back, mut p) = app::read_progress(&path).unwrap();
-    app::check_resume(&path, &back, &fresh.meta, (field.width, field.height, 1)).unwrap();
+    app::check_resume(&path, &back, &s.info(o), (field.width, field.height, 1)).unwrap();
     assert_eq!(bits(&back), bits(&field), "the EXR keeps the sums exactly");
     assert_eq!(p.passes, progress.passes);
     assert_eq!(p.inflight, progress.inflight);
@@ -360,15 +373,15 @@ fn resume_refuses_another_seed_or_run_length_naming_the_key() {
         ..Progress::default()
     };
     let path = dir.join("part.exr");
-    app::mark_progress(&mut field, &progress, &o, true, None);
+    app::mark_progress(&mut field, &mut s.info(&o), &progress, &o, true, None);
     app::write_progress(&field, &progress, &path, false).unwrap();
     let (back, _) = app::read_progress(&path).unwrap();
     let dims = (field.width, field.height, 1);
-    app::check_resume(&path, &back, &s.field(&o).meta, dims).unwrap();
+    app::check_resume(&path, &back, &s.info(&o), dims).unwrap();
     // Another seed.
     let mut other = o.clone();
     other.seed = 5;
-    let e = app::check_resume(&path, &back, &s.field(&other).meta, dims).unwrap_err();
+    let e = app::check_resume(&path, &back, &s.info(&other), dims).unwrap_err();
     let msg = format!("{e:#}");
     assert!(
         msg.contains("seed differs") && msg.contains("4") && msg.contains("5"),
@@ -383,16 +396,16 @@ fn resume_refuses_another_seed_or_run_length_naming_the_key() {
         scene: load_scene(&scene_path("cornell_mirror.obj")).unwrap(),
         plane: s.plane.clone(),
     };
-    let e = app::check_resume(&path, &back, &t1.field(&o).meta, dims).unwrap_err();
+    let e = app::check_resume(&path, &back, &t1.info(&o), dims).unwrap_err();
     assert!(format!("{e:#}").contains("t1 differs"), "{e:#}");
     // Another schedule.
     let mut sched = o.clone();
     sched.pass_spp = Some(3);
-    let e = app::check_resume(&path, &back, &s.field(&sched).meta, dims).unwrap_err();
+    let e = app::check_resume(&path, &back, &s.info(&sched), dims).unwrap_err();
     assert!(format!("{e:#}").contains("schedule differs"), "{e:#}");
     // Another light: a point light given on the command line changes what the samples estimate.
-    let mut lit = s.field(&o).meta;
-    lit.insert("point_lights".into(), "0,1,0:1,1,1".into());
+    let mut lit = s.info(&o);
+    lit.point_lights = vec![(glam::DVec3::Y, glam::DVec3::ONE)];
     let e = app::check_resume(&path, &back, &lit, dims).unwrap_err();
     assert!(format!("{e:#}").contains("point_lights differs"), "{e:#}");
     // Through the command line.

@@ -13,6 +13,7 @@ mod merge;
 mod mis;
 mod outdoor;
 mod pinned;
+mod run_info;
 mod stability;
 mod support;
 mod valid;

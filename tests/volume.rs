@@ -547,7 +547,10 @@ fn a_pass_cut_part_way_survives_the_vti() {
     )
     .unwrap();
     let mut field = Field::new(3, 2, 2);
-    field.meta.insert("adaptive".into(), "max 4x".into());
+    let mut info = ftpd3d::run_info::RunInfo {
+        adaptive: Some("max 4x".into()),
+        ..Default::default()
+    };
     let progress = Progress {
         passes: 3,
         inflight: Some(InFlight {
@@ -557,7 +560,7 @@ fn a_pass_cut_part_way_survives_the_vti() {
         elapsed: 1.25,
     };
     let opts = RenderOptions::default();
-    ftpd3d::app::mark_progress(&mut field, &progress, &opts, true, None);
+    ftpd3d::app::mark_progress(&mut field, &mut info, &progress, &opts, true, None);
     ftpd3d::app::write_volume_progress(&field, &progress, &volume, &path, false).unwrap();
     let (back, p) = ftpd3d::app::read_progress(&path).unwrap();
     assert_eq!(p, progress);

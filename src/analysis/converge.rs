@@ -549,12 +549,11 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
     let plane = Plane::axis_slice(&scene.bounds, spec, job.window, res)?;
     let weightings: Vec<Weighting> = match (job.weighting, &reference) {
         (Some(w), _) => vec![w],
-        (None, Some(r)) => match r.meta.get("weighting").map(String::as_str) {
-            Some("radiance") => vec![Weighting::Radiance],
-            Some("unweighted") => vec![Weighting::Unweighted],
+        (None, Some(r)) => match r.info("--reference")?.weighting {
+            Some(w @ (Weighting::Radiance | Weighting::Unweighted)) => vec![w],
             other => bail!(
                 "--reference: weighting {} cannot be compared on a slice",
-                other.unwrap_or("(none)")
+                other.map_or("(none)".into(), |w| w.to_string())
             ),
         },
         (None, None) if scene.lights.is_empty() => vec![Weighting::Unweighted],
@@ -568,9 +567,9 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         .map(|w| {
             let mut e = job.estimator.clone();
             e.weighting = *w;
-            e.resolve(&scene)
+            e.resolve_for_plane(&scene, &plane)
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>, _>>()?;
     let quiet = job.quiet;
     let say = |s: &str| {
         if !quiet {

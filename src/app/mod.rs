@@ -16,13 +16,14 @@ use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::domain::volume::Volume;
 use crate::domain::{CameraView, Domain, MAX_RES, Plane, PlaneDomain, VolumeRes};
 use crate::field::Field;
-use crate::ftpd::{self, Params};
+use crate::ftpd::Params;
 use crate::output::check_writable;
 use crate::render::{self, ErrorStats, Hooks, Progress, RenderOptions, RunStats, Schedule};
 use crate::run::{
-    EstimatorArgs, camera_meta, check_flatland, describe_run, estimate_time, fmt_vec, plane_meta,
-    prepare_flatland, run_domain_progressive, volume_meta,
+    EstimatorArgs, camera_info, check_flatland, describe_run, estimate_time, fmt_vec, plane_info,
+    prepare_flatland, run_domain_progressive, volume_info,
 };
+use crate::run_info::{DomainKind, RunInfo};
 use crate::scene::load::{extension, load_scene_with_lights};
 use crate::scene::{self, Scene};
 use anyhow::{Context, bail};
@@ -150,7 +151,7 @@ pub fn resolve_camera(
     // An eye on a surface starts on its front side (once per run).
     let mut camera = camera;
     camera.eye = scene.off_surfaces(camera.eye);
-    CameraView::new(camera, size.0, size.1)
+    Ok(CameraView::new(camera, size.0, size.1)?)
 }
 
 /// What [`run_job`] did.
@@ -258,10 +259,10 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                 let plane = resolve_plane(arg, &scene, *window, *res)?;
                 let out = slice_output(&job.output, arg, k, slices.len());
                 check_writable(&out)?;
+                if !job.flatland {
+                    job.estimator.resolve_for_plane(&scene, &plane)?;
+                }
                 domains.push((JobDomain::Plane(plane), out));
-            }
-            if !job.flatland {
-                job.estimator.resolve(&scene)?;
             }
         }
         DomainArg::Camera { camera, size } => {
@@ -279,8 +280,8 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
             ));
         }
         DomainArg::Volume { res, bbox } => {
-            job.estimator.resolve(&scene)?;
             let bbox = Volume::resolve_box(&scene.bounds, *bbox)?;
+            job.estimator.resolve_for_box(&scene, &bbox)?;
             // Refused before anything is allocated (the resumed file included).
             let (available, measured) = available_memory();
             let dims = check_volume_memory(*res, bbox.max - bbox.min, available, measured)?;
@@ -321,8 +322,15 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                 }
                 params
             }
+            JobDomain::Plane(plane) => job.estimator.resolve_for_plane(&scene, plane)?,
             JobDomain::Camera(view) => job.estimator.resolve_for_camera(&scene, view.camera.eye)?,
-            _ => job.estimator.resolve(&scene)?,
+            JobDomain::Volume(v) => job.estimator.resolve_for_box(
+                &scene,
+                &scene::Aabb {
+                    min: v.origin,
+                    max: v.max_corner(),
+                },
+            )?,
         };
         let outcome = run_domain_job(job, &scene, domain, &params, out)?;
         let interrupted = !outcome.stats.stop.is_complete()
@@ -335,18 +343,13 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
     Ok(outcomes)
 }
 
-/// Records the command-line lights in the field's metadata (`point_lights`, `sun`, `sky`, in
-/// their flags' syntax): they are part of the scene, and merging refuses fields computed with
-/// other lights.
-fn annotate_point_lights(field: &mut Field, job: &Job) {
+/// The command-line sun and sky (environment map) in their flags' syntax, for the run's
+/// description: they are part of the scene, and merging refuses fields computed with others.
+fn describe_cli_sun_and_sky(job: &Job) -> (Option<String>, Option<String>) {
     use crate::scene::Light;
-    let (mut points, mut suns, mut skies) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut suns, mut skies) = (Vec::new(), Vec::new());
     for l in &job.lights {
         match l {
-            Light::Point {
-                position,
-                intensity,
-            } => points.push(format!("{}:{}", fmt_vec(*position), fmt_vec(*intensity))),
             Light::Distant {
                 direction,
                 irradiance,
@@ -365,14 +368,11 @@ fn annotate_point_lights(field: &mut Field, job: &Job) {
                 env.map.scale,
                 env.map.rotation.to_degrees()
             )),
-            Light::Area { .. } | Light::Spot { .. } => {}
+            Light::Area { .. } | Light::Point { .. } | Light::Spot { .. } => {}
         }
     }
-    for (key, list) in [("point_lights", points), ("sun", suns), ("sky", skies)] {
-        if !list.is_empty() {
-            field.meta.insert(key.into(), list.join(";"));
-        }
-    }
+    let joined = |v: Vec<String>| (!v.is_empty()).then(|| v.join(";"));
+    (joined(suns), joined(skies))
 }
 
 fn say(job: &Job, s: String) {
@@ -391,9 +391,9 @@ fn run_domain_job(
 ) -> anyhow::Result<RunOutcome> {
     let opts = &job.render;
     let (name, kind) = match domain {
-        JobDomain::Plane(p) => (format!("slice {}", p.label), "slice"),
-        JobDomain::Camera(v) => (format!("camera '{}'", v.camera.name), "camera"),
-        JobDomain::Volume(_) => ("volume".to_string(), "volume"),
+        JobDomain::Plane(p) => (format!("slice {}", p.label), DomainKind::Slice),
+        JobDomain::Camera(v) => (format!("camera '{}'", v.camera.name), DomainKind::Camera),
+        JobDomain::Volume(_) => ("volume".to_string(), DomainKind::Volume),
     };
     let plane_domain;
     let dom: &dyn Domain = match domain {
@@ -411,28 +411,50 @@ fn run_domain_job(
         JobDomain::Volume(v) => write_volume_progress(f, p, v, output, png),
         _ => write_progress(f, p, output, png),
     };
-    let kernel = ftpd::kernel_for(params);
     if let JobDomain::Plane(p) = domain {
         check_flatland(scene, p, params)?;
     }
-    let mut fresh = Field::new(w, h, d);
-    describe_run(&mut fresh, scene, params, opts, kind);
-    fresh.meta.extend(match domain {
-        JobDomain::Plane(p) => plane_meta(p),
-        JobDomain::Camera(v) => camera_meta(v),
-        JobDomain::Volume(v) => volume_meta(v),
-    });
-    fresh.meta.insert("kernel".into(), kernel.to_string());
-    annotate_point_lights(&mut fresh, job);
-    if let Some(t) = opts.tile {
-        fresh.meta.insert("tile".into(), t.to_string());
-    }
+    // The run's description; the command-line lights are part of the scene (merge refuses
+    // fields computed with other lights).
+    let (sun, sky) = describe_cli_sun_and_sky(job);
+    let mut info = RunInfo {
+        plane: match domain {
+            JobDomain::Plane(p) => Some(plane_info(p)),
+            _ => None,
+        },
+        camera: match domain {
+            JobDomain::Camera(v) => Some(camera_info(v)),
+            _ => None,
+        },
+        volume: match domain {
+            JobDomain::Volume(v) => Some(volume_info(v)),
+            _ => None,
+        },
+        point_lights: job
+            .lights
+            .iter()
+            .filter_map(|l| match l {
+                crate::scene::Light::Point {
+                    position,
+                    intensity,
+                } => Some((*position, *intensity)),
+                _ => None,
+            })
+            .collect(),
+        sun: sun.clone(),
+        sky: sky.clone(),
+        ..describe_run(scene, params, opts, kind)
+    };
     let (mut field, mut progress) = match &job.resume {
-        None => (fresh, Progress::default()),
+        None => {
+            let mut fresh = Field::new(w, h, d);
+            fresh.set_info(&info);
+            (fresh, Progress::default())
+        }
         Some(path) => {
             let (mut f, p) = read_progress(path)?;
-            check_resume(path, &f, &fresh.meta, (w, h, d))?;
-            f.meta = fresh.meta;
+            check_resume(path, &f, &info, (w, h, d))?;
+            f.set_info(&info);
             say(
                 job,
                 format!(
@@ -529,7 +551,7 @@ fn run_domain_job(
         if last_checkpoint.elapsed() < every {
             return Ok(());
         }
-        mark_progress(f, p, opts, true, None);
+        mark_progress(f, &mut info, p, opts, true, None);
         write(f, p, false)?;
         last_checkpoint = Instant::now();
         say(
@@ -571,7 +593,14 @@ fn run_domain_job(
         );
     }
     let partial = !stats.stop.is_complete();
-    mark_progress(&mut field, &progress, opts, partial, Some(stats.stop));
+    mark_progress(
+        &mut field,
+        &mut info,
+        &progress,
+        opts,
+        partial,
+        Some(stats.stop),
+    );
     say(job, summary(&field, &stats, &error, params));
     write(&field, &progress, job.png)?;
     say(

@@ -6,24 +6,23 @@ use crate::field::Field;
 use crate::output::{self, write_outputs_with};
 use crate::render::{InFlight, Progress, RenderOptions, StopReason};
 use crate::run::fmt_duration;
+use crate::run_info::{Remaining, RunInfo};
 use crate::scene::load::extension;
 use anyhow::{Context, bail};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Duration;
 
-/// Keys of a field's metadata beyond [`crate::merge::MUST_MATCH`] (what the samples estimate)
-/// that must agree for a run to resume from it: which random streams, pass sizes, kernel and
-/// tile produced them (a tile resumed as a whole grid would give its other cells only the later
-/// passes). Budgets (spp cap, time, target error) may change between invocations.
-pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel", "tile"];
+pub use crate::run_info::RESUME_KEYS;
 
-/// Checks that the field read from `path` was made by the run described by `meta` on a grid of
-/// `dims`; the error names the first key that differs.
+/// Checks that the field read from `path` was made by the run described by `run` on a grid of
+/// `dims`: the same grid, and the same value of every attribute of [`crate::merge::MUST_MATCH`]
+/// (what the samples estimate) and [`RESUME_KEYS`] (how they were drawn), compared as typed
+/// values; the error names the first attribute that differs.
 pub fn check_resume(
     path: &Path,
     file: &Field,
-    meta: &BTreeMap<String, String>,
+    run: &RunInfo,
     dims: (usize, usize, usize),
 ) -> anyhow::Result<()> {
     let have = (file.width, file.height, file.depth);
@@ -36,24 +35,28 @@ pub fn check_resume(
             grid_text(dims)
         );
     }
-    if !file.meta.contains_key("schedule") {
+    let info = file.info(&format!("--resume {}", path.display()))?;
+    if info.schedule.is_none() {
         bail!(
             "--resume {}: not a field this version of ftpd3d can resume (no 'schedule' key)",
             path.display()
         );
     }
-    for key in crate::merge::MUST_MATCH.iter().chain(RESUME_KEYS) {
-        let (a, b) = (file.meta.get(*key), meta.get(*key));
-        if a != b {
-            let show = |v: Option<&String>| v.map_or_else(|| "(none)".to_string(), Clone::clone);
-            bail!(
-                "--resume {}: {key} differs: the file has {}, this run {}; a run resumes only with \
-                 the scene, domain, parameters, seed and pass schedule it was started with",
-                path.display(),
-                show(a),
-                show(b)
-            );
-        }
+    let keys: Vec<&str> = crate::merge::MUST_MATCH
+        .iter()
+        .chain(RESUME_KEYS)
+        .copied()
+        .collect();
+    if let Some(key) = info.first_difference(run, &keys) {
+        let (a, b) = (info.to_attributes(), run.to_attributes());
+        let show = |v: Option<&String>| v.map_or_else(|| "(none)".to_string(), Clone::clone);
+        bail!(
+            "--resume {}: {key} differs: the file has {}, this run {}; a run resumes only with \
+             the scene, domain, parameters, seed and pass schedule it was started with",
+            path.display(),
+            show(a.get(key)),
+            show(b.get(key))
+        );
     }
     Ok(())
 }
@@ -67,11 +70,12 @@ pub(super) fn grid_text((w, h, d): (usize, usize, usize)) -> String {
     }
 }
 
-/// Records where a run stands in the field's metadata: `partial`, `passes`, `samples`, `elapsed`
-/// (compute seconds so far), `remaining.samples` and `remaining.time` (what is left of the budgets),
-/// `pass.inflight`, and `stop` (why it stopped, when it has).
+/// Records where a run stands in `info` and describes `field` by it: `partial`, `passes`,
+/// `samples`, `elapsed` (compute seconds so far), `remaining.samples` and `remaining.time` (what is
+/// left of the budgets), `pass.inflight`, and `stop` (why it stopped, when it has).
 pub fn mark_progress(
     field: &mut Field,
+    info: &mut RunInfo,
     progress: &Progress,
     opts: &RenderOptions,
     partial: bool,
@@ -81,36 +85,22 @@ pub fn mark_progress(
     let cells = opts
         .active_cells(field.width, field.height, field.depth)
         .len() as u64;
-    let m = &mut field.meta;
-    m.insert("partial".into(), partial.to_string());
-    m.insert("passes".into(), progress.passes.to_string());
-    m.insert("samples".into(), samples.to_string());
-    m.insert("elapsed".into(), progress.elapsed.to_string());
-    m.insert(
-        "remaining.samples".into(),
-        if opts.budget.cap_spp {
-            (cells * opts.spp as u64)
-                .saturating_sub(samples)
-                .to_string()
-        } else {
-            "unbounded".into()
-        },
-    );
-    m.insert(
-        "remaining.time".into(),
-        opts.budget.time.map_or_else(
-            || "none".into(),
-            |t| fmt_duration(t.saturating_sub(Duration::from_secs_f64(progress.elapsed))),
-        ),
-    );
-    m.insert(
-        "pass.inflight".into(),
-        progress.inflight.is_some().to_string(),
-    );
-    match stop {
-        Some(s) => m.insert("stop".into(), s.to_string()),
-        None => m.remove("stop"),
-    };
+    info.partial = Some(partial);
+    info.passes = Some(progress.passes);
+    info.samples = Some(samples);
+    info.elapsed = Some(progress.elapsed);
+    info.remaining_samples = Some(if opts.budget.cap_spp {
+        Remaining::Samples((cells * opts.spp as u64).saturating_sub(samples))
+    } else {
+        Remaining::Unbounded
+    });
+    info.remaining_time = Some(opts.budget.time.map_or_else(
+        || "none".into(),
+        |t| fmt_duration(t.saturating_sub(Duration::from_secs_f64(progress.elapsed))),
+    ));
+    info.inflight = Some(progress.inflight.is_some());
+    info.stop = stop.map(|s| s.to_string());
+    field.set_info(info);
 }
 
 /// Writes a field with its progress: for a pass interrupted part-way, the channels `pass.done`
@@ -182,23 +172,18 @@ pub fn read_progress(path: &Path) -> anyhow::Result<(Field, Progress)> {
             Ok(v.into_iter().map(f64::from).collect())
         }
     };
-    let num = |key: &str| -> anyhow::Result<&str> {
-        field.meta.get(key).map(String::as_str).with_context(|| {
-            format!(
-                "--resume {}: no '{key}' in the file (not written by a progressive run?)",
-                path.display()
-            )
-        })
+    let info = field.info(&format!("--resume {}", path.display()))?;
+    let missing = |key: &str| {
+        anyhow::anyhow!(
+            "--resume {}: no '{key}' in the file (not written by a progressive run?)",
+            path.display()
+        )
     };
-    let passes: u32 = num("passes")?
-        .parse()
-        .with_context(|| format!("--resume {}: 'passes' is not a number", path.display()))?;
-    let elapsed: f64 = num("elapsed")?
-        .parse()
-        .with_context(|| format!("--resume {}: 'elapsed' is not a number", path.display()))?;
-    let inflight = if field.meta.get("pass.inflight").is_some_and(|v| v == "true") {
+    let passes = info.passes.ok_or_else(|| missing("passes"))?;
+    let elapsed = info.elapsed.ok_or_else(|| missing("elapsed"))?;
+    let inflight = if info.inflight == Some(true) {
         let done = array("pass.done")?;
-        let units = if field.meta.get("adaptive").is_some_and(|a| a != "off") && passes >= 2 {
+        let units = if info.is_adaptive() && passes >= 2 {
             Some(array("pass.units")?.iter().map(|&x| x as u32).collect())
         } else {
             None

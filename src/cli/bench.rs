@@ -131,7 +131,7 @@ pub fn bench(
     let params = if flatland {
         crate::run::prepare_flatland(&mut scene, &plane, estimator)?
     } else {
-        estimator.resolve(&scene)?
+        estimator.resolve_for_plane(&scene, &plane)?
     };
     let mut opts = opts.clone();
     opts.progress = false;

@@ -89,9 +89,11 @@ pub fn explain(
             if let Ok(p) = &plane {
                 writeln!(out, "flatland   in the slice {}", p.label)?;
             }
-            plane.and_then(|plane| prepare_flatland(&mut scene, &plane, estimator))
+            plane
+                .map_err(anyhow::Error::from)
+                .and_then(|plane| prepare_flatland(&mut scene, &plane, estimator))
         }
-        None => estimator.resolve(&scene),
+        None => estimator.resolve(&scene).map_err(anyhow::Error::from),
     };
     if let Some(f) = &scene.flat {
         writeln!(
@@ -116,7 +118,7 @@ pub fn explain(
                 writeln!(out, "{head:<10} {} ({})", e.name, e.why)?;
             }
         }
-        Err(e) => writeln!(out, "kernel     (none: {e:#})")?,
+        Err(e) => writeln!(out, "kernel     (none: {})", super::errors::message(&e))?,
     }
     Ok(())
 }

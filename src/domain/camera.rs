@@ -1,8 +1,8 @@
 //! Camera images: deflection pairs start at the eye along jittered pixel directions (importance
 //! weighting, paper section 5.7). Pixel (i, j) counts from the bottom-left, like slice cells.
 
+use super::DomainError;
 use crate::scene::Camera;
-use anyhow::bail;
 use glam::DVec3;
 
 /// A pinhole camera with an image size.
@@ -18,22 +18,23 @@ pub struct CameraView {
 }
 
 impl CameraView {
-    pub fn new(camera: Camera, width: usize, height: usize) -> anyhow::Result<CameraView> {
+    pub fn new(camera: Camera, width: usize, height: usize) -> Result<CameraView, DomainError> {
         if width == 0 || height == 0 {
-            bail!("--size {width},{height}: the image needs at least one pixel each way");
+            return Err(DomainError::EmptyImage {
+                w: width,
+                h: height,
+            });
         }
         if !(camera.fov_y > 0.0 && camera.fov_y < std::f64::consts::PI) {
-            bail!(
-                "camera '{}': vertical field of view {}° must lie between 0 and 180",
-                camera.name,
-                camera.fov_y.to_degrees()
-            );
+            return Err(DomainError::FieldOfView {
+                name: camera.name.clone(),
+                fov_deg: camera.fov_y.to_degrees(),
+            });
         }
         let Some(right) = camera.forward.cross(camera.up).try_normalize() else {
-            bail!(
-                "camera '{}': the up vector is parallel to the viewing direction (or zero)",
-                camera.name
-            );
+            return Err(DomainError::UpAlongView {
+                name: camera.name.clone(),
+            });
         };
         let up = right.cross(camera.forward);
         Ok(CameraView {

@@ -13,9 +13,64 @@ pub use volume::{Volume, VolumeRes};
 use crate::ftpd::Start;
 use crate::rng::Sampler;
 use crate::scene::Scene;
+use glam::DVec3;
 
 /// Largest accepted grid side (`--res`, `--size`).
 pub const MAX_RES: usize = 16384;
+
+/// A domain that cannot be built, as a typed value; the command line names its flags in the
+/// message (`cli::errors`), other callers their own.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DomainError {
+    #[error("slice {slice}: the scene has no geometry to take bounds from; give a window")]
+    SliceWithoutBounds { slice: String },
+    #[error("slice {slice}: outside the scene bounds, which span {lo} to {hi} along that axis")]
+    SliceOutsideBounds { slice: String, lo: f64, hi: f64 },
+    #[error(
+        "window {}: needs u0 < u1 and v0 < v1 (an empty rectangle)",
+        commas(window)
+    )]
+    EmptyWindow { window: [f64; 4] },
+    #[error("a grid needs at least 1 cell along its longer side")]
+    NoCells,
+    #[error("plane {label}: size {w} x {h} is empty")]
+    EmptyPlane { label: String, w: f64, h: f64 },
+    #[error("plane: up ({}, {}, {}) is parallel to the normal", up.x, up.y, up.z)]
+    UpAlongNormal { up: DVec3 },
+    #[error("plane: the scene has no bounds to cover; give size=w,h")]
+    PlaneWithoutBounds,
+    /// An `AXIS=VALUE` that does not parse; the parser's message (which quotes the value).
+    #[error("slice {0}")]
+    SliceSyntax(String),
+    #[error("slice {name}: the scene file's plane {message}")]
+    NamedSliceSyntax { name: String, message: String },
+    #[error("slice {name}: expected AXIS=VALUE such as z=1.2 (the scene names no slices)")]
+    NoNamedSlices { name: String },
+    #[error("slice {name}: not AXIS=VALUE and not a slice of the scene file (it names: {names})")]
+    UnknownSlice { name: String, names: String },
+    #[error(
+        "box {}: needs xmin < xmax, ymin < ymax and zmin < zmax (an empty box)",
+        commas(bbox)
+    )]
+    EmptyBox { bbox: [f64; 6] },
+    #[error("volume: the scene has no geometry to take bounds from; give a box")]
+    VolumeWithoutBounds,
+    #[error("volume: every axis needs at least 1 voxel")]
+    NoVoxels,
+    #[error("volume box {min:?} .. {max:?} is empty")]
+    EmptyVolumeBox { min: DVec3, max: DVec3 },
+    #[error("image size {w},{h}: the image needs at least one pixel each way")]
+    EmptyImage { w: usize, h: usize },
+    #[error("camera '{name}': vertical field of view {fov_deg}° must lie between 0 and 180")]
+    FieldOfView { name: String, fov_deg: f64 },
+    #[error("camera '{name}': the up vector is parallel to the viewing direction (or zero)")]
+    UpAlongView { name: String },
+}
+
+/// `1,2,3`: numbers as the command line takes them.
+pub fn commas(v: &[f64]) -> String {
+    v.iter().map(f64::to_string).collect::<Vec<_>>().join(",")
+}
 
 /// A grid of cells over which FTPD is estimated. Object-safe: the driver runs any domain through
 /// `&dyn Domain`, and only the four kernels ([`crate::kernel`]) are compiled, not one copy per

@@ -5,9 +5,9 @@
 //! Axis slices: `x=c` spans (u, v) = (z, y), `y=c` spans (x, z), `z=c` spans (x, y), so that y (up
 //! in the shipped scenes) is vertical in images whenever the plane contains it.
 
+use super::DomainError;
 use crate::scene::flat::Flatland;
 use crate::scene::{Aabb, Scene};
-use anyhow::bail;
 use glam::DVec3;
 use std::fmt;
 use std::str::FromStr;
@@ -94,24 +94,28 @@ impl Plane {
         spec: SliceSpec,
         window: Option<[f64; 4]>,
         res: usize,
-    ) -> anyhow::Result<Plane> {
+    ) -> Result<Plane, DomainError> {
         if bounds.is_empty() {
-            bail!("--slice {spec}: the scene has no geometry to take bounds from; give --window");
+            return Err(DomainError::SliceWithoutBounds {
+                slice: spec.to_string(),
+            });
         }
         let k = spec.axis.index();
         let (lo, hi) = (bounds.min[k], bounds.max[k]);
         if spec.value < lo || spec.value > hi {
-            bail!(
-                "--slice {spec}: outside the scene bounds, which span {lo} to {hi} along that axis"
-            );
+            return Err(DomainError::SliceOutsideBounds {
+                slice: spec.to_string(),
+                lo,
+                hi,
+            });
         }
         let (u, v) = spec.axis.plane_axes();
         let (u0, v0, u1, v1) = match window {
             Some([a, b, c, d]) => {
                 if !(c > a && d > b) {
-                    bail!(
-                        "--window {a},{b},{c},{d}: needs u0 < u1 and v0 < v1 (an empty rectangle)"
-                    );
+                    return Err(DomainError::EmptyWindow {
+                        window: [a, b, c, d],
+                    });
                 }
                 (a, b, c, d)
             }
@@ -144,12 +148,16 @@ impl Plane {
         size: (f64, f64),
         res: usize,
         label: String,
-    ) -> anyhow::Result<Plane> {
+    ) -> Result<Plane, DomainError> {
         if res == 0 {
-            bail!("--res must be at least 1");
+            return Err(DomainError::NoCells);
         }
         if !(size.0 > 0.0 && size.1 > 0.0 && size.0.is_finite() && size.1.is_finite()) {
-            bail!("plane {label}: size {} x {} is empty", size.0, size.1);
+            return Err(DomainError::EmptyPlane {
+                label,
+                w: size.0,
+                h: size.1,
+            });
         }
         let (width, height) = if size.0 >= size.1 {
             (
@@ -186,6 +194,60 @@ impl Plane {
         Flatland::new(self.origin, self.u_axis, self.v_axis)
     }
 
+    /// The distance between the plane's rectangle and the box `b` (0 when they meet). An axis
+    /// slice's rectangle is itself an axis-aligned box, and two such boxes are apart by the length
+    /// of their per-axis gaps (exact, and exactly 0 when they overlap). Otherwise the closest
+    /// points of two disjoint convex polytopes lie on a vertex and a face or on two edges, so the
+    /// least of the rectangle's edges against the box and the box's edges against the rectangle is
+    /// the distance; each is convex along its edge and found by golden-section search (to about
+    /// 1e-12 of the edge's length).
+    pub fn distance_to_box(&self, b: &Aabb) -> f64 {
+        let (s0, s1) = self.size;
+        let corners = [
+            self.origin,
+            self.origin + self.u_axis * s0,
+            self.origin + self.u_axis * s0 + self.v_axis * s1,
+            self.origin + self.v_axis * s1,
+        ];
+        let axis_aligned = |a: DVec3| a.to_array().iter().filter(|x| **x != 0.0).count() == 1;
+        if axis_aligned(self.u_axis) && axis_aligned(self.v_axis) {
+            let (lo, hi) = corners
+                .iter()
+                .fold((corners[0], corners[0]), |(lo, hi), c| {
+                    (lo.min(*c), hi.max(*c))
+                });
+            return (b.min - hi).max(lo - b.max).max(DVec3::ZERO).length();
+        }
+        let to_rect = |p: DVec3| {
+            let d = p - self.origin;
+            let (a, c) = (
+                d.dot(self.u_axis).clamp(0.0, s0),
+                d.dot(self.v_axis).clamp(0.0, s1),
+            );
+            (p - (self.origin + self.u_axis * a + self.v_axis * c)).length()
+        };
+        let box_corner = |k: usize| {
+            DVec3::new(
+                if k & 1 == 0 { b.min.x } else { b.max.x },
+                if k & 2 == 0 { b.min.y } else { b.max.y },
+                if k & 4 == 0 { b.min.z } else { b.max.z },
+            )
+        };
+        let mut best = f64::INFINITY;
+        for k in 0..4 {
+            let (p, q) = (corners[k], corners[(k + 1) % 4]);
+            best = best.min(min_along(p, q, &|x| b.distance(x)));
+        }
+        for k in 0..8 {
+            for bit in [1, 2, 4] {
+                if k & bit == 0 {
+                    best = best.min(min_along(box_corner(k), box_corner(k | bit), &to_rect));
+                }
+            }
+        }
+        best
+    }
+
     /// Point of cell `idx` (row-major from the bottom row) at offset `jitter` ∈ [0,1)² in the cell.
     #[inline]
     pub fn point(&self, idx: usize, jitter: (f64, f64)) -> DVec3 {
@@ -194,6 +256,27 @@ impl Plane {
         let fv = (j as f64 + jitter.1) / self.height as f64;
         self.origin + self.u_axis * (fu * self.size.0) + self.v_axis * (fv * self.size.1)
     }
+}
+
+/// The least of the convex function `f` on the segment from `p` to `q`: golden-section search.
+fn min_along(p: DVec3, q: DVec3, f: &dyn Fn(DVec3) -> f64) -> f64 {
+    let at = |t: f64| f(p + (q - p) * t);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (0.0f64, 1.0f64);
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fd) = (at(c), at(d));
+    for _ in 0..60 {
+        if fc <= fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - g * (b - a);
+            fc = at(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + g * (b - a);
+            fd = at(d);
+        }
+    }
+    at(0.0).min(at(1.0)).min(fc).min(fd)
 }
 
 /// An arbitrary plane: `origin=x,y,z normal=x,y,z [up=x,y,z] [size=w,h]` (keys in any order,
@@ -254,18 +337,13 @@ impl FromStr for PlaneSpec {
 
 impl Plane {
     /// An arbitrary plane (see [`PlaneSpec`]) with `res` cells along the longer side.
-    pub fn from_spec(bounds: &Aabb, spec: &PlaneSpec, res: usize) -> anyhow::Result<Plane> {
+    pub fn from_spec(bounds: &Aabb, spec: &PlaneSpec, res: usize) -> Result<Plane, DomainError> {
         let n = spec.normal;
         let up = spec
             .up
             .unwrap_or(if n.y.abs() > 0.99 { DVec3::Z } else { DVec3::Y });
         let Some(v) = (up - n * up.dot(n)).try_normalize() else {
-            bail!(
-                "--plane: up ({}, {}, {}) is parallel to the normal",
-                up.x,
-                up.y,
-                up.z
-            );
+            return Err(DomainError::UpAlongNormal { up });
         };
         let u = v.cross(n);
         let label = format!(
@@ -276,7 +354,7 @@ impl Plane {
             Some((w, h)) => ((-0.5 * w, -0.5 * h), (0.5 * w, 0.5 * h)),
             None => {
                 if bounds.is_empty() {
-                    bail!("--plane: the scene has no bounds to cover; give size=w,h");
+                    return Err(DomainError::PlaneWithoutBounds);
                 }
                 let (mut lo, mut hi) = (
                     (f64::INFINITY, f64::INFINITY),
@@ -359,28 +437,31 @@ impl SliceArg {
 }
 
 /// Resolves `--slice`: `AXIS=VALUE`, or the name of a slice in the sidecar scene file.
-pub fn resolve_slice(arg: &str, scene: &Scene) -> anyhow::Result<SliceSpec> {
+pub fn resolve_slice(arg: &str, scene: &Scene) -> Result<SliceSpec, DomainError> {
     if arg.contains('=') {
-        return arg
-            .parse::<SliceSpec>()
-            .map_err(|e| anyhow::anyhow!("--slice {e}"));
+        return arg.parse::<SliceSpec>().map_err(DomainError::SliceSyntax);
     }
     match scene.named_slices.iter().find(|(n, _)| n == arg) {
-        Some((_, plane)) => plane
-            .parse::<SliceSpec>()
-            .map_err(|e| anyhow::anyhow!("--slice {arg}: the scene file's plane {e}")),
-        None if scene.named_slices.is_empty() => {
-            bail!("--slice {arg}: expected AXIS=VALUE such as z=1.2 (the scene names no slices)")
+        Some((_, plane)) => {
+            plane
+                .parse::<SliceSpec>()
+                .map_err(|message| DomainError::NamedSliceSyntax {
+                    name: arg.to_string(),
+                    message,
+                })
         }
-        None => bail!(
-            "--slice {arg}: not AXIS=VALUE and not a slice of the scene file (it names: {})",
-            scene
+        None if scene.named_slices.is_empty() => Err(DomainError::NoNamedSlices {
+            name: arg.to_string(),
+        }),
+        None => Err(DomainError::UnknownSlice {
+            name: arg.to_string(),
+            names: scene
                 .named_slices
                 .iter()
                 .map(|(n, _)| n.as_str())
                 .collect::<Vec<_>>()
-                .join(", ")
-        ),
+                .join(", "),
+        }),
     }
 }
 
@@ -391,7 +472,7 @@ pub fn resolve_plane(
     scene: &Scene,
     window: Option<[f64; 4]>,
     res: usize,
-) -> anyhow::Result<Plane> {
+) -> Result<Plane, DomainError> {
     match arg {
         SliceArg::Axis(a) => {
             Plane::axis_slice(&scene.bounds, resolve_slice(a, scene)?, window, res)

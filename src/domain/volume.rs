@@ -7,8 +7,8 @@
 //! `box.min + spacing / 2` and it has `nx × ny × nz` points, so ParaView shows exactly the sampled
 //! values (point data, interpolated between centres) and nothing is resampled.
 
+use super::DomainError;
 use crate::scene::Aabb;
-use anyhow::bail;
 use glam::DVec3;
 use std::fmt;
 use std::str::FromStr;
@@ -75,21 +75,18 @@ impl Volume {
     /// The box to cut: `user_box` as given (each side must be > 0), or the scene bounds with flat
     /// directions padded by half the largest extent on each side (as an edge-on slice of a flat
     /// scene is, see [`crate::domain::Plane::axis_slice`]), so the volume shows the space around it.
-    pub fn resolve_box(bounds: &Aabb, user_box: Option<[f64; 6]>) -> anyhow::Result<Aabb> {
+    pub fn resolve_box(bounds: &Aabb, user_box: Option<[f64; 6]>) -> Result<Aabb, DomainError> {
         match user_box {
             Some(b) => {
                 let (min, max) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
                 if !(max.x > min.x && max.y > min.y && max.z > min.z) {
-                    bail!(
-                        "--box {}: needs xmin < xmax, ymin < ymax and zmin < zmax (an empty box)",
-                        b.map(|x| x.to_string()).join(",")
-                    );
+                    return Err(DomainError::EmptyBox { bbox: b });
                 }
                 Ok(Aabb { min, max })
             }
             None => {
                 if bounds.is_empty() {
-                    bail!("--volume: the scene has no geometry to take bounds from; give --box");
+                    return Err(DomainError::VolumeWithoutBounds);
                 }
                 let (mut min, mut max) = (bounds.min, bounds.max);
                 let pad = 0.5 * (max - min).max_element().max(1e-9);
@@ -124,13 +121,16 @@ impl Volume {
     }
 
     /// A grid of `dims` voxels over `bbox` (non-empty).
-    pub fn new(bbox: &Aabb, dims: [usize; 3]) -> anyhow::Result<Volume> {
+    pub fn new(bbox: &Aabb, dims: [usize; 3]) -> Result<Volume, DomainError> {
         let size = bbox.max - bbox.min;
         if !(size.min_element() > 0.0 && size.is_finite()) {
-            bail!("volume box {:?} .. {:?} is empty", bbox.min, bbox.max);
+            return Err(DomainError::EmptyVolumeBox {
+                min: bbox.min,
+                max: bbox.max,
+            });
         }
         if dims.contains(&0) {
-            bail!("--volume: every axis needs at least 1 voxel");
+            return Err(DomainError::NoVoxels);
         }
         let [nx, ny, nz] = dims;
         Ok(Volume {
@@ -244,6 +244,12 @@ mod tests {
         assert_eq!(bx.min.y, -1.0);
         assert_eq!(bx.max.y, 1.0);
         let e = Volume::resolve_box(&flat, Some([0.0, 0.0, 0.0, 1.0, 0.0, 1.0])).unwrap_err();
-        assert!(e.to_string().contains("--box 0,0,0,1,0,1"), "{e}");
+        assert_eq!(
+            e,
+            DomainError::EmptyBox {
+                bbox: [0.0, 0.0, 0.0, 1.0, 0.0, 1.0]
+            }
+        );
+        assert!(e.to_string().contains("box 0,0,0,1,0,1"), "{e}");
     }
 }

@@ -1,10 +1,11 @@
 //! OpenEXR output of 2D fields (exr crate): a two-part file. Part 0 (`ftpd`) holds only f32 channels
-//! named by quantity and the run's description as string header attributes, so that every EXR
-//! reader (Blender, tev, OpenImageIO, Python OpenEXR, and FreeImage, which reads only part 0, only
-//! when all its channels have one type, and only `R`, `G`, `B`, `A` or `Y` of them) opens it as an
-//! image. Part 1 (`exact`) keeps the raw sums exact as pairs of u32 channels holding the high and
-//! low 32 bits of each f64, with the exact sample and batch counts: what merge and resume read.
-//! (Files of earlier versions, one part with everything, still read.)
+//! named by quantity and the run's description ([`crate::run_info::RunInfo`]) as string header
+//! attributes `ftpd3d.<key>`, so that every EXR reader (Blender, tev, OpenImageIO, Python OpenEXR,
+//! and FreeImage, which reads only part 0, only when all its channels have one type, and only `R`,
+//! `G`, `B`, `A` or `Y` of them) opens it as an image. Part 1 (`exact`) keeps the raw sums exact as
+//! pairs of u32 channels holding the high and low 32 bits of each f64, with the exact sample and
+//! batch counts: what merge and resume read. (Files of earlier versions, one part with everything,
+//! still read.)
 //!
 //! | channel                      | type | meaning                                                  |
 //! |------------------------------|------|----------------------------------------------------------|
@@ -29,8 +30,10 @@
 //! Image rows run top to bottom, so the first row is the plane's largest v.
 
 use crate::field::Field;
+use crate::ftpd::Weighting;
 use crate::ftpd::moments::Moments;
 use crate::output::{EXACT, f32_of};
+use crate::run_info::DomainKind;
 use anyhow::{Context, bail};
 use exr::prelude::*;
 use std::collections::BTreeMap;
@@ -90,13 +93,15 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     f32ch("sum.wd2", per(&|k| field.cells[k].sums().2));
     f32ch("samples", per(&|k| field.cells[k].n as f64));
     f32ch("batches", per(&|k| field.cells[k].batches as f64));
-    if field.meta.get("domain").is_some_and(|d| d == "camera") {
+    // The description decides the colour channels (and a malformed one is refused before writing).
+    let info = field.info(&path.display().to_string())?;
+    if info.domain == Some(DomainKind::Camera) {
         // Camera runs keep the beauty image's radiance in the fluence sums.
         let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
         f32ch("radiance.R", per(&|k| fl[k].x));
         f32ch("radiance.G", per(&|k| fl[k].y));
         f32ch("radiance.B", per(&|k| fl[k].z));
-    } else if field.meta.get("weighting").is_some_and(|w| w == "radiance") {
+    } else if info.weighting == Some(Weighting::Radiance) {
         let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
         f32ch("fluence.R", per(&|k| fl[k].x));
         f32ch("fluence.G", per(&|k| fl[k].y));
@@ -290,6 +295,8 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
         }
     }
     field.meta = meta;
+    // Every attribute reads as what it should be, or the file is refused naming it.
+    field.info(&path.display().to_string())?;
     Ok(field)
 }
 

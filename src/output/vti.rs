@@ -27,7 +27,8 @@
 //! With `samples` and `batches`, the `exact.*` arrays are each voxel's whole accumulator, so
 //! [`read_vti`] gives back the field exactly and volumes merge by addition like EXR fields.
 //!
-//! The run's description (`field.meta`) is kept as XML comments `<!-- ftpd3d key=value -->`
+//! The run's description (`field.meta`, the attributes of [`crate::run_info::RunInfo`]) is kept as
+//! XML comments `<!-- ftpd3d key=value -->`
 //! between `<VTKFile>` and `<ImageData>`, one per key; `%`, control characters and the second `-`
 //! of `--` (which a comment may not contain) are percent-encoded. Comments are invisible to
 //! ParaView and to every VTK reader, and readable with `head`: string arrays in `<FieldData>` would
@@ -35,6 +36,7 @@
 //! neither readable nor portable between VTK readers.
 
 use crate::field::Field;
+use crate::ftpd::Weighting;
 use crate::ftpd::moments::{CellValue, Moments};
 use crate::output::{EXACT, f32_of, write_atomically};
 use anyhow::{Context, bail};
@@ -289,7 +291,7 @@ pub fn write_vti_with(
     }
     let vals = field.values();
     let grad = gradient_magnitude(&vals, dims, spacing);
-    let radiance = field.meta.get("weighting").is_some_and(|w| w == "radiance");
+    let radiance = field.info(&path.display().to_string())?.weighting == Some(Weighting::Radiance);
     let cells = &field.cells;
     let v = &vals;
     let mut arrays = vec![
@@ -636,6 +638,8 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
             extra.insert(name.clone(), v);
         }
     }
+    // Every attribute reads as what it should be, or the file is refused naming it.
+    field.info(&path.display().to_string())?;
     Ok(Vti {
         field,
         origin: DVec3::new(o[0], o[1], o[2]),

@@ -1,0 +1,121 @@
+//! Error messages as the command line prints them: the library's typed errors
+//! ([`ParamError`], [`DomainError`]) say what is wrong in its own terms; here they name the flags
+//! that set the values (`--t0`, `--slice`, `--window`, …). Other errors print as they are.
+
+use crate::domain::{DomainError, commas};
+use crate::run::ParamError;
+use std::error::Error;
+
+/// The whole chain of `e` as `anyhow`'s `{:#}` prints it (`outer: inner: …`), each typed error in
+/// its command-line words.
+pub fn message(e: &anyhow::Error) -> String {
+    e.chain().map(describe).collect::<Vec<_>>().join(": ")
+}
+
+/// One error of a chain in command-line words.
+pub fn describe(e: &(dyn Error + 'static)) -> String {
+    if let Some(p) = e.downcast_ref::<ParamError>() {
+        param(p)
+    } else if let Some(d) = e.downcast_ref::<DomainError>() {
+        domain(d)
+    } else {
+        e.to_string()
+    }
+}
+
+/// An estimator setting, named by its flag.
+pub fn param(e: &ParamError) -> String {
+    match e {
+        ParamError::RunLengthNegative { t0 } => {
+            format!("--t0 {t0}: the shortest run length must be finite and ≥ 0")
+        }
+        ParamError::RunLengthNotPositive { t1 } => {
+            format!("--t1 {t1}: the longest run length must be finite and > 0")
+        }
+        ParamError::RunLengthsEmpty { t0, t1 } => {
+            format!("--t0 {t0} is larger than --t1 {t1}: the run-length interval [t0, t1] is empty")
+        }
+        ParamError::AngleOutOfRange { angle_deg } => format!(
+            "--angle {angle_deg}: the perturbation half-angle must lie strictly between 0 and 90 \
+             degrees"
+        ),
+        ParamError::NoLights { scene, ways } => format!(
+            "--weight radiance: {scene} has no lights ({ways}); add one with --point-light \
+             X,Y,Z:R,G,B (position and radiant intensity), or use --weight unweighted"
+        ),
+        ParamError::NoLightInPlane { scene, plane } => format!(
+            "--flatland --weight radiance: no light of {scene} meets the slice plane {plane} \
+             (emissive triangles must cross it, point lights lie in it); use --weight unweighted \
+             or another slice"
+        ),
+    }
+}
+
+/// A domain, named by the flags that place it.
+pub fn domain(e: &DomainError) -> String {
+    use DomainError as D;
+    match e {
+        D::SliceWithoutBounds { slice } => {
+            format!("--slice {slice}: the scene has no geometry to take bounds from; give --window")
+        }
+        D::SliceOutsideBounds { slice, lo, hi } => format!(
+            "--slice {slice}: outside the scene bounds, which span {lo} to {hi} along that axis"
+        ),
+        D::EmptyWindow { window } => format!(
+            "--window {}: needs u0 < u1 and v0 < v1 (an empty rectangle)",
+            commas(window)
+        ),
+        D::NoCells => "--res must be at least 1".into(),
+        D::UpAlongNormal { up } => format!(
+            "--plane: up ({}, {}, {}) is parallel to the normal",
+            up.x, up.y, up.z
+        ),
+        D::PlaneWithoutBounds => "--plane: the scene has no bounds to cover; give size=w,h".into(),
+        D::SliceSyntax(message) => format!("--slice {message}"),
+        D::NamedSliceSyntax { name, message } => {
+            format!("--slice {name}: the scene file's plane {message}")
+        }
+        D::NoNamedSlices { name } => {
+            format!("--slice {name}: expected AXIS=VALUE such as z=1.2 (the scene names no slices)")
+        }
+        D::UnknownSlice { name, names } => format!(
+            "--slice {name}: not AXIS=VALUE and not a slice of the scene file (it names: {names})"
+        ),
+        D::EmptyBox { bbox } => format!(
+            "--box {}: needs xmin < xmax, ymin < ymax and zmin < zmax (an empty box)",
+            commas(bbox)
+        ),
+        D::VolumeWithoutBounds => {
+            "--volume: the scene has no geometry to take bounds from; give --box".into()
+        }
+        D::NoVoxels => "--volume: every axis needs at least 1 voxel".into(),
+        D::EmptyImage { w, h } => {
+            format!("--size {w},{h}: the image needs at least one pixel each way")
+        }
+        // No flag sets these alone: the library's words are the message.
+        D::EmptyPlane { .. }
+        | D::EmptyVolumeBox { .. }
+        | D::FieldOfView { .. }
+        | D::UpAlongView { .. } => e.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_are_named_through_context() {
+        let e = anyhow::Error::from(ParamError::RunLengthNegative { t0: -1.0 }).context("job");
+        assert_eq!(
+            message(&e),
+            "job: --t0 -1: the shortest run length must be finite and ≥ 0"
+        );
+        assert_eq!(
+            format!("{e:#}"),
+            "job: the shortest run length t0 = -1 must be finite and ≥ 0"
+        );
+        let e = anyhow::anyhow!("plain").context("outer");
+        assert_eq!(message(&e), format!("{e:#}"));
+    }
+}
