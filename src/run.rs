@@ -172,11 +172,11 @@ pub fn ways_to_light(scene: &Scene) -> &'static str {
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("gltf" | "glb") => {
-            "no emissive material (emissiveFactor) and no KHR_lights_punctual point light"
+            "no emissive material (emissiveFactor) and no KHR_lights_punctual light"
         }
         Some("toml") => {
             "no emissive material in its mesh (Ke in the .mtl, emissiveFactor in glTF) and no \
-             [[point_light]] in the scene file"
+             [[point_light]], [[spot_light]], [[sun]], [sky] or [environment] in the scene file"
         }
         _ => "no emissive material: Ke in the .mtl",
     }

@@ -295,7 +295,8 @@ fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
             vec!["--scene", p, "--slice", "z=0"],
             format!(
                 "--weight radiance: {p} has no lights (no emissive material: Ke in the .mtl); add \
-                 one with --point-light X,Y,Z:R,G,B (position and radiant intensity), or use \
+                 one with --point-light X,Y,Z:R,G,B (position and radiant intensity), --sun \
+                 X,Y,Z:R,G,B (direction and irradiance), --sky R,G,B or --env FILE, or use \
                  --weight unweighted"
             ),
         ),

@@ -777,8 +777,9 @@ fn gltf_without_lights_names_the_ways_to_add_one() {
         r.err.trim(),
         format!(
             "error: --weight radiance: {p} has no lights (no emissive material (emissiveFactor) \
-             and no KHR_lights_punctual point light); add one with --point-light X,Y,Z:R,G,B \
-             (position and radiant intensity), or use --weight unweighted"
+             and no KHR_lights_punctual light); add one with --point-light X,Y,Z:R,G,B \
+             (position and radiant intensity), --sun X,Y,Z:R,G,B (direction and irradiance), \
+             --sky R,G,B or --env FILE, or use --weight unweighted"
         )
     );
     let r = crate::support::ftpd3d(
@@ -804,8 +805,8 @@ fn gltf_without_lights_names_the_ways_to_add_one() {
     assert!(
         r.err.contains(&format!(
             "warning: {p} has no lights (no emissive material (emissiveFactor) and no \
-             KHR_lights_punctual point light): the beauty image (radiance.R/G/B) will be black; \
-             add one with --point-light X,Y,Z:R,G,B"
+             KHR_lights_punctual light): the beauty image (radiance.R/G/B) will be black; add \
+             one with --point-light X,Y,Z:R,G,B, --sun X,Y,Z:R,G,B, --sky R,G,B or --env FILE"
         )),
         "{}",
         r.err

@@ -269,7 +269,8 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
             if scene.lights.is_empty() {
                 eprintln!(
                     "warning: {} has no lights ({}): the beauty image (radiance.R/G/B) will be \
-                     black; add one with --point-light X,Y,Z:R,G,B",
+                     black; add one with --point-light X,Y,Z:R,G,B, --sun X,Y,Z:R,G,B, --sky \
+                     R,G,B or --env FILE",
                     job.scene.display(),
                     crate::run::ways_to_light(&scene)
                 );

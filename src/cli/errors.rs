@@ -41,7 +41,8 @@ pub fn param(e: &ParamError) -> String {
         ),
         ParamError::NoLights { scene, ways } => format!(
             "--weight radiance: {scene} has no lights ({ways}); add one with --point-light \
-             X,Y,Z:R,G,B (position and radiant intensity), or use --weight unweighted"
+             X,Y,Z:R,G,B (position and radiant intensity), --sun X,Y,Z:R,G,B (direction and \
+             irradiance), --sky R,G,B or --env FILE, or use --weight unweighted"
         ),
         ParamError::NoLightInPlane { scene, plane } => format!(
             "--flatland --weight radiance: no light of {scene} meets the slice plane {plane} \
