@@ -1,9 +1,10 @@
 //! Error messages as the command line prints them: the library's typed errors
-//! ([`ParamError`], [`DomainError`]) say what is wrong in its own terms; here they name the flags
+//! ([`ParamError`], [`DomainError`], [`FlatlandError`]) say what is wrong in its own terms; here they name the flags
 //! that set the values (`--t0`, `--slice`, `--window`, …). Other errors print as they are.
 
 use crate::domain::{DomainError, commas};
 use crate::run::ParamError;
+use crate::scene::flat::FlatlandError;
 use std::error::Error;
 
 /// The whole chain of `e` as `anyhow`'s `{:#}` prints it (`outer: inner: …`), each typed error in
@@ -18,6 +19,15 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
         param(p)
     } else if let Some(d) = e.downcast_ref::<DomainError>() {
         domain(d)
+    } else if let Some(f) = e.downcast_ref::<FlatlandError>() {
+        match f {
+            FlatlandError::NotExtruded { file, detail } => format!(
+                "{file}: --flatland needs geometry extruded along the slice normal; {detail}"
+            ),
+            FlatlandError::LightOffPlane { file, detail } => {
+                format!("{file}: --flatland: {detail}")
+            }
+        }
     } else {
         e.to_string()
     }

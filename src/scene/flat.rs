@@ -177,6 +177,18 @@ pub type FlatLight = Light<Segment>;
 /// segment uniformly by length; densities are per radian at the receiving point.
 pub type FlatLights = Lights<Segment>;
 
+/// Why a scene cannot run in flatland on a plane (the command line names the `--flatland` flag:
+/// `crate::cli::errors`).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FlatlandError {
+    /// Geometry crosses the plane with its normal out of it.
+    #[error("{file}: flatland needs geometry extruded along the slice normal; {detail}")]
+    NotExtruded { file: String, detail: String },
+    /// A light (or its direction) does not lie in the plane.
+    #[error("{file}: flatland: {detail}")]
+    LightOffPlane { file: String, detail: String },
+}
+
 /// How a triangle meets the slice plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Section {
@@ -344,29 +356,39 @@ impl FlatScene {
                 1 => String::new(),
                 k => format!("; {} more triangles do too", k - 1),
             };
-            anyhow::bail!(
-                "{file}: --flatland needs geometry extruded along the slice normal; triangle {i} \
-                 (material '{name}') crosses {label} with its normal {deg}° out of the plane{more}"
-            );
+            return Err(FlatlandError::NotExtruded {
+                file: file.to_string(),
+                detail: format!(
+                    "triangle {i} (material '{name}') crosses {label} with its normal {deg}° out \
+                     of the plane{more}"
+                ),
+            }
+            .into());
         }
         let off_plane = |what: &str, off: f64| -> anyhow::Result<()> {
-            anyhow::bail!(
-                "{file}: --flatland: the {what} lies {off} off the slice plane {label}; in \
-                 flatland, lights must lie in the plane"
-            )
+            Err(FlatlandError::LightOffPlane {
+                file: file.to_string(),
+                detail: format!(
+                    "the {what} lies {off} off the slice plane {label}; in flatland, lights must \
+                     lie in the plane"
+                ),
+            }
+            .into())
         };
         // In-plane directions: an out-of-plane component must be rounding only.
         let in_plane_dir = |what: &str, d: DVec3| -> anyhow::Result<DVec3> {
             let out = d.dot(plane.normal).abs();
             match plane.in_plane(d) {
                 Some(v) if out <= MAX_NORMAL_OUT_OF_PLANE => Ok(v),
-                _ => anyhow::bail!(
-                    "{file}: --flatland: the {what} ({}, {}, {}) is not in the slice plane \
-                     {label}; in flatland, light directions must lie in the plane",
-                    d.x,
-                    d.y,
-                    d.z
-                ),
+                _ => Err(FlatlandError::LightOffPlane {
+                    file: file.to_string(),
+                    detail: format!(
+                        "the {what} ({}, {}, {}) is not in the slice plane {label}; in flatland, \
+                         light directions must lie in the plane",
+                        d.x, d.y, d.z
+                    ),
+                }
+                .into()),
             }
         };
         let tol = |p: DVec3| 1e-9 * scene.extent().max(p.abs().max_element());
