@@ -11,6 +11,7 @@ pub mod load;
 pub mod material;
 pub mod obj;
 pub mod sidecar;
+pub mod texture;
 
 use crate::accel::{Accel, RawHit};
 use crate::math::Rgb;

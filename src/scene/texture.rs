@@ -1,0 +1,383 @@
+//! Textures: images decoded once, shared by every material that names them, looked up bilinearly
+//! at a hit's interpolated UV.
+//!
+//! - Formats: PNG, JPEG, TGA and Radiance HDR through the `image` crate (only those codecs are
+//!   compiled in), OpenEXR through `exr`.
+//! - Colour textures (base colour, diffuse, emission, specular) in 8-bit formats are sRGB-encoded
+//!   and decoded to linear with the exact sRGB transfer function; HDR and EXR texels are linear
+//!   already. Data textures (alpha, metallic-roughness) are read as stored.
+//! - Lookup: `(u, v)` with v up (OBJ's and glTF's conventions differ: glTF's v points down, and its
+//!   loader flips it), wrapped per axis (repeat, clamp to edge, mirrored repeat, as glTF's sampler
+//!   says), then bilinear between the four nearest texel centres.
+//! - A [`TextureSet`] decodes each file once, in parallel, and reports the memory the texels take.
+
+use crate::math::Rgb;
+use anyhow::{Context, bail};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// How a coordinate outside [0, 1] is brought back (glTF sampler wrap modes; OBJ repeats).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Wrap {
+    #[default]
+    Repeat,
+    ClampToEdge,
+    MirroredRepeat,
+}
+
+impl Wrap {
+    /// The texel index for the (possibly out-of-range) integer index `i` of an axis of `n` texels.
+    #[inline]
+    fn index(self, i: i64, n: usize) -> usize {
+        let n = n as i64;
+        let k = match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::ClampToEdge => i.clamp(0, n - 1),
+            Wrap::MirroredRepeat => {
+                let m = i.rem_euclid(2 * n);
+                if m < n { m } else { 2 * n - 1 - m }
+            }
+        };
+        k as usize
+    }
+}
+
+/// The sRGB transfer function's inverse (IEC 61966-2-1): an 8-bit-encoded value in [0, 1] to
+/// linear.
+#[inline]
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// A decoded image: linear RGB and alpha per texel, row-major from the top row.
+#[derive(Clone, PartialEq)]
+pub struct Texture {
+    pub width: usize,
+    pub height: usize,
+    /// RGBA, f32 (memory: 16 B per texel).
+    pub texels: Vec<[f32; 4]>,
+    pub source: String,
+}
+
+impl std::fmt::Debug for Texture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Texture({}, {}×{})",
+            self.source, self.width, self.height
+        )
+    }
+}
+
+/// What a texture's values mean, which decides whether 8-bit values are sRGB-decoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Encoding {
+    /// Colours: 8-bit values are sRGB.
+    Colour,
+    /// Data (alpha, roughness): values as stored.
+    Linear,
+}
+
+impl Texture {
+    /// From RGBA texels (row-major from the top).
+    pub fn new(
+        width: usize,
+        height: usize,
+        texels: Vec<[f32; 4]>,
+        source: &str,
+    ) -> anyhow::Result<Texture> {
+        if width == 0 || height == 0 || texels.len() != width * height {
+            bail!("{source}: a texture needs at least one texel");
+        }
+        if texels.iter().flatten().any(|v| !v.is_finite()) {
+            bail!("{source}: texels must be finite");
+        }
+        Ok(Texture {
+            width,
+            height,
+            texels,
+            source: source.to_string(),
+        })
+    }
+
+    /// Decodes `path`: PNG, JPEG, TGA, HDR through `image`, EXR through `exr`.
+    pub fn load(path: &Path, encoding: Encoding) -> anyhow::Result<Texture> {
+        let name = path.display().to_string();
+        let ext = crate::scene::load::extension(path);
+        if ext.as_deref() == Some("exr") {
+            use exr::prelude::*;
+            let img = read_first_rgba_layer_from_file(
+                path,
+                |res, _| (res.width(), vec![[0f32; 4]; res.width() * res.height()]),
+                |(w, px): &mut (usize, Vec<[f32; 4]>), pos, (r, g, b, a): (f32, f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = [r, g, b, a];
+                },
+            )
+            .with_context(|| format!("{name}: cannot read as an OpenEXR image"))?;
+            let size = img.layer_data.size;
+            let (_, px) = img.layer_data.channel_data.pixels;
+            return Texture::new(size.width(), size.height(), px, &name);
+        }
+        let reader = image::ImageReader::open(path)
+            .with_context(|| format!("{name}: cannot open"))?
+            .with_guessed_format()
+            .with_context(|| format!("{name}: cannot read"))?;
+        let img = reader
+            .decode()
+            .with_context(|| format!("{name}: cannot decode (PNG, JPEG, TGA, HDR or EXR)"))?;
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        // 8-bit and 16-bit images are encoded; float images (HDR) are linear.
+        let encoded = !matches!(
+            img.color(),
+            image::ColorType::Rgb32F | image::ColorType::Rgba32F
+        );
+        let rgba = img.into_rgba32f();
+        let decode = |c: f32| {
+            if encoded && encoding == Encoding::Colour {
+                srgb_to_linear(c as f64) as f32
+            } else {
+                c
+            }
+        };
+        let texels = rgba
+            .pixels()
+            .map(|p| [decode(p[0]), decode(p[1]), decode(p[2]), p[3]])
+            .collect();
+        Texture::new(w, h, texels, &name)
+    }
+
+    /// Bytes the texels take.
+    pub fn bytes(&self) -> usize {
+        self.texels.len() * std::mem::size_of::<[f32; 4]>()
+    }
+
+    /// Bilinear RGBA at `(u, v)` (v up), with each axis wrapped by `wrap`.
+    #[inline]
+    pub fn lookup(&self, u: f64, v: f64, wrap: (Wrap, Wrap)) -> [f64; 4] {
+        // Texel centres sit at (i + ½)/w; the top row is v = 1.
+        let x = u * self.width as f64 - 0.5;
+        let y = (1.0 - v) * self.height as f64 - 0.5;
+        let (x, y) = (
+            if x.is_finite() { x } else { 0.0 },
+            if y.is_finite() { y } else { 0.0 },
+        );
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        // Far outside the texture the index saturates; the wrap brings it back either way.
+        let (xi, yi) = (x0.clamp(-1e15, 1e15) as i64, y0.clamp(-1e15, 1e15) as i64);
+        let ix = [
+            wrap.0.index(xi, self.width),
+            wrap.0.index(xi + 1, self.width),
+        ];
+        let iy = [
+            wrap.1.index(yi, self.height),
+            wrap.1.index(yi + 1, self.height),
+        ];
+        let mut out = [0.0; 4];
+        for (j, wy) in [(0, 1.0 - fy), (1, fy)] {
+            for (i, wx) in [(0, 1.0 - fx), (1, fx)] {
+                let t = &self.texels[iy[j] * self.width + ix[i]];
+                for c in 0..4 {
+                    out[c] += wx * wy * t[c] as f64;
+                }
+            }
+        }
+        out
+    }
+
+    /// The RGB of [`lookup`](Self::lookup).
+    #[inline]
+    pub fn rgb(&self, u: f64, v: f64, wrap: (Wrap, Wrap)) -> Rgb {
+        let [r, g, b, _] = self.lookup(u, v, wrap);
+        Rgb::new(r, g, b)
+    }
+}
+
+/// A texture coordinate transform (glTF's `KHR_texture_transform`): scale, then rotate
+/// (counter-clockwise by `rotation` radians), then offset.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    pub offset: [f64; 2],
+    pub rotation: f64,
+    pub scale: [f64; 2],
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        UvTransform {
+            offset: [0.0, 0.0],
+            rotation: 0.0,
+            scale: [1.0, 1.0],
+        }
+    }
+}
+
+impl UvTransform {
+    /// The extension's matrix `T · R · S` applied to `(u, v)` in glTF's UV convention. The
+    /// extension writes R in GLSL as `mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)`, which is
+    /// column-major: `u' = cos·u − sin·v`, `v' = sin·u + cos·v`.
+    #[inline]
+    pub fn apply(&self, u: f64, v: f64) -> (f64, f64) {
+        let (su, sv) = (u * self.scale[0], v * self.scale[1]);
+        let (s, c) = self.rotation.sin_cos();
+        (
+            c * su - s * sv + self.offset[0],
+            s * su + c * sv + self.offset[1],
+        )
+    }
+}
+
+/// Every texture of a scene, each file decoded once.
+#[derive(Clone, Debug, Default)]
+pub struct TextureSet {
+    pub textures: Vec<Arc<Texture>>,
+}
+
+impl TextureSet {
+    /// Decodes the distinct `(path, encoding)` pairs in parallel; returns the set and, for each
+    /// request, the index of its texture. Errors name the file (and the first that failed).
+    pub fn load(requests: &[(PathBuf, Encoding)]) -> anyhow::Result<(TextureSet, Vec<usize>)> {
+        let mut distinct: Vec<(PathBuf, Encoding)> = Vec::new();
+        let mut index: HashMap<(PathBuf, Encoding), usize> = HashMap::new();
+        let ids: Vec<usize> = requests
+            .iter()
+            .map(|r| {
+                *index.entry(r.clone()).or_insert_with(|| {
+                    distinct.push(r.clone());
+                    distinct.len() - 1
+                })
+            })
+            .collect();
+        let textures = distinct
+            .par_iter()
+            .map(|(p, e)| Texture::load(p, *e).map(Arc::new))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        Ok((TextureSet { textures }, ids))
+    }
+
+    /// Bytes all texels take.
+    pub fn bytes(&self) -> usize {
+        self.textures.iter().map(|t| t.bytes()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_decoding_matches_the_standard() {
+        // IEC 61966-2-1 values: 0 → 0, 1 → 1, 0.5 → 0.21404, the linear segment below 0.04045.
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-15);
+        assert!((srgb_to_linear(0.5) - 0.214_041_140_482_232_54).abs() < 1e-12);
+        assert!((srgb_to_linear(0.04) - 0.04 / 12.92).abs() < 1e-18);
+        // Continuous at the joint (to the standard's rounding of its constants).
+        let (a, b) = (srgb_to_linear(0.04045), srgb_to_linear(0.040_450_001));
+        assert!((a - b).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bilinear_lookup_hits_texel_centres_and_interpolates_between() {
+        // 2 × 2: top row (v = 1) is 0 and 1, bottom row 2 and 3 in every channel.
+        let t = Texture::new(
+            2,
+            2,
+            [0.0, 1.0, 2.0, 3.0]
+                .iter()
+                .map(|&x| [x, x, x, 1.0])
+                .collect(),
+            "t",
+        )
+        .unwrap();
+        let c = (Wrap::ClampToEdge, Wrap::ClampToEdge);
+        assert_eq!(t.lookup(0.25, 0.75, c)[0], 0.0);
+        assert_eq!(t.lookup(0.75, 0.75, c)[0], 1.0);
+        assert_eq!(t.lookup(0.25, 0.25, c)[0], 2.0);
+        assert_eq!(t.lookup(0.75, 0.25, c)[0], 3.0);
+        assert!((t.lookup(0.5, 0.5, c)[0] - 1.5).abs() < 1e-15);
+        assert!((t.lookup(0.5, 0.75, c)[0] - 0.5).abs() < 1e-15);
+        // Clamped beyond the edge; repeated: u = 1.25 is u = 0.25.
+        assert_eq!(t.lookup(-3.0, 0.75, c)[0], 0.0);
+        let r = (Wrap::Repeat, Wrap::Repeat);
+        assert_eq!(t.lookup(1.25, 0.75, r), t.lookup(0.25, 0.75, r));
+        // At u = 0 with repeat, half of each edge column.
+        assert!((t.lookup(0.0, 0.75, r)[0] - 0.5).abs() < 1e-15);
+        // Mirrored: u = 1.25 is u = 0.75.
+        let m = (Wrap::MirroredRepeat, Wrap::MirroredRepeat);
+        assert_eq!(t.lookup(1.25, 0.75, m), t.lookup(0.75, 0.75, m));
+        // Non-finite coordinates give a texel, not a NaN.
+        assert!(t.lookup(f64::NAN, f64::INFINITY, r)[0].is_finite());
+    }
+
+    #[test]
+    fn wrap_modes_index_as_gltf_defines() {
+        let n = 4;
+        let idx = |w: Wrap| (-5..9).map(|i| w.index(i, n)).collect::<Vec<_>>();
+        assert_eq!(
+            idx(Wrap::Repeat),
+            [3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0]
+        );
+        assert_eq!(
+            idx(Wrap::ClampToEdge),
+            [0, 0, 0, 0, 0, 0, 1, 2, 3, 3, 3, 3, 3, 3]
+        );
+        assert_eq!(
+            idx(Wrap::MirroredRepeat),
+            [3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0]
+        );
+    }
+
+    #[test]
+    fn uv_transform_follows_khr_texture_transform() {
+        // Offset (0, 1), rotation π/2, scale (0.5, 0.5), by the extension's GLSL matrices
+        // (column-major): (1, 0) is scaled to (0.5, 0), rotated to (0, 0.5), offset to (0, 1.5);
+        // (0, 1) to (0, 0.5), (−0.5, 0), (−0.5, 1).
+        let t = UvTransform {
+            offset: [0.0, 1.0],
+            rotation: std::f64::consts::FRAC_PI_2,
+            scale: [0.5, 0.5],
+        };
+        let (u, v) = t.apply(1.0, 0.0);
+        assert!(u.abs() < 1e-15 && (v - 1.5).abs() < 1e-15, "({u}, {v})");
+        let (u, v) = t.apply(0.0, 1.0);
+        assert!(
+            (u + 0.5).abs() < 1e-15 && (v - 1.0).abs() < 1e-15,
+            "({u}, {v})"
+        );
+        assert_eq!(UvTransform::default().apply(0.3, 0.7), (0.3, 0.7));
+    }
+
+    #[test]
+    fn png_textures_are_decoded_once_and_srgb_to_linear() {
+        let dir = std::env::temp_dir().join(format!("ftpd3d-tex-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("t.png");
+        // 2 × 1: sRGB 128 and 255.
+        let img = image::RgbImage::from_raw(2, 1, vec![128, 128, 128, 255, 255, 255]).unwrap();
+        img.save(&p).unwrap();
+        let reqs = vec![
+            (p.clone(), Encoding::Colour),
+            (p.clone(), Encoding::Colour),
+            (p.clone(), Encoding::Linear),
+        ];
+        let (set, ids) = TextureSet::load(&reqs).unwrap();
+        assert_eq!(set.textures.len(), 2);
+        assert_eq!(ids, [0, 0, 1]);
+        let colour = &set.textures[0];
+        let expect = srgb_to_linear(128.0 / 255.0);
+        assert!((colour.texels[0][0] as f64 - expect).abs() < 1e-6);
+        assert_eq!(colour.texels[1][0], 1.0);
+        assert!((set.textures[1].texels[0][0] as f64 - 128.0 / 255.0).abs() < 1e-6);
+        assert_eq!(set.bytes(), 2 * 2 * 16);
+        let missing = TextureSet::load(&[(dir.join("nope.png"), Encoding::Colour)]).unwrap_err();
+        assert!(format!("{missing:#}").contains("nope.png"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
