@@ -365,15 +365,24 @@ impl FlatScene {
             }
             .into());
         }
-        let off_plane = |what: &str, off: f64| -> anyhow::Result<()> {
-            Err(FlatlandError::LightOffPlane {
-                file: file.to_string(),
-                detail: format!(
-                    "the {what} lies {off} off the slice plane {label}; in flatland, lights must \
-                     lie in the plane"
-                ),
+        // A light's position, moved onto the plane by at most rounding.
+        let onto_plane = |what: &str, p: DVec3| -> anyhow::Result<DVec3> {
+            let off = plane.distance(p);
+            if off.abs() > 1e-9 * scene.extent().max(p.abs().max_element()) {
+                return Err(FlatlandError::LightOffPlane {
+                    file: file.to_string(),
+                    detail: format!(
+                        "the {what} at ({}, {}, {}) lies {} off the slice plane {label}; in \
+                         flatland, lights must lie in the plane",
+                        p.x,
+                        p.y,
+                        p.z,
+                        off.abs()
+                    ),
+                }
+                .into());
             }
-            .into())
+            Ok(p - plane.normal * off)
         };
         // In-plane directions: an out-of-plane component must be rounding only.
         let in_plane_dir = |what: &str, d: DVec3| -> anyhow::Result<DVec3> {
@@ -391,73 +400,45 @@ impl FlatScene {
                 .into()),
             }
         };
-        let tol = |p: DVec3| 1e-9 * scene.extent().max(p.abs().max_element());
-        let mut others = Vec::new();
+        // The lights that are not triangles, as the plane sees them.
         for l in &scene.lights.lights {
             match l {
                 Light::Area { .. } => {}
                 Light::Point {
                     position,
                     intensity,
-                } => {
-                    let off = plane.distance(*position);
-                    if off.abs() > tol(*position) {
-                        off_plane(
-                            &format!(
-                                "point light at ({}, {}, {})",
-                                position.x, position.y, position.z
-                            ),
-                            off.abs(),
-                        )?;
-                    }
-                    others.push(Light::Point {
-                        position: *position - plane.normal * off,
-                        intensity: *intensity,
-                    });
-                }
+                } => lights.push(Light::Point {
+                    position: onto_plane("point light", *position)?,
+                    intensity: *intensity,
+                }),
                 Light::Spot {
                     position,
                     direction,
                     intensity,
                     cos_inner,
                     cos_outer,
-                } => {
-                    let off = plane.distance(*position);
-                    if off.abs() > tol(*position) {
-                        off_plane(
-                            &format!(
-                                "spot light at ({}, {}, {})",
-                                position.x, position.y, position.z
-                            ),
-                            off.abs(),
-                        )?;
-                    }
-                    others.push(Light::Spot {
-                        position: *position - plane.normal * off,
-                        direction: in_plane_dir("spot light's direction", *direction)?,
-                        intensity: *intensity,
-                        cos_inner: *cos_inner,
-                        cos_outer: *cos_outer,
-                    });
-                }
+                } => lights.push(Light::Spot {
+                    position: onto_plane("spot light", *position)?,
+                    direction: in_plane_dir("spot light's direction", *direction)?,
+                    intensity: *intensity,
+                    cos_inner: *cos_inner,
+                    cos_outer: *cos_outer,
+                }),
                 Light::Distant {
                     direction,
                     irradiance,
                     half_angle,
                     ..
-                } => others.push(Light::distant(
+                } => lights.push(Light::distant(
                     in_plane_dir("sun direction", *direction)?,
                     *irradiance,
                     *half_angle,
                 )),
-                Light::Sky { radiance } => others.push(Light::Sky {
+                Light::Sky { radiance } => lights.push(Light::Sky {
                     radiance: *radiance,
                 }),
-                Light::Env(env) => others.push(Light::Env(env.in_plane(plane.e1, plane.e2))),
+                Light::Env(env) => lights.push(Light::Env(env.in_plane(plane.e1, plane.e2))),
             }
-        }
-        for l in others {
-            lights.push(l);
         }
         Ok(FlatScene {
             plane,
