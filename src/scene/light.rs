@@ -95,7 +95,7 @@ impl LightSet {
     pub fn from_emitters(
         positions: &[Vec3],
         triangles: &[[u32; 3]],
-        normals: &[DVec3],
+        normal: impl Fn(usize) -> DVec3,
         tri_material: &[u32],
         materials: &[Material],
     ) -> LightSet {
@@ -115,7 +115,7 @@ impl LightSet {
             lights.push(Light::Triangle {
                 prim: i as u32,
                 v,
-                normal: normals[i],
+                normal: normal(i),
                 area,
                 emission: m.emission,
             });
