@@ -170,15 +170,25 @@ fn shading_normals(data: &obj_parse::ObjData, runs: &[(usize, Option<usize>)]) -
     }
     let normals = &data.normals;
     let mut shading: Vec<[Vec3; 3]> = crate::accel::vec_with_huge_pages(n);
-    shading.par_extend(data.tri_normals.par_iter().enumerate().map(|(t, vn)| {
-        // The run of triangle t: the last one starting at or before it.
-        let k = runs.partition_point(|r| r.0 <= t) - 1;
-        if complete[k] {
-            vn.map(|i| normals[i as usize])
-        } else {
-            [Vec3::ZERO; 3]
-        }
-    }));
+    shading.par_extend(rayon::iter::repeat_n([Vec3::ZERO; 3], n));
+    const CHUNK: usize = 1 << 16;
+    shading
+        .par_chunks_mut(CHUNK)
+        .zip(data.tri_normals.par_chunks(CHUNK))
+        .enumerate()
+        .for_each(|(j, (out, vns))| {
+            let t0 = j * CHUNK;
+            // The run of the chunk's first triangle: the last one starting at or before it.
+            let mut k = runs.partition_point(|r| r.0 <= t0) - 1;
+            for (i, (o, vn)) in out.iter_mut().zip(vns).enumerate() {
+                while t0 + i >= end_of(k) {
+                    k += 1;
+                }
+                if complete[k] {
+                    *o = vn.map(|i| normals[i as usize]);
+                }
+            }
+        });
     let non_zero = || {
         shading
             .par_iter()

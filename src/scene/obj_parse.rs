@@ -136,11 +136,33 @@ struct Chunk {
     corners: Vec<Corner>,
 }
 
+impl Chunk {
+    /// Empties the chunk for the next one, keeping its buffers.
+    fn reset(&mut self) {
+        let d = &mut self.data;
+        d.positions.clear();
+        d.normals.clear();
+        d.texcoords = 0;
+        d.triangles.clear();
+        d.tri_normals.clear();
+        d.events.clear();
+        d.oddities = Default::default();
+        d.unused.clear();
+        d.lines = 0;
+        self.relative.clear();
+        self.need = [0; 3];
+        self.error = None;
+    }
+}
+
 /// Parses the OBJ file at `path` (see the module docs). `Err` is `(line, message)` for a bad line,
 /// or an I/O error as `(0, message)`.
 pub fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData, LineError> {
     let mut file = std::fs::File::open(path).map_err(|e| (0, format!("cannot read ({e})")))?;
     let mut out = ObjData::default();
+    // The chunks' buffers, reused from block to block (fresh memory costs a page fault each
+    // page; reused memory does not).
+    let mut pool: Vec<Chunk> = Vec::new();
     let mut buf: Vec<u8> = Vec::with_capacity(BLOCK_BYTES);
     let mut eof = false;
     while !eof {
@@ -160,7 +182,7 @@ pub fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData, LineE
                 None => continue,
             }
         };
-        parse_block(&buf[..end], strict, &mut out)?;
+        parse_block(&buf[..end], strict, &mut pool, &mut out)?;
         buf.drain(..end);
     }
     out.positions.shrink_to_fit();
@@ -172,7 +194,12 @@ pub fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData, LineE
 
 /// Splits `block` (whole lines) into chunks at line ends, parses them in parallel and appends them
 /// to `out` in order.
-fn parse_block(block: &[u8], strict: bool, out: &mut ObjData) -> Result<(), LineError> {
+fn parse_block(
+    block: &[u8],
+    strict: bool,
+    pool: &mut Vec<Chunk>,
+    out: &mut ObjData,
+) -> Result<(), LineError> {
     let mut bounds = vec![0];
     let mut at = 0;
     while at < block.len() {
@@ -185,11 +212,15 @@ fn parse_block(block: &[u8], strict: bool, out: &mut ObjData) -> Result<(), Line
         bounds.push(end);
         at = end;
     }
-    let chunks: Vec<Chunk> = bounds
-        .par_windows(2)
-        .map(|w| parse_chunk(&block[w[0]..w[1]], strict, None))
-        .collect();
-    for (k, chunk) in chunks.into_iter().enumerate() {
+    if pool.len() < bounds.len() - 1 {
+        pool.resize_with(bounds.len() - 1, Chunk::default);
+    }
+    let chunks = &mut pool[..bounds.len() - 1];
+    chunks
+        .par_iter_mut()
+        .zip(bounds.par_windows(2))
+        .for_each(|(c, w)| parse_chunk(c, &block[w[0]..w[1]], strict, None));
+    for (k, chunk) in chunks.iter().enumerate() {
         let base = Base {
             counts: [out.positions.len(), out.texcoords, out.normals.len()],
             line: out.lines,
@@ -197,7 +228,13 @@ fn parse_block(block: &[u8], strict: bool, out: &mut ObjData) -> Result<(), Line
         let short = (0..3).any(|i| chunk.need[i] > base.counts[i] as i64);
         if chunk.error.is_some() || short {
             // Again with the base known: the first bad line, as a sequential parse finds it.
-            let again = parse_chunk(&block[bounds[k]..bounds[k + 1]], strict, Some(base));
+            let mut again = Chunk::default();
+            parse_chunk(
+                &mut again,
+                &block[bounds[k]..bounds[k + 1]],
+                strict,
+                Some(base),
+            );
             let (line, msg) = again
                 .error
                 .unwrap_or_else(|| (1, "inconsistent parse (please report it)".into()));
@@ -209,7 +246,7 @@ fn parse_block(block: &[u8], strict: bool, out: &mut ObjData) -> Result<(), Line
 }
 
 /// Appends a parsed chunk to everything before it.
-fn append(out: &mut ObjData, chunk: Chunk, base: Base) {
+fn append(out: &mut ObjData, chunk: &Chunk, base: Base) {
     let Chunk { data, relative, .. } = chunk;
     let tri0 = out.triangles.len();
     out.positions.extend_from_slice(&data.positions);
@@ -217,7 +254,7 @@ fn append(out: &mut ObjData, chunk: Chunk, base: Base) {
     out.texcoords += data.texcoords;
     out.triangles.extend_from_slice(&data.triangles);
     out.tri_normals.extend_from_slice(&data.tri_normals);
-    for (t, which) in relative {
+    for &(t, which) in relative {
         let t = tri0 + t as usize;
         let c = (which >> 1) as usize;
         if which & 1 == 0 {
@@ -228,10 +265,10 @@ fn append(out: &mut ObjData, chunk: Chunk, base: Base) {
             *v = v.wrapping_add(base.counts[2] as u32);
         }
     }
-    out.events.extend(data.events.into_iter().map(|e| Event {
+    out.events.extend(data.events.iter().map(|e| Event {
         line: e.line + base.line,
         tri: e.tri + tri0,
-        what: e.what,
+        what: e.what.clone(),
     }));
     for (t, later) in out.oddities.iter_mut().zip(&data.oddities) {
         t.merge(later, base.line);
@@ -266,8 +303,8 @@ fn latin1(bytes: &[u8]) -> String {
 
 /// Parses one chunk of whole lines. With `known`, the counts before the chunk are known and face
 /// references are checked against them exactly (the slow path that names the first bad line).
-fn parse_chunk(bytes: &[u8], strict: bool, known: Option<Base>) -> Chunk {
-    let mut c = Chunk::default();
+fn parse_chunk(c: &mut Chunk, bytes: &[u8], strict: bool, known: Option<Base>) {
+    c.reset();
     let whole = std::str::from_utf8(bytes).ok();
     let mut owned: String;
     let mut start = 0;
@@ -292,13 +329,12 @@ fn parse_chunk(bytes: &[u8], strict: bool, known: Option<Base>) -> Chunk {
             },
         };
         start = end + 1;
-        if let Err(msg) = statement(line, line_no, strict, known, &mut c) {
+        if let Err(msg) = statement(line, line_no, strict, known, c) {
             c.error = Some((line_no, msg));
             break;
         }
     }
     c.data.lines = line_no;
-    c
 }
 
 fn numbers<'a>(words: impl Iterator<Item = &'a str>, out: &mut [f32; 8]) -> Option<usize> {
@@ -490,6 +526,17 @@ fn face<'a>(
     Ok(())
 }
 
+/// `s` as an i64, accepting exactly what `str::parse::<i64>` accepts (an optional sign and
+/// decimal digits), with a fast path for the short unsigned indices of real files.
+#[inline]
+fn whole_number(s: &str) -> Option<i64> {
+    let b = s.as_bytes();
+    if !b.is_empty() && b.len() <= 18 && b.iter().all(u8::is_ascii_digit) {
+        return Some(b.iter().fold(0i64, |a, &d| a * 10 + (d - b'0') as i64));
+    }
+    s.parse::<i64>().ok()
+}
+
 /// Checks one vertex of a face (`v`, `v/vt`, `v//vn`, `v/vt/vn`) and resolves its indices: against
 /// the counts before the chunk when they are `known`, else recording in `need` what the chunk
 /// must be preceded by.
@@ -503,12 +550,21 @@ fn face_vertex(
     const WHATS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
     let mut parts = [""; 3];
     let mut n = 0;
-    for p in r.split('/') {
-        if n == 3 {
-            n = 4;
-            break;
+    let mut from = 0;
+    let bytes = r.as_bytes();
+    for (i, &b) in bytes.iter().enumerate() {
+        if b == b'/' {
+            if n == 2 {
+                n = 4;
+                break;
+            }
+            parts[n] = &r[from..i];
+            n += 1;
+            from = i + 1;
         }
-        parts[n] = p;
+    }
+    if n < 3 {
+        parts[n] = &r[from..];
         n += 1;
     }
     if n > 3 || parts[0].is_empty() {
@@ -525,7 +581,7 @@ fn face_vertex(
         if part.is_empty() {
             continue; // v//vn
         }
-        let Ok(i) = part.parse::<i64>() else {
+        let Some(i) = whole_number(part) else {
             return Err(format!(
                 "malformed face vertex '{r}': '{part}' is not a whole number"
             ));
