@@ -56,6 +56,30 @@ unsafe extern "C" fn error_callback(_user: *mut c_void, code: sys::RTCError, msg
     });
 }
 
+/// Bytes Embree has allocated and not freed (BVH, geometry buffers, build scratch), and the most
+/// it has held at once, counted by its memory monitor: what the loading benchmark subtracts from
+/// the process's resident memory to see the rest.
+static EMBREE_BYTES: std::sync::atomic::AtomicI64 = std::sync::atomic::AtomicI64::new(0);
+static EMBREE_PEAK: std::sync::atomic::AtomicI64 = std::sync::atomic::AtomicI64::new(0);
+
+/// Memory monitor: accumulates Embree's allocations (positive) and frees (negative); never
+/// refuses one, never unwinds into C.
+unsafe extern "C" fn memory_monitor(_user: *mut c_void, bytes: isize, _post: bool) -> bool {
+    use std::sync::atomic::Ordering::Relaxed;
+    let now = EMBREE_BYTES.fetch_add(bytes as i64, Relaxed) + bytes as i64;
+    EMBREE_PEAK.fetch_max(now, Relaxed);
+    true
+}
+
+/// Embree's memory now and at its peak, in bytes (see [`EMBREE_BYTES`]).
+pub fn embree_memory() -> (u64, u64) {
+    use std::sync::atomic::Ordering::Relaxed;
+    (
+        EMBREE_BYTES.load(Relaxed).max(0) as u64,
+        EMBREE_PEAK.load(Relaxed).max(0) as u64,
+    )
+}
+
 struct Device(sys::RTCDevice);
 
 // SAFETY: an Embree device is thread-safe by contract (its API may be called from any thread); the
@@ -77,6 +101,10 @@ fn device() -> Result<sys::RTCDevice, AccelError> {
         }
         // SAFETY: raw is a live device; the callback is a plain function that never unwinds.
         unsafe { sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), std::ptr::null_mut()) };
+        // SAFETY: as above; the monitor only updates atomics and may run on any thread.
+        unsafe {
+            sys::rtcSetDeviceMemoryMonitorFunction(raw, Some(memory_monitor), std::ptr::null_mut())
+        };
         Ok(Device(raw))
     });
     match dev {

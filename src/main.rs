@@ -300,6 +300,10 @@ struct RunArgs {
     /// Print the scene's feature set and the kernel a run would use, then stop.
     #[arg(long)]
     explain: bool,
+    /// Refuse OBJ files that mainstream loaders read with a warning: faces of fewer than 3
+    /// vertices, `usemtl`/`mtllib` without a name, unsupported statements, non-UTF-8 text.
+    #[arg(long)]
+    strict: bool,
     /// No progress bar or summary (errors and warnings still go to stderr).
     #[arg(short, long)]
     quiet: bool,
@@ -607,6 +611,11 @@ fn install_signal_handler() {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let strict = match &cli.command {
+        Some(Command::Bench(args)) => args.strict,
+        _ => cli.run.strict,
+    };
+    ftpd3d::scene::load::set_strict(strict);
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args).map(|()| None),
         Some(Command::Merge(args)) => merge(args).map(|()| None),

@@ -112,10 +112,6 @@ fn bad_input_obj_bad_face_indices_name_file_and_line() {
         "err_face_too_many_slashes.obj",
         ":4: malformed face vertex '1/1/1/1': expected v, v/vt, v//vn or v/vt/vn",
     );
-    assert_error(
-        "err_face_two_vertices.obj",
-        ":4: a face needs at least 3 vertices, this one has 2: 'f 1 2'",
-    );
 }
 
 #[test]
@@ -140,34 +136,121 @@ fn bad_input_obj_non_numeric_values_name_file_and_line() {
         "err_vt_one_number.obj",
         ":4: malformed texture coordinate: expected 'vt u v' (optionally w) with numbers, got 'vt 0.5'",
     );
-    assert_error(
-        "err_usemtl_without_name.obj",
-        ":4: 'usemtl' needs a name: 'usemtl'",
-    );
+    // Bytes that are not UTF-8 are read as Latin-1: in a number they make a malformed line, named
+    // by its number (not a byte offset).
     assert_error(
         "err_not_utf8.obj",
-        ": not a text file (invalid UTF-8 at byte 7)",
+        ":1: malformed vertex: expected 'v x y z' (optionally w, or r g b) with numbers, got 'v 0 0 0ÿþ'",
     );
 }
 
 #[test]
-fn bad_input_obj_unsupported_statements_warn_once_per_keyword() {
+fn bad_input_obj_unsupported_statements_give_one_summarised_warning() {
     let path = corpus("warn_unsupported_statements.obj");
     let scene = load_scene(&path).unwrap();
     assert_eq!(scene.triangles.len(), 1);
     let f = path.display();
     assert_eq!(
         scene.report.warnings,
+        vec![format!(
+            "{f}:5: statements the loader does not use ('cstype', 'deg', 'curv' ×2, 'parm', \
+             'end', 'p', 'l', 'vp'); ignored, 9 lines"
+        )]
+    );
+}
+
+/// What mainstream OBJ loaders go on past (faces of fewer than 3 vertices, a bare `usemtl`,
+/// unknown statements, Latin-1 bytes) is one warning per kind with the count and the first line,
+/// through the binary as a user sees it; `--strict` refuses each at its line.
+#[test]
+fn bad_input_obj_tolerant_loading_warns_once_per_kind_and_strict_refuses() {
+    let run = |name: &str, strict: bool| {
+        let path = corpus(name);
+        let mut args = vec!["--scene", path.to_str().unwrap(), "--explain"];
+        if strict {
+            args.push("--strict");
+        }
+        crate::support::ftpd3d(None, &args)
+    };
+    let warnings = |err: &str| -> Vec<String> {
+        err.lines()
+            .filter_map(|l| l.strip_prefix("warning: "))
+            .map(str::to_string)
+            .collect()
+    };
+    let cases: &[(&str, &[&str], &str)] = &[
+        (
+            "warn_face_two_vertices.obj",
+            &[":4: faces with fewer than 3 vertices (points, lines); skipped, 2 lines"],
+            ":4: a face needs at least 3 vertices, this one has 2: 'f 1 2' (--strict)",
+        ),
+        (
+            "warn_latin1_comment.obj",
+            &[":1: not UTF-8 text; read as Latin-1"],
+            ":1: not UTF-8 text (--strict)",
+        ),
+        (
+            "warn_usemtl_without_name.obj",
+            &[":4: 'usemtl' without a name; the faces after it get the default material"],
+            ":4: 'usemtl' needs a name: 'usemtl' (--strict)",
+        ),
+        (
+            "warn_unknown_statements.obj",
+            &[":4: statements the loader does not use ('foo' ×2, 'bar'); ignored, 3 lines"],
+            ":4: 'foo' statements are not supported: 'foo 1 2' (--strict)",
+        ),
+    ];
+    for (name, warned, refused) in cases {
+        let f = corpus(name).display().to_string();
+        let r = run(name, false);
+        assert!(r.ok, "{name}: {}", r.err);
+        let expected: Vec<String> = warned.iter().map(|w| format!("{f}{w}")).collect();
+        assert_eq!(warnings(&r.err), expected, "{name}");
+        assert!(
+            r.out.contains("geometry   1 triangles"),
+            "{name}: {}",
+            r.out
+        );
+        let r = run(name, true);
+        assert!(!r.ok, "{name} loaded with --strict");
+        assert_eq!(r.err.trim_end(), format!("error: {f}{refused}"), "{name}");
+    }
+}
+
+/// A Latin-1 material name in the OBJ file and in its library is the same name: the material is
+/// found, and each file's Latin-1 lines are one warning.
+#[test]
+fn bad_input_obj_latin1_material_name_matches_its_library() {
+    let path = corpus("warn_latin1_material.obj");
+    let scene = load_scene(&path).unwrap();
+    let f = path.display();
+    assert_eq!(
+        scene.report.warnings,
         vec![
-            format!("{f}:5: 'cstype' statements are not supported; ignored"),
-            format!("{f}:6: 'deg' statements are not supported; ignored"),
-            format!("{f}:7: 'curv' statements are not supported; ignored, 2 lines"),
-            format!("{f}:8: 'parm' statements are not supported; ignored"),
-            format!("{f}:9: 'end' statements are not supported; ignored"),
-            format!("{f}:11: points ('p') are not rendered; ignored"),
-            format!("{f}:12: lines ('l') are not rendered; ignored"),
-            format!("{f}:13: 'vp' statements are not supported; ignored"),
+            format!("{f}:5: not UTF-8 text; read as Latin-1"),
+            format!(
+                "{f}: material library {}:1: not UTF-8 text; read as Latin-1, 2 lines",
+                corpus("part_latin1.mtl").display()
+            ),
         ]
+    );
+    let m = &scene.materials[scene.tri_material[0] as usize];
+    assert_eq!(m.name, "café");
+    assert_eq!(
+        m.bsdf,
+        Bsdf::Diffuse {
+            kd: Rgb::splat(0.25)
+        }
+    );
+    // The same through the binary with --strict: refused at the line.
+    let r = crate::support::ftpd3d(
+        None,
+        &["--scene", path.to_str().unwrap(), "--explain", "--strict"],
+    );
+    assert!(!r.ok);
+    assert_eq!(
+        r.err.trim_end(),
+        format!("error: {f}:5: not UTF-8 text (--strict)")
     );
 }
 

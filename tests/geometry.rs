@@ -37,7 +37,7 @@ fn self_hits(scene: &Scene, rays: usize) -> usize {
         let p = b0 * a + b1 * b + b2 * c;
         // A direction on a random side, away from the surface.
         let mut d = sample_uniform_sphere(s.next_2d());
-        let n = scene.tri_normals[tri];
+        let n = scene.tri_normal(tri);
         if d.dot(n).abs() < 1e-3 {
             continue;
         }

@@ -174,7 +174,7 @@ fn diffuse(name: &str, albedo: f64) -> Material {
 fn big_plane(material: Material) -> Scene {
     let (p, t) = square(20.0, 0.0, false, 0);
     let scene = build("plane", p, t, vec![0, 0], vec![material]);
-    assert!(scene.tri_normals.iter().all(|n| *n == DVec3::Y));
+    assert!(scene.tri_normals().all(|n| n == DVec3::Y));
     scene
 }
 
@@ -270,7 +270,7 @@ fn furnace(a: f64, le: f64) -> Scene {
     let scene = build("furnace", p, t, vec![0; n], vec![wall]);
     assert!(scene.triangles.len() >= 1000);
     // Inward: every front side faces the centre.
-    for (tri, ng) in scene.triangles.iter().zip(&scene.tri_normals) {
+    for (tri, ng) in scene.triangles.iter().zip(scene.tri_normals()) {
         let c: DVec3 = tri
             .iter()
             .map(|&i| scene.positions[i as usize].as_dvec3())
@@ -578,10 +578,10 @@ fn valid_area_light_on_plane_matches_lambert_and_quadrature() {
         vec![0, 0, 1, 1],
         vec![diffuse("plane", rho), emitter],
     );
-    assert!(scene.tri_normals[2] == -DVec3::Y && scene.tri_normals[3] == -DVec3::Y);
+    assert!(scene.tri_normal(2) == -DVec3::Y && scene.tri_normal(3) == -DVec3::Y);
     assert_eq!(scene.lights.lights.len(), 2);
     let v: Vec<DVec3> = scene.positions[4..8].iter().map(|q| q.as_dvec3()).collect();
-    let em = (v[0], v[1] - v[0], v[3] - v[0], scene.tri_normals[2]);
+    let em = (v[0], v[1] - v[0], v[3] - v[0], scene.tri_normal(2));
     let n = 40_000;
     // Straight below the emitter, oblique, and far out (light seen at 67° from its normal).
     let ys = [

@@ -30,7 +30,7 @@ pub fn explain(
         scene.report.degenerate_dropped,
         scene.bounds.min.to_array(),
         scene.bounds.max.to_array(),
-        if scene.normals.is_empty() {
+        if !scene.has_shading_normals() {
             "no"
         } else {
             "yes"

@@ -116,16 +116,20 @@ pub fn human_bytes(b: f64) -> String {
     }
 }
 
-/// The scene line every run prints: triangles, lights, features, load time.
+/// The scene line every run prints: triangles, lights, features, load time (parsing and the BVH
+/// build apart).
 pub fn scene_line(path: &std::path::Path, scene: &crate::scene::Scene, load: Duration) -> String {
     format!(
-        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s)",
+        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s: \
+         parsing {:.2} s, BVH {:.2} s)",
         path.display(),
         scene.triangles.len(),
         scene.report.degenerate_dropped,
         scene.lights.lights.len(),
         scene.features,
-        load.as_secs_f64()
+        load.as_secs_f64(),
+        scene.report.parse_seconds,
+        scene.report.bvh_seconds
     )
 }
 

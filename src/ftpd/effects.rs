@@ -43,7 +43,7 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
         e("fresnel-refraction", f.dielectric, "no dielectric material"),
         e(
             "shading-normals",
-            !scene.normals.is_empty(),
+            scene.has_shading_normals(),
             "no vertex normals: the geometric normal is used",
         ),
         e(

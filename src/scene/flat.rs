@@ -293,7 +293,7 @@ impl FlatScene {
             if section == Section::None {
                 continue;
             }
-            let ng = scene.tri_normals[i];
+            let ng = scene.tri_normal(i);
             let out = ng.dot(plane.normal).abs();
             if out > MAX_NORMAL_OUT_OF_PLANE {
                 bad.push((i, out));

@@ -311,7 +311,7 @@ impl LightSet {
     pub fn from_emitters(
         positions: &[Vec3],
         triangles: &[[u32; 3]],
-        normals: &[DVec3],
+        normal: impl Fn(usize) -> DVec3,
         tri_material: &[u32],
         materials: &[Material],
         center: DVec3,
@@ -333,7 +333,7 @@ impl LightSet {
             lights.push(Light::Area {
                 prim: i as u32,
                 shape: Triangle(v),
-                normal: normals[i],
+                normal: normal(i),
                 measure: area,
                 emission: m.emission,
             });

@@ -5,6 +5,22 @@
 use crate::scene::{self, Scene};
 use anyhow::{Context, bail};
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// `--strict`: refuse what the OBJ loader otherwise goes on past with a warning (faces of fewer
+/// than 3 vertices, `usemtl` or `mtllib` without a name, unsupported statements, text that is not
+/// UTF-8). Process-wide, set once by the command line before loading.
+static STRICT: AtomicBool = AtomicBool::new(false);
+
+/// Sets the `--strict` mode of every later load (see [`STRICT`]).
+pub fn set_strict(strict: bool) {
+    STRICT.store(strict, Ordering::Relaxed);
+}
+
+/// Whether loads are strict (see [`set_strict`]).
+pub fn strict() -> bool {
+    STRICT.load(Ordering::Relaxed)
+}
 
 /// Loads a scene by its extension (see the module docs).
 pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
@@ -49,9 +65,18 @@ pub fn extension(path: &Path) -> Option<String> {
         .map(str::to_ascii_lowercase)
 }
 
+/// Loads a mesh file; its report's `parse_seconds` is the time of everything but the BVH build.
 fn load_mesh(path: &Path) -> anyhow::Result<Scene> {
+    let start = std::time::Instant::now();
+    let mut scene = load_mesh_by_extension(path)?;
+    let total = start.elapsed().as_secs_f64();
+    scene.report.parse_seconds = (total - scene.report.bvh_seconds).max(0.0);
+    Ok(scene)
+}
+
+fn load_mesh_by_extension(path: &Path) -> anyhow::Result<Scene> {
     match extension(path).as_deref() {
-        Some("obj") => scene::obj::load(path),
+        Some("obj") => scene::obj::load(path, strict()),
         Some("gltf" | "glb") => scene::gltf::load(path),
         Some(other) => bail!(
             "{}: unsupported scene format '.{other}' (supported: .obj, .gltf, .glb, .toml)",

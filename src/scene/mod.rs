@@ -10,6 +10,7 @@ pub mod light;
 pub mod load;
 pub mod material;
 pub mod obj;
+pub mod obj_parse;
 pub mod sidecar;
 pub mod texture;
 
@@ -94,17 +95,33 @@ pub struct LoadReport {
     pub triangles_read: usize,
     pub degenerate_dropped: usize,
     pub warnings: Vec<String>,
+    /// Seconds spent reading and parsing the files (everything but the BVH build).
+    pub parse_seconds: f64,
+    /// Seconds Embree spent building the BVH.
+    pub bvh_seconds: f64,
+}
+
+/// The shading normals a loader hands to [`Scene::from_parts`].
+#[derive(Clone, Debug, Default)]
+pub enum Shading {
+    /// None: hits use the geometric normal.
+    #[default]
+    None,
+    /// One per vertex, same indexing as the positions (kept in [`Scene::normals`]).
+    PerVertex(Vec<Vec3>),
+    /// The three corners' of each triangle, same indexing as the triangles (what an OBJ file
+    /// gives: a vertex may have a different normal in each face).
+    PerCorner(Vec<[Vec3; 3]>),
 }
 
 /// A loaded scene.
 pub struct Scene {
     pub source: PathBuf,
     pub positions: Vec<Vec3>,
-    /// Per-vertex shading normals, same indexing as `positions`; empty when the file had none.
+    /// Per-vertex shading normals, same indexing as `positions`, when the loader gave them so
+    /// (glTF); empty otherwise (see [`Scene::has_shading_normals`]).
     pub normals: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
-    /// Unit geometric normal of each triangle, (v1 - v0) × (v2 - v0) normalised (front side).
-    pub tri_normals: Vec<DVec3>,
     pub tri_material: Vec<u32>,
     pub materials: Vec<Material>,
     pub lights: LightSet,
@@ -118,7 +135,7 @@ pub struct Scene {
     /// Diagonal of the bounds (1 for an empty scene), cached: the hit code uses it per ray.
     extent: f64,
     /// Per-triangle data the hit code needs on every hit, computed once at load (same indexing
-    /// as `triangles`).
+    /// as `triangles`); it holds each triangle's unit geometric normal ([`Scene::tri_normal`]).
     tri_hit: Vec<TriHit>,
     /// The shading normals of each triangle's three vertices (same indexing as `triangles`), so
     /// that a hit reads one record instead of the index and three normal entries; empty when the
@@ -149,16 +166,6 @@ struct TriHit {
 }
 
 const _: () = assert!(std::mem::size_of::<TriHit>() == 64);
-
-impl TriHit {
-    fn new(positions: &[Vec3], tri: &[u32; 3], ng: DVec3, material: u32) -> TriHit {
-        TriHit {
-            ng,
-            p: tri.map(|v| positions[v as usize]),
-            material,
-        }
-    }
-}
 
 /// Everything the transport code needs about a ray-surface hit, in f64.
 #[derive(Clone, Copy, Debug)]
@@ -198,8 +205,8 @@ impl Hit {
 const F32_ERROR_ULPS: f64 = 16.0 * f32::EPSILON as f64;
 
 impl Scene {
-    /// Assembles a scene and builds its Embree acceleration structure. Degenerate triangles (zero
-    /// area, non-finite coordinates, out-of-range indices) are dropped and counted in the report.
+    /// Assembles a scene and builds its Embree acceleration structure, from per-vertex shading
+    /// normals (empty or of another length than `positions`: none). See [`Scene::from_parts`].
     pub fn build(
         source: &Path,
         positions: Vec<Vec3>,
@@ -207,32 +214,115 @@ impl Scene {
         triangles: Vec<[u32; 3]>,
         tri_material: Vec<u32>,
         materials: Vec<Material>,
+        report: LoadReport,
+    ) -> anyhow::Result<Scene> {
+        let shading = if normals.len() == positions.len() && !normals.is_empty() {
+            Shading::PerVertex(normals)
+        } else {
+            Shading::None
+        };
+        Scene::from_parts(
+            source,
+            positions,
+            triangles,
+            tri_material,
+            shading,
+            materials,
+            report,
+        )
+    }
+
+    /// Assembles a scene and builds its Embree acceleration structure. Degenerate triangles (zero
+    /// area, non-finite coordinates, out-of-range indices) are dropped and counted in the report.
+    ///
+    /// Memory: the triangle arrays are compacted in place, and the per-triangle records are made
+    /// before the BVH build, so that no loader buffer is alive while Embree builds; what stays per
+    /// triangle is its indices (12 bytes), material (4), the 64-byte hit record and, with shading
+    /// normals, their 36 bytes.
+    pub fn from_parts(
+        source: &Path,
+        positions: Vec<Vec3>,
+        mut triangles: Vec<[u32; 3]>,
+        mut tri_material: Vec<u32>,
+        shading: Shading,
+        materials: Vec<Material>,
         mut report: LoadReport,
     ) -> anyhow::Result<Scene> {
         assert_eq!(triangles.len(), tri_material.len());
-        report.triangles_read += triangles.len();
-        let mut kept = Vec::with_capacity(triangles.len());
-        let mut kept_mat = Vec::with_capacity(triangles.len());
-        let mut tri_normals = Vec::with_capacity(triangles.len());
-        let mut bounds = Aabb::EMPTY;
-        let normals = if normals.len() == positions.len() {
-            normals
-        } else {
-            Vec::new()
-        };
-        for (tri, &m) in triangles.iter().zip(&tri_material) {
-            let Some(ng) = triangle_normal(&positions, tri) else {
-                report.degenerate_dropped += 1;
-                continue;
-            };
-            for &i in tri {
-                bounds.grow(positions[i as usize].as_dvec3());
+        let n = triangles.len();
+        report.triangles_read += n;
+        let (normals, mut corners) = match shading {
+            Shading::None => (Vec::new(), None),
+            Shading::PerVertex(v) if v.len() == positions.len() => (v, None),
+            Shading::PerVertex(_) => (Vec::new(), None),
+            Shading::PerCorner(c) => {
+                assert_eq!(c.len(), n);
+                (Vec::new(), Some(c))
             }
-            kept.push(*tri);
-            kept_mat.push(m.min(materials.len().saturating_sub(1) as u32));
-            tri_normals.push(ng);
+        };
+        let max_material = materials.len().saturating_sub(1) as u32;
+        // The hit records, in parallel; a degenerate triangle's gets a NaN normal and is dropped
+        // below (all arrays compacted in place, in order).
+        let mut tri_hit: Vec<TriHit> = crate::accel::vec_with_huge_pages(n);
+        {
+            use rayon::prelude::*;
+            tri_hit.par_extend(triangles.par_iter().zip(&tri_material).map(|(tri, &m)| {
+                let ng = triangle_normal(&positions, tri).unwrap_or(DVec3::NAN);
+                let m = m.min(max_material);
+                TriHit {
+                    ng,
+                    p: if ng.x.is_nan() {
+                        [Vec3::ZERO; 3]
+                    } else {
+                        tri.map(|v| positions[v as usize])
+                    },
+                    material: m,
+                }
+            }));
         }
-        let accel = Accel::new(&positions, &kept)?;
+        let dropped = tri_hit.iter().filter(|h| h.ng.x.is_nan()).count();
+        report.degenerate_dropped += dropped;
+        let mut kept = n;
+        if dropped > 0 {
+            kept = 0;
+            for k in 0..n {
+                if tri_hit[k].ng.x.is_nan() {
+                    continue;
+                }
+                triangles[kept] = triangles[k];
+                tri_hit[kept] = tri_hit[k];
+                if let Some(c) = corners.as_mut() {
+                    c[kept] = c[k];
+                }
+                kept += 1;
+            }
+            tri_hit.truncate(kept);
+            triangles.truncate(kept);
+            triangles.shrink_to_fit();
+        }
+        tri_material.clear();
+        tri_material.extend(tri_hit.iter().map(|h| h.material));
+        tri_material.shrink_to_fit();
+        // Bounds of the kept triangles' vertices, in their order (as a sequential loader would:
+        // min and max of a signed zero depend on the order).
+        let mut bounds = Aabb::EMPTY;
+        for h in &tri_hit {
+            for p in h.p {
+                bounds.grow(p.as_dvec3());
+            }
+        }
+        let tri_shading = match corners {
+            Some(mut c) => {
+                c.truncate(kept);
+                c
+            }
+            None if !normals.is_empty() => {
+                let mut s = crate::accel::vec_with_huge_pages(kept);
+                s.extend(triangles.iter().map(|t| t.map(|v| normals[v as usize])));
+                s
+            }
+            None => Vec::new(),
+        };
         let extent = {
             let d = bounds.diagonal();
             if d > 0.0 && d.is_finite() { d } else { 1.0 }
@@ -245,33 +335,23 @@ impl Scene {
         };
         let lights = LightSet::from_emitters(
             &positions,
-            &kept,
-            &tri_normals,
-            &kept_mat,
+            &triangles,
+            |i| tri_hit[i].ng,
+            &tri_material,
             &materials,
             center,
             0.5 * extent,
         );
-        let features = Features::of(&materials, &kept_mat, &lights);
-        let mut tri_hit = crate::accel::vec_with_huge_pages(kept.len());
-        tri_hit.extend(
-            kept.iter()
-                .zip(&tri_normals)
-                .zip(&kept_mat)
-                .map(|((t, &ng), &m)| TriHit::new(&positions, t, ng, m)),
-        );
-        let mut tri_shading = Vec::new();
-        if !normals.is_empty() {
-            tri_shading = crate::accel::vec_with_huge_pages(kept.len());
-            tri_shading.extend(kept.iter().map(|t| t.map(|v| normals[v as usize])));
-        }
+        let features = Features::of(&materials, &tri_material, &lights);
+        let t_bvh = std::time::Instant::now();
+        let accel = Accel::new(&positions, &triangles)?;
+        report.bvh_seconds = t_bvh.elapsed().as_secs_f64();
         Ok(Scene {
             source: source.to_path_buf(),
             positions,
             normals,
-            triangles: kept,
-            tri_normals,
-            tri_material: kept_mat,
+            triangles,
+            tri_material,
             materials,
             lights,
             bounds,
@@ -285,6 +365,22 @@ impl Scene {
             flat: None,
             accel,
         })
+    }
+
+    /// Unit geometric normal of triangle `i`, (v1 - v0) × (v2 - v0) normalised (front side).
+    #[inline]
+    pub fn tri_normal(&self, i: usize) -> DVec3 {
+        self.tri_hit[i].ng
+    }
+
+    /// The unit geometric normals of all triangles, in order (see [`Scene::tri_normal`]).
+    pub fn tri_normals(&self) -> impl ExactSizeIterator<Item = DVec3> + '_ {
+        self.tri_hit.iter().map(|t| t.ng)
+    }
+
+    /// True when hits interpolate shading normals (the file gave normals).
+    pub fn has_shading_normals(&self) -> bool {
+        !self.tri_shading.is_empty()
     }
 
     /// Adds an isotropic point light of radiant intensity `intensity` (per steradian) at
@@ -540,7 +636,7 @@ impl Scene {
         );
         let (mut n_on, mut n_near) = (0, 0);
         for &i in prims {
-            let n = self.tri_normals[i as usize];
+            let n = self.tri_normal(i as usize);
             if skip(i, n) {
                 continue;
             }

@@ -1,177 +1,131 @@
-//! Wavefront OBJ + MTL loading (tobj): triangulated meshes with one shared index per vertex, shading
-//! normals when present, one material per triangle. See [`crate::scene::material`] for the MTL table.
+//! Wavefront OBJ + MTL loading: the OBJ text through [`crate::scene::obj_parse`] (parallel, by
+//! chunks of lines), the MTL libraries through tobj; triangulated meshes, shading normals when
+//! present, one material per triangle. See [`crate::scene::material`] for the MTL table.
 
 use crate::math::Rgb;
 use crate::scene::material::Bsdf;
 use crate::scene::material::{Material, conserve_energy};
-use crate::scene::{LoadReport, Scene};
+use crate::scene::obj_parse::{self, Oddity, Statement, Tally};
+use crate::scene::{LoadReport, Scene, Shading};
 use anyhow::{Context, bail};
 use glam::Vec3;
+use std::collections::HashMap;
 use std::path::Path;
 
 /// Loads an OBJ file (and the MTL files it names) into a [`Scene`].
 ///
-/// The file is first checked line by line ([`prescan`]): tobj reports malformed input without a
-/// line number, so every `v`, `vt`, `vn` and `f` statement is validated here and the first bad one
-/// is reported as `FILE:LINE`. Statements the loader does not use (free-form curves and surfaces,
-/// points, lines, ...) are warned about once per keyword. Material libraries are read by this module
-/// too ([`load_mtl`]), so that a missing or malformed one is a warning naming it (its materials
-/// become grey diffuse), never a panic in the parser. A file without faces is an error.
-pub fn load(path: &Path) -> anyhow::Result<Scene> {
+/// The file is parsed by [`crate::scene::obj_parse`] (in parallel, by chunks of lines): every
+/// `v`, `vt`, `vn` and `f` statement is validated and the first bad one is reported as
+/// `FILE:LINE`. What mainstream loaders go on past is one warning per kind, with the count and
+/// the first line (an error at that line with `strict`): faces of fewer than 3 vertices (skipped),
+/// `usemtl` without a name (default material), `mtllib` without a name, statements the loader does
+/// not use, and lines that are not UTF-8 (read as Latin-1). Material libraries are read by this
+/// module too ([`load_mtl`]), so that a missing or malformed one is a warning naming it (its
+/// materials become grey diffuse), never a panic in the parser. A file without faces is an error.
+///
+/// What the scene keeps matches what tobj (the parser this replaced) gave, triangle for
+/// triangle: polygons fanned from their first vertex in file order; materials resolved by name at
+/// the `usemtl` line against the libraries named before it (a later library's material of the
+/// same name wins); shading normals from `vn` for every face of an object or material run whose
+/// faces all give them, zero (the geometric normal) for the faces of a run where one does not, and
+/// none at all when no face has a non-zero one.
+pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
     let file = path.display().to_string();
     if !path.is_file() {
         bail!("{file}: no such scene file");
     }
-    let bytes = std::fs::read(path).with_context(|| format!("{file}: cannot read"))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        anyhow::anyhow!(
-            "{file}: not a text file (invalid UTF-8 at byte {})",
-            e.utf8_error().valid_up_to()
-        )
+    let data = obj_parse::parse_file(path, strict).map_err(|(line, msg)| match line {
+        0 => anyhow::anyhow!("{file}: {msg}"),
+        _ => anyhow::anyhow!("{file}:{line}: {msg}"),
     })?;
-    let scan = prescan(&file, &text)?;
     let mut report = LoadReport {
-        warnings: scan.warnings,
+        warnings: oddity_warnings(&file, &data),
         ..Default::default()
     };
-    let opts = tobj::LoadOptions {
-        single_index: true,
-        triangulate: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let dir = path.parent().unwrap_or(Path::new(""));
-    let mtl_notes = std::cell::RefCell::new(Vec::new());
-    // The checks above keep tobj away from the inputs it is known to panic on; should it still
-    // panic, the file is reported as unreadable rather than the run aborting.
-    let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |lib| {
-            load_mtl(&file, dir, lib, &mtl_notes)
-        })
-    }));
-    let (models, mtl) = match parsed {
-        Ok(result) => result.map_err(|e| anyhow::anyhow!("{file}: {}", describe(&e)))?,
-        Err(_) => bail!("{file}: the OBJ parser failed on this file (please report it)"),
-    };
-    let mtl_notes = mtl_notes.into_inner();
-    let mut materials: Vec<Material> = match mtl {
-        Ok(list) => {
-            // One warning per kind of conversion note, not per material (a library may have
-            // dozens): the count and the first material it concerns.
-            let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
-            let mats = list
-                .iter()
-                .map(|m| {
-                    let (mat, warn) = convert_material(m);
-                    if let Some(w) = warn {
-                        match notes.iter_mut().find(|(n, _)| *n == w) {
-                            Some((_, names)) => names.push(&m.name),
-                            None => notes.push((w, vec![&m.name])),
-                        }
-                    }
-                    mat
-                })
-                .collect();
-            for (w, names) in notes {
-                report.warnings.push(match names[..] {
-                    [one] => format!("{file}: material '{one}': {w}"),
-                    _ => format!(
-                        "{file}: {} materials: {w} (the first is '{}')",
-                        names.len(),
-                        names[0]
-                    ),
-                });
-            }
-            mats
-        }
-        Err(e) => {
-            if mtl_notes.is_empty() {
-                report.warnings.push(format!(
-                    "{file}: material library not loaded ({}); using grey diffuse",
-                    describe(&e)
-                ));
-            }
-            Vec::new()
-        }
-    };
-    report.warnings.extend(mtl_notes);
-    // Index of the default material for faces without one.
-    let default_id = materials.len() as u32;
-    materials.push(Material::default_grey());
-
-    let mut positions = Vec::new();
-    let mut normals = Vec::new();
-    let mut triangles = Vec::new();
-    let mut tri_material = Vec::new();
-    let mut all_have_normals = true;
-    for model in &models {
-        let mesh = &model.mesh;
-        let base = positions.len() as u64;
-        let nverts = mesh.positions.len() / 3;
-        if base + nverts as u64 >= u32::MAX as u64 {
-            bail!("{file}: more than 2^32 vertices");
-        }
-        positions.extend(
-            mesh.positions
-                .chunks_exact(3)
-                .map(|p| Vec3::new(p[0], p[1], p[2])),
-        );
-        if mesh.normals.len() == mesh.positions.len() {
-            normals.extend(
-                mesh.normals
-                    .chunks_exact(3)
-                    .map(|n| Vec3::new(n[0], n[1], n[2])),
-            );
-        } else {
-            all_have_normals = false;
-            normals.extend(std::iter::repeat_n(Vec3::ZERO, nverts));
-        }
-        let mat = match mesh.material_id {
-            Some(id) if id < default_id as usize => id as u32,
-            Some(id) => {
-                report.warnings.push(format!(
-                    "{file}: object '{}' names material #{id}, which is not defined",
-                    model.name
-                ));
-                default_id
-            }
-            None => default_id,
-        };
-        for f in mesh.indices.chunks_exact(3) {
-            let tri = [f[0], f[1], f[2]];
-            if tri.iter().any(|&i| i as usize >= nverts) {
-                bail!(
-                    "{file}: object '{}' has a face index outside its {} vertices",
-                    model.name,
-                    nverts
-                );
-            }
-            triangles.push(tri.map(|i| i + base as u32));
-            tri_material.push(mat);
-        }
+    if data.positions.len() >= u32::MAX as usize || data.normals.len() >= u32::MAX as usize {
+        bail!("{file}: more than 2^32 - 2 vertices or normals");
     }
-    if triangles.is_empty() {
+    if data.triangles.is_empty() {
         bail!(
             "{file}: no geometry: the file has no faces ('f' statements){}",
-            if scan.vertices == 0 {
+            if data.positions.is_empty() {
                 " and no vertices"
             } else {
                 ""
             }
         );
     }
-    if !all_have_normals {
-        // A mix of meshes with and without normals: zero normals fall back to the geometric one.
-        if normals.iter().all(|n| *n == Vec3::ZERO) {
-            normals.clear();
+    let dir = path.parent().unwrap_or(Path::new(""));
+
+    // Materials, in file order: libraries as they are named, `usemtl` resolved against those
+    // named before it; runs of faces end at `o`, `g` and a `usemtl` that changes the material.
+    let mut mtl_notes = Vec::new();
+    let mut list: Vec<tobj::Material> = Vec::new();
+    let mut by_name: HashMap<String, usize> = HashMap::new();
+    let mut mtl_error = None;
+    // (first triangle, material or None) of each run.
+    let mut runs: Vec<(usize, Option<usize>)> = vec![(0, None)];
+    for event in &data.events {
+        match &event.what {
+            Statement::Mtllib(lib) => {
+                match load_mtl(&file, dir, Path::new(lib), &mut mtl_notes) {
+                    Ok((mut mats, map)) => {
+                        let offset = list.len();
+                        list.append(&mut mats);
+                        by_name.extend(map.into_iter().map(|(k, i)| (k, i + offset)));
+                    }
+                    Err(e) => mtl_error = Some(e),
+                }
+                continue;
+            }
+            Statement::Usemtl(name) => {
+                let id = name.as_ref().and_then(|n| by_name.get(n).copied());
+                let current = runs.last().and_then(|r| r.1);
+                if id == current {
+                    continue;
+                }
+                push_run(&mut runs, event.tri, id);
+            }
+            Statement::Group => {
+                let current = runs.last().and_then(|r| r.1);
+                push_run(&mut runs, event.tri, current);
+            }
         }
     }
-    let scene = Scene::build(
+    let mut materials = convert_materials(&file, &list, &mut report);
+    if materials.is_empty()
+        && let Some(e) = mtl_error
+        && mtl_notes.is_empty()
+    {
+        report.warnings.push(format!(
+            "{file}: material library not loaded ({}); using grey diffuse",
+            describe(&e)
+        ));
+    }
+    report.warnings.extend(mtl_notes);
+    // Index of the default material for faces without one.
+    let default_id = materials.len() as u32;
+    materials.push(Material::default_grey());
+
+    let n = data.triangles.len();
+    let mut tri_material = Vec::with_capacity(n);
+    for (k, &(start, id)) in runs.iter().enumerate() {
+        let end = runs.get(k + 1).map_or(n, |r| r.0);
+        let id = id.map_or(default_id, |i| i as u32);
+        tri_material.extend(std::iter::repeat_n(id, end - start));
+    }
+    let shading = shading_normals(&data, &runs);
+    let obj_parse::ObjData {
+        positions,
+        triangles,
+        ..
+    } = data;
+    let scene = Scene::from_parts(
         path,
         positions,
-        normals,
         triangles,
         tri_material,
+        shading,
         materials,
         report,
     )
@@ -185,181 +139,171 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-/// What [`prescan`] learnt about an OBJ file.
-#[derive(Debug, Default)]
-pub struct Prescan {
-    pub vertices: usize,
-    pub faces: usize,
-    pub warnings: Vec<String>,
+/// Starts a run of faces at triangle `tri` (replacing the previous run when it is still empty).
+fn push_run(runs: &mut Vec<(usize, Option<usize>)>, tri: usize, id: Option<usize>) {
+    match runs.last_mut() {
+        Some(last) if last.0 == tri => last.1 = id,
+        _ => runs.push((tri, id)),
+    }
 }
 
-/// The OBJ statements the loader uses (`#` starts a comment).
-const OBJ_KEYWORDS: &[&str] = &["v", "vt", "vn", "f", "o", "g", "s", "mtllib", "usemtl"];
-
-/// Checks an OBJ file line by line: `v x y z [w | r g b]`, `vt u v [w]` and `vn x y z` must hold
-/// numbers, and every vertex of an `f` statement (`v`, `v/vt`, `v//vn` or `v/vt/vn`, at least
-/// three) must be a whole number that names a position (texture coordinate, normal) defined before
-/// it: positive from 1, or negative counting back from the last one. The first bad line is an error
-/// `FILE:LINE: ...`. Other statements are ignored with one warning per keyword.
-pub fn prescan(file: &str, text: &str) -> anyhow::Result<Prescan> {
-    let mut scan = Prescan::default();
-    let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
-    // Keyword → (first line, count), in order of first appearance.
-    let mut ignored: Vec<(String, usize, usize)> = Vec::new();
-    for (k, raw) in text.lines().enumerate() {
-        let line_no = k + 1;
-        let line = raw.trim();
-        let mut words = line.split_whitespace();
-        let Some(kw) = words.next() else { continue };
-        if kw.starts_with('#') {
-            continue;
-        }
-        let shown = || {
-            let mut s: String = line.chars().take(60).collect();
-            if line.chars().count() > 60 {
-                s.push('…');
-            }
-            s
-        };
-        let numbers = |words: std::str::SplitWhitespace| -> Option<Vec<f32>> {
-            words.map(|w| w.parse::<f32>().ok()).collect()
-        };
-        match kw {
-            "v" => {
-                let v = numbers(words);
-                match v.as_deref() {
-                    Some([_, _, _]) | Some([_, _, _, _, _, _]) => {}
-                    Some([_, _, _, w]) if *w != 0.0 => {}
-                    Some([_, _, _, _]) => bail!(
-                        "{file}:{line_no}: vertex with w = 0 (a point at infinity): '{}'",
-                        shown()
-                    ),
-                    _ => bail!(
-                        "{file}:{line_no}: malformed vertex: expected 'v x y z' (optionally w, or r g b) with numbers, got '{}'",
-                        shown()
-                    ),
-                }
-                nv += 1;
-            }
-            "vt" => {
-                match numbers(words) {
-                    Some(v) if (2..=3).contains(&v.len()) => {}
-                    _ => bail!(
-                        "{file}:{line_no}: malformed texture coordinate: expected 'vt u v' (optionally w) with numbers, got '{}'",
-                        shown()
-                    ),
-                }
-                nvt += 1;
-            }
-            "vn" => {
-                match numbers(words) {
-                    Some(v) if v.len() == 3 => {}
-                    _ => bail!(
-                        "{file}:{line_no}: malformed normal: expected 'vn x y z' with numbers, got '{}'",
-                        shown()
-                    ),
-                }
-                nvn += 1;
-            }
-            "f" => {
-                let refs: Vec<&str> = words.collect();
-                if refs.len() < 3 {
-                    bail!(
-                        "{file}:{line_no}: a face needs at least 3 vertices, this one has {}: '{}'",
-                        refs.len(),
-                        shown()
-                    );
-                }
-                for r in refs {
-                    check_face_vertex(file, line_no, r, [nv, nvt, nvn])?;
-                }
-                scan.faces += 1;
-            }
-            "usemtl" | "mtllib" if words.next().is_none() => {
-                bail!("{file}:{line_no}: '{kw}' needs a name: '{}'", shown())
-            }
-            kw if OBJ_KEYWORDS.contains(&kw) => {}
-            other => match ignored.iter_mut().find(|(k, _, _)| k == other) {
-                Some(entry) => entry.2 += 1,
-                None => ignored.push((other.to_string(), line_no, 1)),
-            },
-        }
+/// The shading normals of every triangle's corners (see [`load`]), on huge pages like the other
+/// per-triangle records the hit code reads.
+fn shading_normals(data: &obj_parse::ObjData, runs: &[(usize, Option<usize>)]) -> Shading {
+    use rayon::prelude::*;
+    if data.normals.is_empty() {
+        return Shading::None;
     }
-    scan.vertices = nv;
-    for (kw, first, count) in ignored {
-        let what = match kw.as_str() {
-            "p" => "points ('p') are not rendered".to_string(),
-            "l" => "lines ('l') are not rendered".to_string(),
-            _ => format!("'{kw}' statements are not supported"),
-        };
-        let times = if count == 1 {
+    let n = data.triangles.len();
+    let end_of = |k: usize| runs.get(k + 1).map_or(n, |r| r.0);
+    // A run whose faces all give normals keeps them; the others get zero normals.
+    let complete: Vec<bool> = (0..runs.len())
+        .into_par_iter()
+        .map(|k| {
+            data.tri_normals[runs[k].0..end_of(k)]
+                .iter()
+                .all(|t| !t.contains(&obj_parse::MISSING))
+        })
+        .collect();
+    if !complete.iter().any(|&c| c) {
+        return Shading::None;
+    }
+    let normals = &data.normals;
+    let mut shading: Vec<[Vec3; 3]> = crate::accel::vec_with_huge_pages(n);
+    shading.par_extend(rayon::iter::repeat_n([Vec3::ZERO; 3], n));
+    const CHUNK: usize = 1 << 16;
+    shading
+        .par_chunks_mut(CHUNK)
+        .zip(data.tri_normals.par_chunks(CHUNK))
+        .enumerate()
+        .for_each(|(j, (out, vns))| {
+            let t0 = j * CHUNK;
+            // The run of the chunk's first triangle: the last one starting at or before it.
+            let mut k = runs.partition_point(|r| r.0 <= t0) - 1;
+            for (i, (o, vn)) in out.iter_mut().zip(vns).enumerate() {
+                while t0 + i >= end_of(k) {
+                    k += 1;
+                }
+                if complete[k] {
+                    *o = vn.map(|i| normals[i as usize]);
+                }
+            }
+        });
+    let non_zero = || {
+        shading
+            .par_iter()
+            .any(|c| c.iter().any(|v| *v != Vec3::ZERO))
+    };
+    if complete.iter().all(|&c| c) || non_zero() {
+        Shading::PerCorner(shading)
+    } else {
+        // Runs without normals and only zero ones elsewhere: no shading normals (tobj's result).
+        Shading::None
+    }
+}
+
+/// The warnings of a tolerant parse, one per kind, in the order of their first lines.
+fn oddity_warnings(file: &str, data: &obj_parse::ObjData) -> Vec<String> {
+    let times = |t: &Tally| {
+        if t.count == 1 {
             String::new()
         } else {
-            format!(", {count} lines")
-        };
-        scan.warnings
-            .push(format!("{file}:{first}: {what}; ignored{times}"));
+            format!(", {} lines", t.count)
+        }
+    };
+    let mut out: Vec<(usize, String)> = Vec::new();
+    let mut unused = Tally::default();
+    for (_, t) in &data.unused {
+        if unused.count == 0 || t.first < unused.first {
+            unused.first = t.first;
+        }
+        unused.count += t.count;
     }
-    Ok(scan)
+    if unused.count > 0 {
+        let kinds: Vec<String> = data
+            .unused
+            .iter()
+            .map(|(k, t)| match t.count {
+                1 => format!("'{k}'"),
+                c => format!("'{k}' ×{c}"),
+            })
+            .collect();
+        out.push((
+            unused.first,
+            format!(
+                "{file}:{}: statements the loader does not use ({}); ignored{}",
+                unused.first,
+                kinds.join(", "),
+                times(&unused)
+            ),
+        ));
+    }
+    for kind in obj_parse::ODDITIES {
+        let t = &data.oddities[kind as usize];
+        if t.count == 0 {
+            continue;
+        }
+        let what = match kind {
+            Oddity::ShortFace => "faces with fewer than 3 vertices (points, lines); skipped",
+            Oddity::BareUsemtl => {
+                "'usemtl' without a name; the faces after it get the default material"
+            }
+            Oddity::BareMtllib => "'mtllib' without a file name; ignored",
+            Oddity::NotUtf8 => "not UTF-8 text; read as Latin-1",
+        };
+        out.push((t.first, format!("{file}:{}: {what}{}", t.first, times(t))));
+    }
+    out.sort_by_key(|(line, _)| *line);
+    out.into_iter().map(|(_, w)| w).collect()
 }
 
-/// Checks one vertex of a face (`v`, `v/vt`, `v//vn`, `v/vt/vn`) against the counts of positions,
-/// texture coordinates and normals defined so far.
-fn check_face_vertex(
+/// Converts the materials of the libraries, with one warning per kind of conversion note, not
+/// per material (a library may have hundreds): the count and the first material it concerns.
+fn convert_materials(
     file: &str,
-    line_no: usize,
-    r: &str,
-    counts: [usize; 3],
-) -> anyhow::Result<()> {
-    const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
-    const WHATS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
-    let parts: Vec<&str> = r.split('/').collect();
-    let well_formed = match parts.as_slice() {
-        [v] => !v.is_empty(),
-        [v, _] => !v.is_empty(),
-        [v, _, _] => !v.is_empty(),
-        _ => false,
-    };
-    if !well_formed {
-        bail!("{file}:{line_no}: malformed face vertex '{r}': expected v, v/vt, v//vn or v/vt/vn");
+    list: &[tobj::Material],
+    report: &mut LoadReport,
+) -> Vec<Material> {
+    let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
+    let mats = list
+        .iter()
+        .map(|m| {
+            let (mat, warn) = convert_material(m);
+            if let Some(w) = warn {
+                match notes.iter_mut().find(|(n, _)| *n == w) {
+                    Some((_, names)) => names.push(&m.name),
+                    None => notes.push((w, vec![&m.name])),
+                }
+            }
+            mat
+        })
+        .collect();
+    for (w, names) in notes {
+        report.warnings.push(match names[..] {
+            [one] => format!("{file}: material '{one}': {w}"),
+            _ => format!(
+                "{file}: {} materials: {w} (the first is '{}')",
+                names.len(),
+                names[0]
+            ),
+        });
     }
-    for (k, part) in parts.iter().enumerate() {
-        if part.is_empty() {
-            continue; // v//vn
-        }
-        let Ok(i) = part.parse::<i64>() else {
-            bail!("{file}:{line_no}: malformed face vertex '{r}': '{part}' is not a whole number");
-        };
-        let n = counts[k] as i64;
-        if i == 0 {
-            bail!(
-                "{file}:{line_no}: face {} index 0 in '{r}': OBJ indices start at 1 (or count back from -1)",
-                WHAT[k]
-            );
-        }
-        if i > n || -i > n {
-            bail!(
-                "{file}:{line_no}: face refers to {} {i} (in '{r}'), but only {n} {} are defined before this line",
-                WHAT[k],
-                WHATS[k]
-            );
-        }
-    }
-    Ok(())
+    mats
 }
 
 /// Reads a material library named by an OBJ file for tobj: missing, unreadable or malformed
-/// libraries leave a note (a warning naming the library) and load no materials. A colour given as
-/// one number (`Kd 0.5`, grey) is expanded to three, which tobj requires.
+/// libraries leave a note (a warning naming the library) and load no materials. Lines that are not
+/// UTF-8 are read as Latin-1 (one note with their count and the first). A colour given as one
+/// number (`Kd 0.5`, grey) is expanded to three, which tobj requires.
 fn load_mtl(
     obj_file: &str,
     dir: &Path,
     lib: &Path,
-    notes: &std::cell::RefCell<Vec<String>>,
+    notes: &mut Vec<String>,
 ) -> tobj::MTLLoadResult {
     let path = dir.join(lib);
     let shown = path.display().to_string();
-    let note = |s: String| notes.borrow_mut().push(format!("{obj_file}: {s}"));
+    let mut note = |s: String| notes.push(format!("{obj_file}: {s}"));
     // Only regular files: a library named /dev/zero or a FIFO would never end.
     if path.exists() && !path.is_file() {
         note(format!(
@@ -376,19 +320,42 @@ fn load_mtl(
             return Err(tobj::LoadError::OpenFileFailed);
         }
     };
-    let Ok(text) = String::from_utf8(bytes) else {
-        note(format!(
-            "material library {shown}: not a text file (invalid UTF-8); its materials are grey diffuse"
-        ));
-        return Err(tobj::LoadError::ReadError);
+    let text = match String::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let (text, latin) = text_or_latin1(e.as_bytes());
+            let times = match latin.count {
+                1 => String::new(),
+                c => format!(", {c} lines"),
+            };
+            note(format!(
+                "material library {shown}:{}: not UTF-8 text; read as Latin-1{times}",
+                latin.first
+            ));
+            text
+        }
     };
     match prescan_mtl(&shown, &text) {
-        Ok(clean) => tobj::load_mtl_buf(&mut clean.as_bytes()).inspect_err(|e| {
-            note(format!(
-                "material library {shown}: {}; its materials are grey diffuse",
-                describe(e)
-            ))
-        }),
+        Ok(clean) => {
+            // The checks above keep tobj away from the inputs it is known to panic on; should it
+            // still panic, the library is reported as unreadable rather than the run aborting.
+            let parsed = std::panic::catch_unwind(|| tobj::load_mtl_buf(&mut clean.as_bytes()));
+            match parsed {
+                Ok(result) => result.inspect_err(|e| {
+                    note(format!(
+                        "material library {shown}: {}; its materials are grey diffuse",
+                        describe(e)
+                    ))
+                }),
+                Err(_) => {
+                    note(format!(
+                        "material library {shown}: the MTL parser failed on it (please report \
+                         it); its materials are grey diffuse"
+                    ));
+                    Err(tobj::LoadError::GenericFailure)
+                }
+            }
+        }
         Err(msg) => {
             note(format!(
                 "material library {msg}; the library's materials are grey diffuse"
@@ -434,6 +401,29 @@ fn prescan_mtl(file: &str, text: &str) -> Result<String, String> {
         out.push('\n');
     }
     Ok(out)
+}
+
+/// The text of `bytes` line by line: UTF-8 lines as they are, the others read as Latin-1, and
+/// how many of those there were (with the first line).
+fn text_or_latin1(bytes: &[u8]) -> (String, Tally) {
+    let mut text = String::with_capacity(bytes.len() + bytes.len() / 8);
+    let mut latin = Tally::default();
+    for (k, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        if k > 0 {
+            text.push('\n');
+        }
+        match std::str::from_utf8(line) {
+            Ok(s) => text.push_str(s),
+            Err(_) => {
+                if latin.count == 0 {
+                    latin.first = k + 1;
+                }
+                latin.count += 1;
+                text.extend(line.iter().map(|&b| b as char));
+            }
+        }
+    }
+    (text, latin)
 }
 
 fn describe(e: &tobj::LoadError) -> String {

@@ -1,0 +1,626 @@
+//! The OBJ statement parser, built for files of millions of faces: the file is read in blocks of
+//! whole lines, each block is split at line ends into chunks that are parsed in parallel (rayon),
+//! and the chunks are stitched in file order. A chunk does not know how many vertices come before
+//! it, so it keeps face indices that count from the start of the file as they are, indices that
+//! count back (negative) relative to its own vertices with a note to add the chunk's base later,
+//! and the largest base any of its references needs; when a chunk needs more than it gets (or has a
+//! malformed line), it is parsed again with its base and first line known, which finds the first
+//! bad line exactly as a sequential parse would (`FILE:LINE: ...`).
+//!
+//! What is kept per face corner is only what the renderer uses: the position index and the normal
+//! index (texture coordinates are checked and counted, not stored). Polygons are fanned from their
+//! first vertex, (a, b, c), (a, c, d), ..., in file order.
+//!
+//! Recoverable oddities (faces of fewer than 3 vertices, `usemtl` or `mtllib` without a name,
+//! statements the loader does not use, lines that are not UTF-8, read as Latin-1) are tallied
+//! (count and first line) for one warning per kind; with `strict` they are errors at their line.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use std::io::Read;
+
+/// A face corner without a normal index.
+pub const MISSING: u32 = u32::MAX;
+
+/// Bytes read per block; a block is parsed in parallel while nothing else of the file is held.
+const BLOCK_BYTES: usize = 32 << 20;
+/// Target size of a chunk (the unit of parallel work).
+const CHUNK_BYTES: usize = 1 << 20;
+
+/// The statements the loader uses (`#` starts a comment).
+const KEYWORDS: &[&str] = &["v", "vt", "vn", "f", "o", "g", "s", "mtllib", "usemtl"];
+
+/// Kinds of recoverable oddities, one warning each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Oddity {
+    /// `f` with fewer than 3 vertices (a point or a line): skipped.
+    ShortFace = 0,
+    /// `usemtl` without a name: the faces after it get the default material.
+    BareUsemtl = 1,
+    /// `mtllib` without a file name: ignored.
+    BareMtllib = 2,
+    /// A line that is not UTF-8: read as Latin-1.
+    NotUtf8 = 3,
+}
+
+pub const ODDITIES: [Oddity; 4] = [
+    Oddity::ShortFace,
+    Oddity::BareUsemtl,
+    Oddity::BareMtllib,
+    Oddity::NotUtf8,
+];
+
+/// How often something occurred and the first line (1-based) where it did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    pub count: usize,
+    pub first: usize,
+}
+
+impl Tally {
+    fn add(&mut self, line: usize) {
+        if self.count == 0 {
+            self.first = line;
+        }
+        self.count += 1;
+    }
+    /// Adds a later chunk's tally whose lines are `offset` lines further on.
+    fn merge(&mut self, later: &Tally, offset: usize) {
+        if later.count > 0 {
+            if self.count == 0 {
+                self.first = later.first + offset;
+            }
+            self.count += later.count;
+        }
+    }
+}
+
+/// A statement that changes what the faces after it belong to.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Statement {
+    /// `o` or `g`: a new object or group.
+    Group,
+    /// `usemtl NAME` (`None`: no name given).
+    Usemtl(Option<String>),
+    /// `mtllib FILE`.
+    Mtllib(String),
+}
+
+/// A [`Statement`] at a line, before triangle `tri` (the number of triangles read before it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Event {
+    pub line: usize,
+    pub tri: usize,
+    pub what: Statement,
+}
+
+/// The parsed file.
+#[derive(Debug, Default)]
+pub struct ObjData {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub texcoords: usize,
+    /// Position indices (from 0) of each triangle.
+    pub triangles: Vec<[u32; 3]>,
+    /// Normal indices (from 0) of each triangle's corners, [`MISSING`] where the face gives none.
+    pub tri_normals: Vec<[u32; 3]>,
+    pub events: Vec<Event>,
+    pub oddities: [Tally; 4],
+    /// Statements the loader does not use: keyword and tally, in order of first appearance.
+    pub unused: Vec<(String, Tally)>,
+    pub lines: usize,
+}
+
+/// A parse error: the line (1-based, within what was parsed) and the message after `FILE:LINE: `.
+type LineError = (usize, String);
+
+/// The counts of positions, texture coordinates and normals before a chunk, and its first line.
+#[derive(Clone, Copy, Debug, Default)]
+struct Base {
+    counts: [usize; 3],
+    line: usize,
+}
+
+/// One chunk's statements, with indices as described in the module docs.
+#[derive(Debug, Default)]
+struct Chunk {
+    data: ObjData,
+    /// Triangle corners holding relative indices: (triangle, corner × 2 + 0 for the position or 1
+    /// for the normal); the chunk's base count is added to them when stitching.
+    relative: Vec<(u32, u8)>,
+    /// The largest count of positions, texture coordinates, normals that must precede the chunk
+    /// for all its references to be valid.
+    need: [i64; 3],
+    error: Option<LineError>,
+    /// Scratch space for the corners of one face.
+    corners: Vec<Corner>,
+}
+
+impl Chunk {
+    /// Empties the chunk for the next one, keeping its buffers.
+    fn reset(&mut self) {
+        let d = &mut self.data;
+        d.positions.clear();
+        d.normals.clear();
+        d.texcoords = 0;
+        d.triangles.clear();
+        d.tri_normals.clear();
+        d.events.clear();
+        d.oddities = Default::default();
+        d.unused.clear();
+        d.lines = 0;
+        self.relative.clear();
+        self.need = [0; 3];
+        self.error = None;
+    }
+}
+
+/// Parses the OBJ file at `path` (see the module docs). `Err` is `(line, message)` for a bad line,
+/// or an I/O error as `(0, message)`.
+pub fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData, LineError> {
+    let mut file = std::fs::File::open(path).map_err(|e| (0, format!("cannot read ({e})")))?;
+    let mut out = ObjData::default();
+    // The chunks' buffers, reused from block to block (fresh memory costs a page fault each
+    // page; reused memory does not).
+    let mut pool: Vec<Chunk> = Vec::new();
+    let mut buf: Vec<u8> = Vec::with_capacity(BLOCK_BYTES);
+    let mut eof = false;
+    while !eof {
+        // Fill the block (it starts with the previous block's unfinished line).
+        let want = buf.len().max(BLOCK_BYTES / 2) + BLOCK_BYTES / 2 - buf.len();
+        let got = (&mut file)
+            .take(want as u64)
+            .read_to_end(&mut buf)
+            .map_err(|e| (0, format!("cannot read ({e})")))?;
+        eof = got < want;
+        let end = if eof {
+            buf.len()
+        } else {
+            match memchr::memrchr(b'\n', &buf) {
+                Some(i) => i + 1,
+                // One line longer than the block: read on.
+                None => continue,
+            }
+        };
+        parse_block(&buf[..end], strict, &mut pool, &mut out)?;
+        buf.drain(..end);
+    }
+    out.positions.shrink_to_fit();
+    out.normals.shrink_to_fit();
+    out.triangles.shrink_to_fit();
+    out.tri_normals.shrink_to_fit();
+    Ok(out)
+}
+
+/// Splits `block` (whole lines) into chunks at line ends, parses them in parallel and appends them
+/// to `out` in order.
+fn parse_block(
+    block: &[u8],
+    strict: bool,
+    pool: &mut Vec<Chunk>,
+    out: &mut ObjData,
+) -> Result<(), LineError> {
+    let mut bounds = vec![0];
+    let mut at = 0;
+    while at < block.len() {
+        let next = (at + CHUNK_BYTES).min(block.len());
+        let end = if next == block.len() {
+            next
+        } else {
+            memchr::memchr(b'\n', &block[next..]).map_or(block.len(), |i| next + i + 1)
+        };
+        bounds.push(end);
+        at = end;
+    }
+    if pool.len() < bounds.len() - 1 {
+        pool.resize_with(bounds.len() - 1, Chunk::default);
+    }
+    let chunks = &mut pool[..bounds.len() - 1];
+    chunks
+        .par_iter_mut()
+        .zip(bounds.par_windows(2))
+        .for_each(|(c, w)| parse_chunk(c, &block[w[0]..w[1]], strict, None));
+    for (k, chunk) in chunks.iter().enumerate() {
+        let base = Base {
+            counts: [out.positions.len(), out.texcoords, out.normals.len()],
+            line: out.lines,
+        };
+        let short = (0..3).any(|i| chunk.need[i] > base.counts[i] as i64);
+        if chunk.error.is_some() || short {
+            // Again with the base known: the first bad line, as a sequential parse finds it.
+            let mut again = Chunk::default();
+            parse_chunk(
+                &mut again,
+                &block[bounds[k]..bounds[k + 1]],
+                strict,
+                Some(base),
+            );
+            let (line, msg) = again
+                .error
+                .unwrap_or_else(|| (1, "inconsistent parse (please report it)".into()));
+            return Err((base.line + line, msg));
+        }
+        append(out, chunk, base);
+    }
+    Ok(())
+}
+
+/// Appends a parsed chunk to everything before it.
+fn append(out: &mut ObjData, chunk: &Chunk, base: Base) {
+    let Chunk { data, relative, .. } = chunk;
+    let tri0 = out.triangles.len();
+    out.positions.extend_from_slice(&data.positions);
+    out.normals.extend_from_slice(&data.normals);
+    out.texcoords += data.texcoords;
+    out.triangles.extend_from_slice(&data.triangles);
+    out.tri_normals.extend_from_slice(&data.tri_normals);
+    for &(t, which) in relative {
+        let t = tri0 + t as usize;
+        let c = (which >> 1) as usize;
+        if which & 1 == 0 {
+            let v = &mut out.triangles[t][c];
+            *v = v.wrapping_add(base.counts[0] as u32);
+        } else {
+            let v = &mut out.tri_normals[t][c];
+            *v = v.wrapping_add(base.counts[2] as u32);
+        }
+    }
+    out.events.extend(data.events.iter().map(|e| Event {
+        line: e.line + base.line,
+        tri: e.tri + tri0,
+        what: e.what.clone(),
+    }));
+    for (t, later) in out.oddities.iter_mut().zip(&data.oddities) {
+        t.merge(later, base.line);
+    }
+    for (kw, later) in &data.unused {
+        match out.unused.iter_mut().find(|(k, _)| k == kw) {
+            Some((_, t)) => t.merge(later, base.line),
+            None => {
+                let mut t = Tally::default();
+                t.merge(later, base.line);
+                out.unused.push((kw.clone(), t));
+            }
+        }
+    }
+    out.lines += data.lines;
+}
+
+/// The first 60 characters of a line, for messages.
+fn shown(line: &str) -> String {
+    let line = line.trim();
+    let mut s: String = line.chars().take(60).collect();
+    if line.chars().count() > 60 {
+        s.push('…');
+    }
+    s
+}
+
+/// Latin-1 text of bytes that are not UTF-8 (every byte is the code point of the same value).
+fn latin1(bytes: &[u8]) -> String {
+    bytes.iter().map(|&b| b as char).collect()
+}
+
+/// Parses one chunk of whole lines. With `known`, the counts before the chunk are known and face
+/// references are checked against them exactly (the slow path that names the first bad line).
+fn parse_chunk(c: &mut Chunk, bytes: &[u8], strict: bool, known: Option<Base>) {
+    c.reset();
+    let whole = std::str::from_utf8(bytes).ok();
+    let mut owned: String;
+    let mut start = 0;
+    let mut line_no = 0;
+    while start < bytes.len() {
+        let end = memchr::memchr(b'\n', &bytes[start..]).map_or(bytes.len(), |i| start + i);
+        line_no += 1;
+        let raw = &bytes[start..end];
+        let line: &str = match whole {
+            Some(s) => &s[start..end],
+            None => match std::str::from_utf8(raw) {
+                Ok(s) => s,
+                Err(_) => {
+                    if strict {
+                        c.error = Some((line_no, "not UTF-8 text (--strict)".into()));
+                        break;
+                    }
+                    c.data.oddities[Oddity::NotUtf8 as usize].add(line_no);
+                    owned = latin1(raw);
+                    &owned
+                }
+            },
+        };
+        start = end + 1;
+        if let Err(msg) = statement(line, line_no, strict, known, c) {
+            c.error = Some((line_no, msg));
+            break;
+        }
+    }
+    c.data.lines = line_no;
+}
+
+fn numbers<'a>(words: impl Iterator<Item = &'a str>, out: &mut [f32; 8]) -> Option<usize> {
+    let mut n = 0;
+    for w in words {
+        let x = w.parse::<f32>().ok()?;
+        if n < out.len() {
+            out[n] = x;
+        }
+        n += 1;
+    }
+    Some(n)
+}
+
+/// One line's statement.
+fn statement(
+    line: &str,
+    line_no: usize,
+    strict: bool,
+    known: Option<Base>,
+    c: &mut Chunk,
+) -> Result<(), String> {
+    let mut words = line.split_ascii_whitespace();
+    let Some(kw) = words.next() else {
+        return Ok(());
+    };
+    if kw.starts_with('#') {
+        return Ok(());
+    }
+    let mut v = [0f32; 8];
+    match kw {
+        "v" => match numbers(words, &mut v) {
+            Some(3) | Some(6) => c.data.positions.push(Vec3::new(v[0], v[1], v[2])),
+            Some(4) if v[3] != 0.0 => {
+                let w = v[3];
+                c.data
+                    .positions
+                    .push(Vec3::new(v[0] / w, v[1] / w, v[2] / w));
+            }
+            Some(4) => {
+                return Err(format!(
+                    "vertex with w = 0 (a point at infinity): '{}'",
+                    shown(line)
+                ));
+            }
+            _ => {
+                return Err(format!(
+                    "malformed vertex: expected 'v x y z' (optionally w, or r g b) with numbers, got '{}'",
+                    shown(line)
+                ));
+            }
+        },
+        "vt" => match numbers(words, &mut v) {
+            Some(2 | 3) => c.data.texcoords += 1,
+            _ => {
+                return Err(format!(
+                    "malformed texture coordinate: expected 'vt u v' (optionally w) with numbers, got '{}'",
+                    shown(line)
+                ));
+            }
+        },
+        "vn" => match numbers(words, &mut v) {
+            Some(3) => c.data.normals.push(Vec3::new(v[0], v[1], v[2])),
+            _ => {
+                return Err(format!(
+                    "malformed normal: expected 'vn x y z' with numbers, got '{}'",
+                    shown(line)
+                ));
+            }
+        },
+        "f" => face(line, words, line_no, strict, known, c)?,
+        "o" | "g" => c.data.events.push(Event {
+            line: line_no,
+            tri: c.data.triangles.len(),
+            what: Statement::Group,
+        }),
+        "usemtl" | "mtllib" => {
+            let rest = line.trim_ascii_start()[kw.len()..].trim();
+            if rest.is_empty() {
+                if strict {
+                    return Err(format!("'{kw}' needs a name: '{}' (--strict)", shown(line)));
+                }
+                let odd = if kw == "usemtl" {
+                    Oddity::BareUsemtl
+                } else {
+                    Oddity::BareMtllib
+                };
+                c.data.oddities[odd as usize].add(line_no);
+                if kw == "mtllib" {
+                    return Ok(());
+                }
+            }
+            let what = if kw == "usemtl" {
+                Statement::Usemtl((!rest.is_empty()).then(|| rest.to_string()))
+            } else {
+                Statement::Mtllib(rest.to_string())
+            };
+            c.data.events.push(Event {
+                line: line_no,
+                tri: c.data.triangles.len(),
+                what,
+            });
+        }
+        "s" => {}
+        other => {
+            if strict {
+                return Err(format!(
+                    "'{other}' statements are not supported: '{}' (--strict)",
+                    shown(line)
+                ));
+            }
+            match c.data.unused.iter_mut().find(|(k, _)| k == other) {
+                Some((_, t)) => t.add(line_no),
+                None => {
+                    let mut t = Tally::default();
+                    t.add(line_no);
+                    c.data.unused.push((other.to_string(), t));
+                }
+            }
+        }
+    }
+    debug_assert!(KEYWORDS.contains(&kw) || !strict);
+    Ok(())
+}
+
+/// One face corner: position and normal index, each with "relative to the chunk" flags.
+#[derive(Clone, Copy, Debug)]
+struct Corner {
+    v: u32,
+    vn: u32,
+    /// Bit 0: `v` is relative to the chunk; bit 1: `vn` is.
+    relative: u8,
+}
+
+/// An `f` statement: checks every vertex reference, then fans the polygon into triangles.
+fn face<'a>(
+    line: &str,
+    words: impl Iterator<Item = &'a str> + Clone,
+    line_no: usize,
+    strict: bool,
+    known: Option<Base>,
+    c: &mut Chunk,
+) -> Result<(), String> {
+    if strict {
+        let n = words.clone().count();
+        if n < 3 {
+            return Err(format!(
+                "a face needs at least 3 vertices, this one has {n}: '{}' (--strict)",
+                shown(line)
+            ));
+        }
+    }
+    let local = [
+        c.data.positions.len(),
+        c.data.texcoords,
+        c.data.normals.len(),
+    ];
+    let mut corners = std::mem::take(&mut c.corners);
+    corners.clear();
+    for r in words {
+        match face_vertex(r, local, known, &mut c.need) {
+            Ok(q) => corners.push(q),
+            Err(e) => {
+                c.corners = corners;
+                return Err(e);
+            }
+        }
+    }
+    if corners.len() < 3 {
+        c.data.oddities[Oddity::ShortFace as usize].add(line_no);
+    } else {
+        let a = corners[0];
+        for k in 1..corners.len() - 1 {
+            let tri = [a, corners[k], corners[k + 1]];
+            let t = c.data.triangles.len() as u32;
+            for (i, q) in tri.iter().enumerate() {
+                if q.relative & 1 != 0 {
+                    c.relative.push((t, (i as u8) << 1));
+                }
+                if q.relative & 2 != 0 {
+                    c.relative.push((t, ((i as u8) << 1) | 1));
+                }
+            }
+            c.data.triangles.push(tri.map(|q| q.v));
+            c.data.tri_normals.push(tri.map(|q| q.vn));
+        }
+    }
+    c.corners = corners;
+    Ok(())
+}
+
+/// `s` as an i64, accepting exactly what `str::parse::<i64>` accepts (an optional sign and
+/// decimal digits), with a fast path for the short unsigned indices of real files.
+#[inline]
+fn whole_number(s: &str) -> Option<i64> {
+    let b = s.as_bytes();
+    if !b.is_empty() && b.len() <= 18 && b.iter().all(u8::is_ascii_digit) {
+        return Some(b.iter().fold(0i64, |a, &d| a * 10 + (d - b'0') as i64));
+    }
+    s.parse::<i64>().ok()
+}
+
+/// Checks one vertex of a face (`v`, `v/vt`, `v//vn`, `v/vt/vn`) and resolves its indices: against
+/// the counts before the chunk when they are `known`, else recording in `need` what the chunk
+/// must be preceded by.
+fn face_vertex(
+    r: &str,
+    local: [usize; 3],
+    known: Option<Base>,
+    need: &mut [i64; 3],
+) -> Result<Corner, String> {
+    const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    const WHATS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
+    let mut parts = [""; 3];
+    let mut n = 0;
+    let mut from = 0;
+    let bytes = r.as_bytes();
+    for (i, &b) in bytes.iter().enumerate() {
+        if b == b'/' {
+            if n == 2 {
+                n = 4;
+                break;
+            }
+            parts[n] = &r[from..i];
+            n += 1;
+            from = i + 1;
+        }
+    }
+    if n < 3 {
+        parts[n] = &r[from..];
+        n += 1;
+    }
+    if n > 3 || parts[0].is_empty() {
+        return Err(format!(
+            "malformed face vertex '{r}': expected v, v/vt, v//vn or v/vt/vn"
+        ));
+    }
+    let mut corner = Corner {
+        v: 0,
+        vn: MISSING,
+        relative: 0,
+    };
+    for (k, part) in parts[..n].iter().enumerate() {
+        if part.is_empty() {
+            continue; // v//vn
+        }
+        let Some(i) = whole_number(part) else {
+            return Err(format!(
+                "malformed face vertex '{r}': '{part}' is not a whole number"
+            ));
+        };
+        if i == 0 {
+            return Err(format!(
+                "face {} index 0 in '{r}': OBJ indices start at 1 (or count back from -1)",
+                WHAT[k]
+            ));
+        }
+        let needs = i.unsigned_abs().min(i64::MAX as u64) as i64 - local[k] as i64;
+        match known {
+            Some(base) if needs > base.counts[k] as i64 => {
+                return Err(format!(
+                    "face refers to {} {i} (in '{r}'), but only {} {} are defined before this line",
+                    WHAT[k],
+                    base.counts[k] + local[k],
+                    WHATS[k]
+                ));
+            }
+            _ => need[k] = need[k].max(needs),
+        }
+        // In range once the base is checked (at most 2^32 - 1 of each, see the loader).
+        let (index, rel) = if i > 0 {
+            ((i - 1) as u32, 0)
+        } else {
+            ((local[k] as i64 + i) as u32, 1)
+        };
+        match k {
+            0 => {
+                corner.v = index;
+                corner.relative |= rel;
+            }
+            2 => {
+                corner.vn = index;
+                corner.relative |= rel << 1;
+            }
+            _ => {}
+        }
+    }
+    Ok(corner)
+}
