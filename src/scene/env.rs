@@ -316,3 +316,36 @@ impl Environment {
         self.map.rows.integral * PI / 2.0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A Radiance HDR file (written by the image crate's encoder) reads back within RGBE's
+    /// precision (8-bit mantissas: < 1 %), rows from the top, scaled.
+    #[test]
+    fn hdr_maps_read_back() {
+        let dir = std::env::temp_dir().join(format!("ftpd3d-env-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("m.hdr");
+        let (w, h) = (4usize, 2usize);
+        let px: Vec<image::Rgb<f32>> = (0..w * h)
+            .map(|k| image::Rgb([0.5 + k as f32, 2.0, 0.25 * (k + 1) as f32]))
+            .collect();
+        let file = std::fs::File::create(&path).unwrap();
+        image::codecs::hdr::HdrEncoder::new(file)
+            .encode(&px, w, h)
+            .unwrap();
+        let map = EnvMap::load(&path, 2.0, 0.0).unwrap();
+        assert_eq!((map.width, map.height), (w, h));
+        for (k, p) in px.iter().enumerate() {
+            let want = Rgb::new(p.0[0] as f64, p.0[1] as f64, p.0[2] as f64) * 2.0;
+            let got = map.texels[k];
+            assert!(
+                (got - want).abs().max_element() <= 0.01 * want.max_element(),
+                "texel {k}: {got} vs {want}"
+            );
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
