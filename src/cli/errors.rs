@@ -3,6 +3,7 @@
 //! that set the values (`--t0`, `--slice`, `--window`, …). Other errors print as they are.
 
 use crate::domain::{DomainError, commas};
+use crate::output::OutputError;
 use crate::run::ParamError;
 use crate::scene::flat::FlatlandError;
 use std::error::Error;
@@ -19,6 +20,21 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
         param(p)
     } else if let Some(d) = e.downcast_ref::<DomainError>() {
         domain(d)
+    } else if let Some(o) = e.downcast_ref::<OutputError>() {
+        // The I/O cause follows as the next link of the chain, as it did with context.
+        match o {
+            OutputError::CreateDir { path, dir, .. } => format!(
+                "-o {}: cannot create directory {}",
+                path.display(),
+                dir.display()
+            ),
+            OutputError::IsDirectory { path } => format!("-o {}: is a directory", path.display()),
+            OutputError::NotWritable { path, dir, .. } => format!(
+                "-o {}: directory {} is not writable",
+                path.display(),
+                dir.display()
+            ),
+        }
     } else if let Some(f) = e.downcast_ref::<FlatlandError>() {
         match f {
             FlatlandError::NotExtruded { file, detail } => format!(

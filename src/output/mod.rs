@@ -9,7 +9,7 @@ pub mod vti;
 
 use crate::field::Field;
 use crate::ftpd::moments::Moments;
-use anyhow::{Context, bail};
+use anyhow::Context;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -68,29 +68,46 @@ pub fn write_atomically(
     }
 }
 
+/// Why an output path cannot take the file (the command line names the `-o` flag:
+/// `crate::cli::errors`).
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("output {path}: cannot create directory {dir}")]
+    CreateDir {
+        path: PathBuf,
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("output {path}: is a directory")]
+    IsDirectory { path: PathBuf },
+    #[error("output {path}: directory {dir} is not writable")]
+    NotWritable {
+        path: PathBuf,
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+}
+
 /// Fails early when `path`'s directory cannot take a new file (before hours of work).
-pub fn check_writable(path: &Path) -> anyhow::Result<()> {
+pub fn check_writable(path: &Path) -> Result<(), OutputError> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    std::fs::create_dir_all(&dir).with_context(|| {
-        format!(
-            "-o {}: cannot create directory {}",
-            path.display(),
-            dir.display()
-        )
+    let path_buf = path.to_path_buf();
+    std::fs::create_dir_all(&dir).map_err(|source| OutputError::CreateDir {
+        path: path_buf.clone(),
+        dir: dir.clone(),
+        source,
     })?;
     if path.is_dir() {
-        bail!("-o {}: is a directory", path.display());
+        return Err(OutputError::IsDirectory { path: path_buf });
     }
     let probe = temp_path(path);
-    std::fs::write(&probe, b"").with_context(|| {
-        format!(
-            "-o {}: directory {} is not writable",
-            path.display(),
-            dir.display()
-        )
+    std::fs::write(&probe, b"").map_err(|source| OutputError::NotWritable {
+        path: path_buf,
+        dir: dir.clone(),
+        source,
     })?;
     let _ = std::fs::remove_file(&probe);
     Ok(())
