@@ -540,9 +540,13 @@ impl Scene {
         let (ng, ns) = if FLAT {
             let pl = &self.flat().plane;
             let ngp = pl.in_plane(ng).unwrap_or(ng);
-            let nsp = pl
-                .in_plane(ns)
-                .map_or(ngp, |n| if n.dot(ngp) < 0.0 { -n } else { n });
+            // Without shading normals ns = ng, whose projection is ngp (the same bits).
+            let nsp = if self.tri_shading.is_empty() {
+                ngp
+            } else {
+                pl.in_plane(ns)
+                    .map_or(ngp, |n| if n.dot(ngp) < 0.0 { -n } else { n })
+            };
             (ngp, nsp)
         } else {
             (ng, ns)
