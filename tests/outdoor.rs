@@ -735,3 +735,110 @@ fn sun_disc_penumbra_behind_an_edge() {
         }
     }
 }
+
+/// The scene file's light tables: `[[spot_light]]`, `[[sun]]`, `[sky]` and `[environment]` (a map
+/// relative to the file) load with their values; bad values are refused naming the file and the
+/// table.
+#[test]
+fn scene_file_light_tables_load_and_bad_ones_are_refused() {
+    use exr::prelude::*;
+    let dir = crate::support::temp_dir("outdoor", "sidecar_lights");
+    std::fs::copy(scene_path("diffuse_plane.obj"), dir.join("plane.obj")).unwrap();
+    std::fs::copy(
+        scene_path("diffuse_plane.mtl"),
+        dir.join("diffuse_plane.mtl"),
+    )
+    .unwrap();
+    write_rgb_file(dir.join("sky.exr"), 8, 4, |_, _| (0.5f32, 0.5f32, 0.5f32)).unwrap();
+    let good = r#"mesh = "plane.obj"
+
+[[spot_light]]
+position = [0.0, 2.0, 0.0]
+direction = [0.0, -2.0, 0.0]
+intensity = [4.0, 4.0, 4.0]
+inner_deg = 20.0
+outer_deg = 35.0
+
+[[sun]]
+direction = [0.0, 3.0, 4.0]
+irradiance = [2.0, 2.0, 2.0]
+
+[sky]
+radiance = [0.1, 0.2, 0.3]
+
+[environment]
+file = "sky.exr"
+scale = 2.0
+rotation_deg = 30.0
+"#;
+    let path = dir.join("lit.toml");
+    std::fs::write(&path, good).unwrap();
+    let scene = load_scene(&path).unwrap();
+    let f = scene.features;
+    assert!(f.spot_lights && f.sun && f.sky && !f.point_lights);
+    let mut kinds = [0; 4];
+    for l in &scene.lights.lights {
+        match l {
+            Light::Spot {
+                direction,
+                cos_inner,
+                cos_outer,
+                ..
+            } => {
+                kinds[0] += 1;
+                assert_eq!(*direction, -DVec3::Y);
+                assert!((cos_inner - 20f64.to_radians().cos()).abs() < 1e-15);
+                assert!((cos_outer - 35f64.to_radians().cos()).abs() < 1e-15);
+            }
+            Light::Distant {
+                direction,
+                half_angle,
+                ..
+            } => {
+                kinds[1] += 1;
+                assert!((*direction - DVec3::new(0.0, 0.6, 0.8)).length() < 1e-15);
+                assert!((half_angle - 0.265f64.to_radians()).abs() < 1e-15);
+            }
+            Light::Sky { radiance } => {
+                kinds[2] += 1;
+                assert_eq!(*radiance, Rgb::new(0.1, 0.2, 0.3));
+            }
+            Light::Env(env) => {
+                kinds[3] += 1;
+                assert_eq!(env.map.texels[0], Rgb::splat(1.0));
+                assert!((env.map.rotation - 30f64.to_radians()).abs() < 1e-15);
+            }
+            _ => {}
+        }
+    }
+    assert_eq!(kinds, [1, 1, 1, 1]);
+    let bad = [
+        (
+            "[[sun]]\ndirection = [0.0, 0.0, 0.0]\nirradiance = [1.0, 1.0, 1.0]\n",
+            "sun #1: direction must be finite and not zero",
+        ),
+        (
+            "[[spot_light]]\nposition = [0.0, 1.0, 0.0]\ndirection = [0.0, -1.0, 0.0]\n\
+             intensity = [1.0, 1.0, 1.0]\ninner_deg = 40.0\nouter_deg = 30.0\n",
+            "spot_light #1: position must be finite",
+        ),
+        (
+            "[sky]\nradiance = [-1.0, 0.0, 0.0]\n",
+            "sky: radiance must be finite and ≥ 0",
+        ),
+        ("[environment]\nfile = \"missing.hdr\"\n", "[environment]"),
+    ];
+    for (table, want) in bad {
+        let p = dir.join("bad.toml");
+        std::fs::write(&p, format!("mesh = \"plane.obj\"\n\n{table}")).unwrap();
+        let Err(e) = load_scene(&p) else {
+            panic!("{table} should be refused")
+        };
+        let e = format!("{e:#}");
+        assert!(
+            e.contains(&p.display().to_string()) && e.contains(want),
+            "{e}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
