@@ -1,6 +1,6 @@
 //! The production radiance weighting (uniform and light-directed directions with MIS) converges to
 //! the same moments as the plain reference estimator, on a scene with area lights, a point light,
-//! diffuse walls and a mirror.
+//! diffuse walls and a mirror, and on one lit by a sky, two suns and a spot light.
 
 use crate::geometry::scene_path;
 use ftpd3d::ftpd::moments::Moments;
@@ -100,6 +100,92 @@ fn mis_radiance_weighting_matches_the_reference() {
             assert!(
                 z.abs() < 4.0,
                 "point {k} {name}: MIS {a:?} vs reference {b:?} (z = {z:.2})"
+            );
+        }
+    }
+}
+
+/// The same comparison under the lights of the outdoors: a sky, a sun with a disc, a sun without
+/// one and a spot light, added to the shipped stair wall (with its own area light), whose open
+/// sides let the sky and the suns in. The reference finds the sky and the disc only by leaving the
+/// scene, the delta sun and the spot only by connections.
+#[test]
+fn mis_radiance_weighting_matches_the_reference_under_sky_sun_and_spot() {
+    use ftpd3d::math::Rgb;
+    use ftpd3d::scene::Light;
+    let mut scene = ftpd3d::scene::load::load_scene(&scene_path("stair_wall.obj")).unwrap();
+    scene.add_light(Light::Sky {
+        radiance: Rgb::new(0.2, 0.25, 0.3),
+    });
+    scene.add_light(Light::distant(
+        DVec3::new(0.3, 1.0, 0.4).normalize(),
+        Rgb::splat(1.5),
+        3f64.to_radians(),
+    ));
+    scene.add_light(Light::distant(
+        DVec3::new(-0.5, 1.0, 0.1).normalize(),
+        Rgb::splat(0.8),
+        0.0,
+    ));
+    scene.add_light(Light::Spot {
+        position: DVec3::new(0.0, 1.5, 0.5),
+        direction: DVec3::new(0.0, -1.0, -0.3).normalize(),
+        intensity: Rgb::splat(1.0),
+        cos_inner: 25f64.to_radians().cos(),
+        cos_outer: 40f64.to_radians().cos(),
+    });
+    let lo = scene.bounds.min;
+    let hi = scene.bounds.max;
+    let at = |a: f64, b: f64, c: f64| lo + (hi - lo) * DVec3::new(a, b, c);
+    let p = Params {
+        t0: 0.1 * scene.extent(),
+        t1: 0.5 * scene.extent(),
+        theta_max: 0.2,
+        weighting: Weighting::Radiance,
+        max_bounces: 12,
+        flat: None,
+    };
+    let n = 24000;
+    for (k, x) in [at(0.3, 0.5, 0.5), at(0.6, 0.8, 0.3)].iter().enumerate() {
+        let x = scene.off_surfaces(*x);
+        let fast = estimate(|b| {
+            let mut s = Sampler::new(500 + k as u64, b, 0);
+            let mut m = Moments::default();
+            for _ in 0..n {
+                let smp = sample_point(&scene, x, &p, &mut s);
+                m.add_sample(smp.c, smp.delta, smp.weight);
+            }
+            m
+        });
+        let slow = estimate(|b| {
+            let mut s = Sampler::new(600 + k as u64, b, 0);
+            let mut m = Moments::default();
+            for _ in 0..n {
+                let terms = sample_reference(&scene, x, &p, &mut s);
+                let (c, cd, cd2, w) = terms.iter().fold((0.0, 0.0, 0.0, Rgb::ZERO), |a, t| {
+                    (a.0 + t.0, a.1 + t.0 * t.1, a.2 + t.0 * t.1 * t.1, a.3 + t.2)
+                });
+                m.s0 += c;
+                m.s1 += cd;
+                m.s2 += cd2;
+                m.n += 1;
+                m.fluence += w;
+            }
+            m
+        });
+        for (name, (a, b)) in ["m1", "m2", "sigma", "fluence"]
+            .iter()
+            .zip(fast.iter().zip(&slow))
+        {
+            let se = (a.1 * a.1 + b.1 * b.1).sqrt();
+            let z = (a.0 - b.0) / se;
+            eprintln!(
+                "outdoor point {k} {name}: MIS {:.5} ± {:.5}, reference {:.5} ± {:.5}, z = {z:.2}",
+                a.0, a.1, b.0, b.1
+            );
+            assert!(
+                z.abs() < 4.0,
+                "outdoor point {k} {name}: MIS {a:?} vs reference {b:?} (z = {z:.2})"
             );
         }
     }

@@ -2,10 +2,11 @@
 //! estimator ([`super::sample_at`]), which mixes uniform and light-directed directions with MIS.
 //!
 //! Here every sample takes ω uniformly and estimates `L(x, ω)` with a path tracer that finds area
-//! lights only by hitting them (no light sampling for them, so no MIS to get wrong), and point
-//! lights by explicit connections at the path's surface vertices (they cannot be hit). The light
-//! of point lights seen directly from `x` is a Dirac delta in ω; each point light adds, in every
-//! sample, its own deflection pair along its exact direction with weight `I / d² · V`.
+//! lights, the sky, environment maps and sun discs only by hitting them or by leaving the scene
+//! (no light sampling for them, so no MIS to get wrong), and lights that cannot be hit (point and
+//! spot lights, a sun without a disc) by explicit connections at the path's surface vertices. The
+//! light of those seen directly from `x` is a Dirac delta in ω; each adds, in every sample, its own
+//! deflection pair along its exact direction with its weight (`I / d² · V`, or `E · V`).
 
 use super::{Params, pair_from};
 use crate::kernel::Plain3D;
@@ -30,25 +31,75 @@ pub fn sample_reference(
     let smp = pair_from::<Plain3D>(scene, x, omega, t, l * (4.0 * std::f64::consts::PI), p, s);
     out.push((smp.c, smp.delta, smp.weight));
     for light in &scene.lights.lights {
-        if let Light::Point {
-            position,
-            intensity,
-        } = light
-        {
-            let to = *position - x;
-            let d = to.length();
-            let wi = to / d;
-            let visible = scene.visible(x, *position);
-            let w = if visible {
-                *intensity / (d * d)
-            } else {
-                Rgb::ZERO
-            };
+        if let Some((wi, w)) = delta_light(scene, light, x, x) {
             let smp = pair_from::<Plain3D>(scene, x, -wi, t, w, p, s);
             out.push((smp.c, smp.delta, smp.weight));
         }
     }
     out
+}
+
+/// A light that only a connection can find (point, spot, sun without a disc), seen from `x`
+/// (shadow rays leave from `origin`): the unit direction towards it and what arrives, `I / d²` with
+/// the spot's falloff or the sun's irradiance, 0 when occluded; `None` for the other kinds.
+fn delta_light(scene: &Scene, light: &Light, x: DVec3, origin: DVec3) -> Option<(DVec3, Rgb)> {
+    let (wi, arriving, target) = match light {
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            let to = *position - x;
+            let d2 = to.length_squared();
+            (to / d2.sqrt(), *intensity / d2, *position)
+        }
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cos_inner,
+            cos_outer,
+        } => {
+            let to = *position - x;
+            let d2 = to.length_squared();
+            let wi = to / d2.sqrt();
+            // glTF's falloff, written out again here.
+            let t = ((-wi.dot(*direction) - cos_outer) / (cos_inner - cos_outer).max(0.001))
+                .clamp(0.0, 1.0);
+            (wi, *intensity * (t * t) / d2, *position)
+        }
+        Light::Distant {
+            direction,
+            irradiance,
+            half_angle,
+            ..
+        } if *half_angle == 0.0 => (
+            *direction,
+            *irradiance,
+            x + *direction * scene.lights.beyond(x),
+        ),
+        _ => return None,
+    };
+    let visible = scene.visible(origin, target);
+    Some((wi, if visible { arriving } else { Rgb::ZERO }))
+}
+
+/// What a ray leaving the scene along the unit `d` sees: the sky, environment maps, sun discs.
+fn escaped(scene: &Scene, d: DVec3) -> Rgb {
+    let mut l = Rgb::ZERO;
+    for light in &scene.lights.lights {
+        match light {
+            Light::Sky { radiance } => l += *radiance,
+            Light::Env(env) => l += env.map.radiance(d),
+            Light::Distant {
+                direction,
+                half_angle,
+                radiance,
+                ..
+            } if *half_angle > 0.0 && d.dot(*direction) >= half_angle.cos() => l += *radiance,
+            _ => {}
+        }
+    }
+    l
 }
 
 /// Radiance arriving at `x` from `look`: BSDF sampling only, emission counted when hit, point
@@ -66,6 +117,7 @@ pub fn radiance_plain(
     let mut d = look;
     for depth in 0..=max_bounces {
         let Some(hit) = scene.intersect(origin, d, f64::INFINITY) else {
+            l += beta * escaped(scene, d);
             break;
         };
         l += beta * scene.emitted(&hit, -d);
@@ -74,18 +126,16 @@ pub fn radiance_plain(
         }
         let bsdf = &scene.material(&hit).bsdf;
         for light in &scene.lights.lights {
-            if let Light::Point {
-                position,
-                intensity,
-            } = light
-            {
-                let to = *position - hit.p;
-                let dist = to.length();
-                let wi = to / dist;
+            // The shadow ray leaves on the side the light lies.
+            let towards = match light {
+                Light::Point { position, .. } | Light::Spot { position, .. } => *position - hit.p,
+                Light::Distant { direction, .. } => *direction,
+                _ => continue,
+            };
+            let o = hit.spawn_origin(towards);
+            if let Some((wi, arriving)) = delta_light(scene, light, hit.p, o) {
                 let f = bsdf.eval(-d, wi, hit.ng, hit.ns, Mode::Radiance);
-                if f != Rgb::ZERO && scene.visible(hit.spawn_origin(wi), *position) {
-                    l += beta * f * *intensity / (dist * dist);
-                }
+                l += beta * f * arriving;
             }
         }
         let Some(bs) = bsdf.sample(
