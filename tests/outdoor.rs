@@ -842,3 +842,39 @@ rotation_deg = 30.0
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// In flatland a sun must shine within the slice plane, and a spot light must stand in it; both are
+/// refused otherwise, naming the light.
+#[test]
+fn flatland_refuses_suns_and_spots_out_of_the_plane() {
+    let pl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
+    let mut scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    scene.add_light(Light::distant(
+        DVec3::new(0.0, 1.0, 0.5).normalize(),
+        Rgb::ONE,
+        0.0,
+    ));
+    let e = format!("{:#}", scene.prepare_flatland(pl, "z=0").unwrap_err());
+    assert!(
+        e.contains("sun direction") && e.contains("not in the slice plane z=0"),
+        "{e}"
+    );
+    let mut scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    scene.add_light(Light::Spot {
+        position: DVec3::new(0.0, 1.0, 0.3),
+        direction: -DVec3::Y,
+        intensity: Rgb::ONE,
+        cos_inner: 0.9,
+        cos_outer: 0.8,
+    });
+    let e = format!("{:#}", scene.prepare_flatland(pl, "z=0").unwrap_err());
+    assert!(
+        e.contains("spot light at (0, 1, 0.3)") && e.contains("must lie in the plane"),
+        "{e}"
+    );
+    // In the plane, both are accepted.
+    let mut scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
+    scene.add_light(Light::distant(DVec3::new(0.6, 0.8, 0.0), Rgb::ONE, 0.01));
+    scene.prepare_flatland(pl, "z=0").unwrap();
+    assert_eq!(scene.flat().lights.lights.len(), 1);
+}
