@@ -374,6 +374,7 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
         "spot-lights",
         "sun",
         "sky",
+        "textures",
         "light-sampling",
         "flatland",
     ];

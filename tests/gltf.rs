@@ -812,3 +812,93 @@ fn gltf_without_lights_names_the_ways_to_add_one() {
         r.err
     );
 }
+
+/// A quad with a 2 × 1 base-colour texture (an embedded PNG: sRGB 255 and 128), factor 0.8, under
+/// a delta sun overhead: at each texel's centre the quad reflects 0.8 × the texel (decoded to
+/// linear by the sRGB formula written out here) / π × E, to rounding; half-way between, the
+/// bilinear mean. A KHR_texture_transform offset of half the width moves the lookup by it.
+#[test]
+fn gltf_base_colour_texture_gives_each_texel_its_albedo() {
+    use ftpd3d::kernel::Radiance3D;
+    use ftpd3d::rng::Sampler;
+    use ftpd3d::transport::walk::{RadianceStats, radiance};
+    let srgb = |c: f64| {
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let mut png = Vec::new();
+    image::RgbImage::from_raw(2, 1, vec![255, 255, 255, 128, 128, 128])
+        .unwrap()
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let png_uri = format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&png)
+    );
+    for (k, offset) in [0.0, 0.5].into_iter().enumerate() {
+        let dir = temp_dir(&format!("texture{k}"));
+        let mut bin = Bin::default();
+        let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
+        // glTF's v points down: the quad's top edge (y = 1) is v = 0.
+        let uv_bytes: Vec<u8> = [[0f32, 1.], [1., 1.], [1., 0.], [0., 0.]]
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        let uv_view = bin.view(&uv_bytes);
+        bin.accessors.push(
+            json!({"bufferView": uv_view, "componentType": 5126, "count": 4, "type": "VEC2"}),
+        );
+        let uv = bin.accessors.len() - 1;
+        let idx = bin.indices(&[0, 1, 2, 0, 2, 3]);
+        let mut info = json!({"index": 0});
+        if offset != 0.0 {
+            info["extensions"] = json!({"KHR_texture_transform": {"offset": [offset, 0.0]}});
+        }
+        let extra = json!({
+            "extensionsUsed": ["KHR_texture_transform"],
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{
+                "attributes": {"POSITION": pos, "TEXCOORD_0": uv},
+                "indices": idx, "material": 0}]}],
+            "materials": [{"pbrMetallicRoughness": {
+                "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0,
+                "roughnessFactor": 1.0, "baseColorTexture": info}}],
+            "textures": [{"source": 0, "sampler": 0}],
+            "samplers": [{"wrapS": 33071, "wrapT": 33071}],
+            "images": [{"uri": png_uri}],
+        });
+        let path = bin.write_embedded(&dir, "textured.gltf", extra);
+        let mut scene = load_scene(&path).unwrap();
+        assert!(scene.features.textures);
+        assert_eq!(scene.report.texture_bytes, 2 * 16);
+        let e = 2.0;
+        scene.add_light(Light::distant(DVec3::Z, Rgb::splat(e), 0.0));
+        let (left, right) = (srgb(1.0), srgb(128.0 / 255.0));
+        let kd = |x: f64| {
+            // The offset moves u; then bilinear between the texel centres at u = 0.25 and 0.75,
+            // clamped to the edge texels outside them (the sampler clamps).
+            let t = ((x + offset - 0.25) / 0.5).clamp(0.0, 1.0);
+            0.8 * (left * (1.0 - t) + right * t)
+        };
+        let mut s = Sampler::new(5, 0, 0);
+        for x in [0.1, 0.25, 0.5, 0.75, 0.9] {
+            let q = DVec3::new(x, 0.5, 0.0);
+            let eye = DVec3::new(0.5, 0.5, 1.0);
+            let mut st = RadianceStats::default();
+            let l = radiance::<Radiance3D>(&scene, eye, (q - eye).normalize(), 4, &mut s, &mut st)
+                .total();
+            // The reflection reaches the eye off-normal, but Lambertian: the same radiance.
+            let expected = kd(x) / std::f64::consts::PI * e;
+            assert!(
+                (l.x - expected).abs() <= 1e-6 * expected,
+                "offset {offset}, x = {x}: {} vs {expected}",
+                l.x
+            );
+        }
+    }
+}

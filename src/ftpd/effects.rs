@@ -109,6 +109,11 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
                 "no radiance estimate"
             },
         ),
+        e(
+            "textures",
+            f.textures,
+            "no textured material: albedos are constant per material",
+        ),
         e("flatland", k.flatland, "3D: directions on the sphere"),
     ]
 }

@@ -124,7 +124,10 @@ pub fn radiance_plain(
         if depth == max_bounces {
             break;
         }
-        let bsdf = &scene.material(&hit).bsdf;
+        let own = &scene.material(&hit).bsdf;
+        let bsdf = &scene
+            .textured_albedo(&hit)
+            .map_or_else(|| own.clone(), |kd| own.with_kd(kd));
         for light in &scene.lights.lights {
             // The shadow ray leaves on the side the light lies.
             let towards = match light {

@@ -19,6 +19,8 @@ pub struct Features {
     pub sun: bool,
     /// Constant radiance from every escaping direction.
     pub sky: bool,
+    /// Albedos read from textures at each hit.
+    pub textures: bool,
 }
 
 impl Features {
@@ -69,6 +71,7 @@ impl fmt::Display for Features {
             (self.spot_lights, "spot-lights"),
             (self.sun, "sun"),
             (self.sky, "sky"),
+            (self.textures, "textures"),
         ]
         .iter()
         .filter(|(on, _)| *on)

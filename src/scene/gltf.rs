@@ -37,14 +37,18 @@
 
 use crate::math::Rgb;
 use crate::scene::material::Bsdf;
+use crate::scene::material::TextureRef;
 use crate::scene::material::{Material, conserve_energy};
+use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
 use crate::scene::{Camera, Light, LoadReport, Scene};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::khr_lights_punctual::Kind as LightKind;
 use ::gltf::mesh::{Mode, Semantic};
 use anyhow::{Context, anyhow, bail};
 use base64::Engine as _;
+use glam::Vec2;
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -94,6 +98,8 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         positions: Vec::new(),
         normals: Vec::new(),
         any_normals: false,
+        uvs: Vec::new(),
+        texture_requests: Vec::new(),
         triangles: Vec::new(),
         tri_material: Vec::new(),
         points: Vec::new(),
@@ -103,11 +109,14 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     loader.convert_materials(&doc);
     loader.walk(&doc)?;
     let Loader {
-        report,
-        materials,
+        mut report,
+        mut materials,
         positions,
         normals,
         any_normals,
+        uvs,
+        texture_requests,
+        buffers,
         triangles,
         tri_material,
         points,
@@ -115,6 +124,38 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         cameras,
         ..
     } = loader;
+    // Base-colour textures: each image decoded once (in parallel), the materials pointing at them.
+    let textures = if texture_requests.is_empty() {
+        TextureSet::default()
+    } else {
+        let images: Vec<usize> = {
+            let mut v: Vec<usize> = texture_requests.iter().map(|r| r.1).collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let decoded = images
+            .par_iter()
+            .map(|&i| decode_image(&doc, i, &buffers, path))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        for (m, image, wrap, transform) in texture_requests {
+            let factor = match &materials[m].bsdf {
+                Bsdf::Diffuse { kd } | Bsdf::Glossy { kd, .. } | Bsdf::Mirror { kd, .. } => *kd,
+                _ => continue,
+            };
+            materials[m].base_color = Some(TextureRef {
+                texture: images.binary_search(&image).unwrap_or(0) as u32,
+                factor,
+                wrap,
+                transform,
+            });
+        }
+        let set = TextureSet {
+            textures: decoded.into_iter().map(std::sync::Arc::new).collect(),
+        };
+        report.texture_bytes = set.bytes();
+        set
+    };
     let normals = if any_normals { normals } else { Vec::new() };
     let n_triangles = triangles.len();
     let mut scene = Scene::build(
@@ -141,6 +182,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
              non-finite coordinates)"
         );
     }
+    scene.set_textures(uvs, textures);
     scene.cameras = cameras;
     for (position, intensity) in points {
         scene.add_point_light(position, intensity);
@@ -149,6 +191,37 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         scene.add_light(light);
     }
     Ok(scene)
+}
+
+/// Decodes image `index` of the document: a data URI, a file next to the glTF, or a buffer view
+/// (PNG, JPEG, TGA, HDR). Base colour is sRGB-encoded (glTF's rule), decoded to linear.
+fn decode_image(
+    doc: &::gltf::Document,
+    index: usize,
+    buffers: &[Vec<u8>],
+    path: &Path,
+) -> anyhow::Result<Texture> {
+    let file = path.display();
+    let image = doc
+        .images()
+        .nth(index)
+        .ok_or_else(|| anyhow!("{file}: image #{index} does not exist"))?;
+    let label = named("image", index, image.name());
+    match image.source() {
+        ::gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
+            let bytes = decode_data_uri(uri).map_err(|e| anyhow!("{file}: {label}: {e}"))?;
+            Texture::from_bytes(&bytes, &format!("{file}: {label}"), Encoding::Colour)
+        }
+        ::gltf::image::Source::Uri { uri, .. } => Texture::load(
+            &path.parent().unwrap_or(Path::new(".")).join(uri),
+            Encoding::Colour,
+        )
+        .with_context(|| format!("{file}: {label}")),
+        ::gltf::image::Source::View { view, .. } => {
+            let bytes = view_bytes(&view, buffers).map_err(|e| anyhow!("{file}: {label}: {e}"))?;
+            Texture::from_bytes(bytes, &format!("{file}: {label}"), Encoding::Colour)
+        }
+    }
 }
 
 /// Checks a binary glTF's header and chunk lengths against the file size, so that a truncated file
@@ -321,6 +394,8 @@ fn named(kind: &str, index: usize, name: Option<&str>) -> String {
 struct LocalPrimitive {
     positions: Vec<Vec3>,
     normals: Option<Vec<Vec3>>,
+    /// TEXCOORD_0 with v turned up (glTF's v points down).
+    uvs: Option<Vec<Vec2>>,
     triangles: Vec<[u32; 3]>,
     material: u32,
 }
@@ -336,6 +411,10 @@ struct Loader {
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     any_normals: bool,
+    /// Texture coordinates per vertex (zero where a primitive has none).
+    uvs: Vec<Vec2>,
+    /// Base-colour textures: (material, image index, sampler wrap, transform).
+    texture_requests: Vec<(usize, usize, (Wrap, Wrap), UvTransform)>,
     triangles: Vec<[u32; 3]>,
     tri_material: Vec<u32>,
     /// Point lights: world position and intensity.
@@ -358,14 +437,44 @@ impl Loader {
             for w in warnings {
                 self.warn(format!("{label}: {w}"));
             }
-            if has_texture {
+            let base = m.pbr_metallic_roughness().base_color_texture();
+            if let Some(info) = &base {
+                let sampler = info.texture().sampler();
+                let wrap = |w: ::gltf::texture::WrappingMode| match w {
+                    ::gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+                    ::gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+                    ::gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+                };
+                let transform = info
+                    .texture_transform()
+                    .map_or_else(UvTransform::default, |t| UvTransform {
+                        offset: t.offset().map(|x| x as f64),
+                        rotation: t.rotation() as f64,
+                        scale: t.scale().map(|x| x as f64),
+                    });
+                if info.tex_coord() != 0 {
+                    self.warn(format!(
+                        "{label}: base colour texture on TEXCOORD_{}; only TEXCOORD_0 is read",
+                        info.tex_coord()
+                    ));
+                } else {
+                    self.texture_requests.push((
+                        self.materials.len(),
+                        info.texture().source().index(),
+                        (wrap(sampler.wrap_s()), wrap(sampler.wrap_t())),
+                        transform,
+                    ));
+                }
+            }
+            // Textures other than the base colour are not read yet.
+            if has_texture && (base.is_none() || other_textures(&m)) {
                 textured.push(label);
             }
             self.materials.push(material);
         }
         if let Some(first) = textured.first() {
             let w = format!(
-                "textures are ignored ({} material(s) use them, first {first}); their constant factors are used",
+                "textures other than the base colour are ignored ({} material(s) use them, first {first}); their constant factors are used",
                 textured.len()
             );
             self.warn(w);
@@ -478,6 +587,12 @@ impl Loader {
                 _ => self
                     .normals
                     .extend(std::iter::repeat_n(Vec3::ZERO, prim.positions.len())),
+            }
+            match &prim.uvs {
+                Some(uv) => self.uvs.extend_from_slice(uv),
+                None => self
+                    .uvs
+                    .extend(std::iter::repeat_n(Vec2::ZERO, prim.positions.len())),
             }
             let base = base as u32;
             self.triangles
@@ -592,9 +707,33 @@ impl Loader {
             .material()
             .index()
             .map_or(self.default_material, |i| i as u32);
+        let uvs = match prim.get(&Semantic::TexCoords(0)) {
+            Some(acc)
+                if acc.dimensions() == Dimensions::Vec2 && acc.data_type() == DataType::F32 =>
+            {
+                let raw = accessor_bytes(&acc, &self.buffers)?;
+                let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                let uv: Vec<Vec2> = raw
+                    .chunks_exact(8)
+                    .map(|c| Vec2::new(f(&c[0..4]), 1.0 - f(&c[4..8])))
+                    .collect();
+                (uv.len() == n).then_some(uv)
+            }
+            Some(acc) => {
+                self.warn(format!(
+                    "{label}: TEXCOORD_0 accessor #{} is {} {}, not VEC2 f32; textures ignored on it",
+                    acc.index(),
+                    dims_name(acc.dimensions()),
+                    type_name(acc.data_type())
+                ));
+                None
+            }
+            None => None,
+        };
         Ok(LocalPrimitive {
             positions,
             normals,
+            uvs,
             triangles,
             material,
         })
@@ -1002,11 +1141,24 @@ pub fn map_pbr(name: &str, p: &PbrParams) -> Material {
         name: name.to_string(),
         bsdf,
         emission,
+        base_color: None,
     }
 }
 
 fn rgb3(c: [f32; 3]) -> Rgb {
     Rgb::new(c[0] as f64, c[1] as f64, c[2] as f64)
+}
+
+/// Whether `m` uses a texture other than the base colour (not read yet).
+fn other_textures(m: &::gltf::Material) -> bool {
+    m.pbr_metallic_roughness()
+        .metallic_roughness_texture()
+        .is_some()
+        || m.emissive_texture().is_some()
+        || m.normal_texture().is_some()
+        || m.occlusion_texture().is_some()
+        || m.transmission()
+            .is_some_and(|t| t.transmission_texture().is_some())
 }
 
 /// Converts a glTF material: the material, its warnings, and whether it uses any texture.

@@ -17,6 +17,7 @@
 //! warning.
 
 use crate::math::Rgb;
+use crate::scene::texture::{UvTransform, Wrap};
 
 /// A surface's scattering model.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +44,37 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Emitted radiance (front side of the triangle only).
     pub emission: Rgb,
+    /// A texture whose colour (times its factor) replaces the Lambertian albedo `kd` at each hit.
+    pub base_color: Option<TextureRef>,
+}
+
+/// A material's reference to one of the scene's textures.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`crate::scene::Scene::textures`].
+    pub texture: u32,
+    /// Multiplies the texel (glTF's `baseColorFactor`).
+    pub factor: Rgb,
+    pub wrap: (Wrap, Wrap),
+    pub transform: UvTransform,
+}
+
+impl Bsdf {
+    /// The same model with its Lambertian albedo replaced (a texel); models without one are
+    /// returned as they are. Out of line: only textured scenes call it.
+    #[inline(never)]
+    pub fn with_kd(&self, kd: Rgb) -> Bsdf {
+        match self {
+            Bsdf::Diffuse { .. } => Bsdf::Diffuse { kd },
+            Bsdf::Glossy { ks, exponent, .. } => Bsdf::Glossy {
+                kd,
+                ks: *ks,
+                exponent: *exponent,
+            },
+            Bsdf::Mirror { ks, .. } => Bsdf::Mirror { kd, ks: *ks },
+            other => other.clone(),
+        }
+    }
 }
 
 impl Material {
@@ -53,6 +85,7 @@ impl Material {
                 kd: Rgb::splat(0.5),
             },
             emission: Rgb::ZERO,
+            base_color: None,
         }
     }
 
@@ -61,6 +94,7 @@ impl Material {
             name: name.into(),
             bsdf: Bsdf::Diffuse { kd },
             emission: Rgb::ZERO,
+            base_color: None,
         }
     }
 }

@@ -99,6 +99,8 @@ pub struct LoadReport {
     pub parse_seconds: f64,
     /// Seconds Embree spent building the BVH.
     pub bvh_seconds: f64,
+    /// Bytes the decoded textures take.
+    pub texture_bytes: usize,
 }
 
 /// The shading normals a loader hands to [`Scene::from_parts`].
@@ -141,6 +143,11 @@ pub struct Scene {
     /// that a hit reads one record instead of the index and three normal entries; empty when the
     /// scene has no shading normals.
     tri_shading: Vec<[Vec3; 3]>,
+    /// Texture coordinates per vertex (same indexing as `positions`; v up), empty when no material
+    /// has a texture: then hits never look.
+    uvs: Vec<glam::Vec2>,
+    /// The decoded textures that materials refer to ([`Material::base_color`]).
+    pub textures: crate::scene::texture::TextureSet,
     /// The slice plane of a flatland run with its light cross-sections and 2D materials, set by
     /// [`Scene::prepare_flatland`]; `None` for 3D runs.
     pub flat: Option<FlatScene>,
@@ -183,6 +190,9 @@ pub struct Hit {
     /// `p` lies within twice the error bound of an edge of its triangle, where other surfaces may
     /// meet it (see [`Scene::spawn_origin_from`]).
     pub near_edge: bool,
+    /// Embree's barycentric coordinates of the hit (weights of the triangle's second and third
+    /// vertex), for texture coordinates.
+    pub bary: [f32; 2],
 }
 
 impl Hit {
@@ -362,6 +372,8 @@ impl Scene {
             extent,
             tri_hit,
             tri_shading,
+            uvs: Vec::new(),
+            textures: Default::default(),
             flat: None,
             accel,
         })
@@ -376,6 +388,47 @@ impl Scene {
     /// The unit geometric normals of all triangles, in order (see [`Scene::tri_normal`]).
     pub fn tri_normals(&self) -> impl ExactSizeIterator<Item = DVec3> + '_ {
         self.tri_hit.iter().map(|t| t.ng)
+    }
+
+    /// Sets per-vertex texture coordinates (v up) and the textures materials refer to. Ignored
+    /// (left without) when `uvs` does not have one entry per vertex or no material has a texture.
+    pub fn set_textures(
+        &mut self,
+        uvs: Vec<glam::Vec2>,
+        textures: crate::scene::texture::TextureSet,
+    ) {
+        let used = self.materials.iter().any(|m| m.base_color.is_some());
+        if used && uvs.len() == self.positions.len() {
+            self.uvs = uvs;
+            self.textures = textures;
+            self.features.textures = true;
+        }
+    }
+
+    /// The Lambertian albedo at a hit of a material with a base-colour texture (its factor × the
+    /// texel, bilinear at the interpolated UV); `None` for untextured materials, which keep their
+    /// own. Scenes without textures return at the first test.
+    #[inline(always)]
+    pub fn textured_albedo(&self, hit: &Hit) -> Option<Rgb> {
+        if self.uvs.is_empty() {
+            return None;
+        }
+        self.texel_albedo(hit)
+    }
+
+    /// [`textured_albedo`](Self::textured_albedo) in a scene with textures: kept out of line, so
+    /// that the hit code of scenes without stays as small as it was.
+    #[inline(never)]
+    fn texel_albedo(&self, hit: &Hit) -> Option<Rgb> {
+        let tex = self.materials[hit.material as usize].base_color.as_ref()?;
+        let [a, b, c] = self.triangles[hit.prim as usize].map(|v| self.uvs[v as usize]);
+        let [u, v] = hit.bary.map(|x| x as f64);
+        let w = 1.0 - u - v;
+        let uv = |k: usize| w * a[k] as f64 + u * b[k] as f64 + v * c[k] as f64;
+        // The transform acts in glTF's UV space, whose v points down.
+        let (s, t) = tex.transform.apply(uv(0), 1.0 - uv(1));
+        let texture = &self.textures.textures[tex.texture as usize];
+        Some(tex.factor * texture.rgb(s, 1.0 - t, tex.wrap))
     }
 
     /// True when hits interpolate shading normals (the file gave normals).
@@ -569,6 +622,7 @@ impl Scene {
             material: th.material,
             eps: eps.max(1e-12),
             near_edge,
+            bary: [raw.u, raw.v],
         }
         .with_t_from(o, d)
     }

@@ -131,8 +131,24 @@ impl Texture {
         let img = reader
             .decode()
             .with_context(|| format!("{name}: cannot decode (PNG, JPEG, TGA, HDR or EXR)"))?;
-        let (w, h) = (img.width() as usize, img.height() as usize);
         // 8-bit and 16-bit images are encoded; float images (HDR) are linear.
+        Texture::from_image(img, &name, encoding)
+    }
+
+    /// Decodes an image held in memory (PNG, JPEG, TGA, HDR), e.g. a glTF buffer view.
+    pub fn from_bytes(bytes: &[u8], name: &str, encoding: Encoding) -> anyhow::Result<Texture> {
+        let img = image::load_from_memory(bytes)
+            .with_context(|| format!("{name}: cannot decode (PNG, JPEG, TGA or HDR)"))?;
+        Texture::from_image(img, name, encoding)
+    }
+
+    /// Linear RGBA texels of a decoded image (8- and 16-bit colour textures are sRGB).
+    fn from_image(
+        img: image::DynamicImage,
+        name: &str,
+        encoding: Encoding,
+    ) -> anyhow::Result<Texture> {
+        let (w, h) = (img.width() as usize, img.height() as usize);
         let encoded = !matches!(
             img.color(),
             image::ColorType::Rgb32F | image::ColorType::Rgba32F
@@ -149,7 +165,7 @@ impl Texture {
             .pixels()
             .map(|p| [decode(p[0]), decode(p[1]), decode(p[2]), p[3]])
             .collect();
-        Texture::new(w, h, texels, &name)
+        Texture::new(w, h, texels, name)
     }
 
     /// Bytes the texels take.

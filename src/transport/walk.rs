@@ -99,6 +99,14 @@ pub fn walk_counted<K: Kernel>(
         let u_lobe = s.next_f64();
         let u = s.next_2d();
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
+        let textured;
+        let bsdf = match scene.textured_albedo(&hit) {
+            Some(kd) => {
+                textured = bsdf.with_kd(kd);
+                &textured
+            }
+            None => bsdf,
+        };
         let sampled = bsdf.sample_in(sp, lobe, -d, hit.ng, hit.ns, u_lobe, u, s, Mode::Importance);
         let Some(bs) = sampled else {
             return (None, rays);
@@ -236,6 +244,14 @@ pub fn radiance<K: Kernel>(
             break;
         }
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
+        let textured;
+        let bsdf = match scene.textured_albedo(&hit) {
+            Some(kd) => {
+                textured = bsdf.with_kd(kd);
+                &textured
+            }
+            None => bsdf,
+        };
         let wo = -d;
         // Next-event estimation on surfaces with a non-delta lobe.
         if !bsdf.is_delta() && !lights_empty {
