@@ -3,8 +3,8 @@
 //! to its mesh's positions and normals (normals with the inverse transpose, renormalised; triangle
 //! winding flipped where the transform mirrors), and a mesh used by several nodes is copied once per
 //! node. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are read, indexed or not; points and
-//! lines are skipped with a warning. Buffers are read by this module (no image decoding: textures are
-//! not used).
+//! lines are skipped with a warning. Buffers are read by this module; images (base-colour textures)
+//! are decoded by `crate::scene::texture`.
 //!
 //! Metallic-roughness mapping (base = `baseColorFactor` RGB, m = `metallicFactor`, r =
 //! `roughnessFactor`, all clamped to [0, 1]; α = r², Phong exponent n = 2/α² − 2 clamped to
@@ -21,9 +21,12 @@
 //!
 //! `kd + ks` is scaled down to 1 where it exceeds it (a white non-metal gives 1 + 0.04): the additive
 //! model has no Fresnel weighting, so this is part of the mapping and not reported. A Lambertian of
-//! albedo 0 becomes black. Textures (base colour, metallic-roughness, emissive, normal, occlusion,
-//! transmission) are ignored with one warning per file, their factors are used; alpha, `doubleSided`
-//! (opaque surfaces are two-sided anyway) and other extensions are ignored.
+//! albedo 0 becomes black. The base-colour texture (TEXCOORD_0, the sampler's wrap modes,
+//! `KHR_texture_transform`) multiplies the Lambertian albedo at each hit (the material's own `kd`,
+//! which holds `baseColorFactor`, times the sRGB-decoded texel). Other textures (metallic-roughness,
+//! emissive, normal, occlusion, transmission) are ignored with one warning per file, their factors
+//! are used; alpha, `doubleSided` (opaque surfaces are two-sided anyway) and other extensions are
+//! ignored.
 //!
 //! Lights (`KHR_lights_punctual`): a point light becomes an isotropic point light at the node's world
 //! position with intensity `color × intensity`. glTF gives that intensity in candela (lm/sr); it is
