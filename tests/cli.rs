@@ -566,6 +566,29 @@ fn far_cameras_reach_the_scene_and_blank_runs_are_warned_about() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Writes `f.exr` in `dir`: the Cornell box's z = 0 slice, 16 cells, 8 samples per cell.
+fn write_small_cornell_field(dir: &std::path::Path) {
+    let cornell = scene_path("cornell_mirror.obj");
+    let r = crate::support::ftpd3d(
+        Some(dir),
+        &[
+            "--scene",
+            cornell.to_str().unwrap(),
+            "--slice",
+            "z=0",
+            "--res",
+            "16",
+            "--spp",
+            "8",
+            "--quiet",
+            "--no-png",
+            "-o",
+            "f.exr",
+        ],
+    );
+    assert!(r.ok, "{}", r.err);
+}
+
 /// The README's Python example (OpenEXR 3, `separate_channels=True`) reads part 0 of a field.
 /// Needs python3 with the OpenEXR and numpy packages: CI installs them (`.ci/run`) and the test
 /// fails there without them; elsewhere it says it was skipped.
@@ -589,25 +612,7 @@ fn readme_python_example_reads_part_0() {
     let code = &code[code.find("```python\n").unwrap() + 10..];
     let code = &code[..code.find("```").unwrap()];
     let dir = crate::support::temp_dir("cli", "python_example");
-    let cornell = scene_path("cornell_mirror.obj");
-    let r = crate::support::ftpd3d(
-        Some(&dir),
-        &[
-            "--scene",
-            cornell.to_str().unwrap(),
-            "--slice",
-            "z=0",
-            "--res",
-            "16",
-            "--spp",
-            "8",
-            "--quiet",
-            "--no-png",
-            "-o",
-            "f.exr",
-        ],
-    );
-    assert!(r.ok, "{}", r.err);
+    write_small_cornell_field(&dir);
     std::fs::write(dir.join("example.py"), code).unwrap();
     let out = std::process::Command::new("python3")
         .current_dir(&dir)
@@ -681,25 +686,7 @@ fn freeimage_reads_part_0_through_imageio() {
         return;
     }
     let dir = crate::support::temp_dir("cli", "freeimage");
-    let cornell = scene_path("cornell_mirror.obj");
-    let r = crate::support::ftpd3d(
-        Some(&dir),
-        &[
-            "--scene",
-            cornell.to_str().unwrap(),
-            "--slice",
-            "z=0",
-            "--res",
-            "16",
-            "--spp",
-            "8",
-            "--quiet",
-            "--no-png",
-            "-o",
-            "f.exr",
-        ],
-    );
-    assert!(r.ok, "{}", r.err);
+    write_small_cornell_field(&dir);
     // Shape, then every pixel's R, G, B as the bits of the f32, rows from the top.
     let script = "import sys, numpy, imageio.v2 as iio\n\
                   im = iio.imread(sys.argv[1], format='EXR-FI')\n\
