@@ -93,9 +93,10 @@ fn escaped(scene: &Scene, d: DVec3) -> Rgb {
             Light::Distant {
                 direction,
                 half_angle,
+                cos_max,
                 radiance,
                 ..
-            } if *half_angle > 0.0 && d.dot(*direction) >= half_angle.cos() => l += *radiance,
+            } if *half_angle > 0.0 && d.dot(*direction) >= *cos_max => l += *radiance,
             _ => {}
         }
     }
@@ -125,9 +126,14 @@ pub fn radiance_plain(
             break;
         }
         let own = &scene.material(&hit).bsdf;
-        let bsdf = &scene
-            .textured_albedo(&hit)
-            .map_or_else(|| own.clone(), |kd| own.with_kd(kd));
+        let textured;
+        let bsdf = match scene.textured_albedo(&hit) {
+            Some(kd) => {
+                textured = own.with_kd(kd);
+                &textured
+            }
+            None => own,
+        };
         for light in &scene.lights.lights {
             // The shadow ray leaves on the side the light lies.
             let towards = match light {
