@@ -421,7 +421,7 @@ impl Scene {
     #[inline(never)]
     fn texel_albedo(&self, hit: &Hit) -> Option<Rgb> {
         let tex = self.materials[hit.material as usize].base_color.as_ref()?;
-        let [a, b, c] = self.triangles[hit.prim as usize].map(|v| self.uvs[v as usize]);
+        let [a, b, c] = self.corner_uvs(hit.prim);
         let [u, v] = hit.bary.map(|x| x as f64);
         let w = 1.0 - u - v;
         let uv = |k: usize| w * a[k] as f64 + u * b[k] as f64 + v * c[k] as f64;
@@ -429,6 +429,13 @@ impl Scene {
         let (s, t) = tex.transform.apply(uv(0), 1.0 - uv(1));
         let texture = &self.textures.textures[tex.texture as usize];
         Some(tex.factor * texture.rgb(s, 1.0 - t, tex.wrap))
+    }
+
+    /// The texture coordinates (v up) of triangle `prim`'s three corners; only called in scenes
+    /// with textures.
+    #[inline]
+    pub fn corner_uvs(&self, prim: u32) -> [glam::Vec2; 3] {
+        self.triangles[prim as usize].map(|v| self.uvs[v as usize])
     }
 
     /// True when hits interpolate shading normals (the file gave normals).
