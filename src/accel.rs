@@ -128,6 +128,81 @@ fn check(dev: sys::RTCDevice, during: &'static str) -> Result<(), AccelError> {
     Ok(())
 }
 
+/// Gives `scene` a triangle geometry of `triangles` over `positions` with id `id`, the vertex
+/// and index data copied into buffers Embree allocates; with `filter_data`, the cut-out filters
+/// and that pointer as the geometry's user data (a live [`Cutouts`] the caller keeps alive).
+fn attach(
+    dev: sys::RTCDevice,
+    scene: sys::RTCScene,
+    id: u32,
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    filter_data: Option<*mut c_void>,
+) -> Result<(), AccelError> {
+    // SAFETY: dev is live; the geometry is released after being attached (the scene keeps a
+    // reference), or below on error.
+    let geom = unsafe { sys::rtcNewGeometry(dev, sys::RTCGeometryType_RTC_GEOMETRY_TYPE_TRIANGLE) };
+    check(dev, "rtcNewGeometry")?;
+    // SAFETY: Embree allocates a buffer of positions.len() items of 12 bytes (plus its own
+    // padding) and returns a pointer to it, or null on failure (checked).
+    let vbuf = unsafe {
+        sys::rtcSetNewGeometryBuffer(
+            geom,
+            sys::RTCBufferType_RTC_BUFFER_TYPE_VERTEX,
+            0,
+            sys::RTCFormat_RTC_FORMAT_FLOAT3,
+            12,
+            positions.len(),
+        )
+    } as *mut f32;
+    check(dev, "vertex buffer")?;
+    // SAFETY: as above, triangles.len() items of 3 u32.
+    let ibuf = unsafe {
+        sys::rtcSetNewGeometryBuffer(
+            geom,
+            sys::RTCBufferType_RTC_BUFFER_TYPE_INDEX,
+            0,
+            sys::RTCFormat_RTC_FORMAT_UINT3,
+            12,
+            triangles.len(),
+        )
+    } as *mut u32;
+    check(dev, "index buffer")?;
+    if vbuf.is_null() || ibuf.is_null() {
+        // SAFETY: geom is live and not yet attached.
+        unsafe { sys::rtcReleaseGeometry(geom) };
+        return Err(AccelError::Embree {
+            code: 0,
+            during: "buffer allocation",
+            message: "null buffer".into(),
+        });
+    }
+    // SAFETY: vbuf has room for positions.len()*3 f32 and ibuf for triangles.len()*3 u32
+    // (requested above); the sources are plain arrays of f32/u32 of exactly that length, and
+    // the regions cannot overlap (Embree's fresh allocations).
+    unsafe {
+        std::ptr::copy_nonoverlapping(positions.as_ptr() as *const f32, vbuf, positions.len() * 3);
+        std::ptr::copy_nonoverlapping(triangles.as_ptr() as *const u32, ibuf, triangles.len() * 3);
+    }
+    if let Some(user) = filter_data {
+        // SAFETY: geom is live; `user` points to a `Cutouts` that the caller keeps alive and
+        // unmoved as long as the scene exists, which is what `cutout_filter` reads.
+        unsafe {
+            sys::rtcSetGeometryUserData(geom, user);
+            sys::rtcSetGeometryIntersectFilterFunction(geom, Some(cutout_filter));
+            sys::rtcSetGeometryOccludedFilterFunction(geom, Some(cutout_filter));
+        }
+    }
+    // SAFETY: geom and scene are live; after attaching, the scene holds its own reference, so
+    // releasing ours is the documented pattern.
+    unsafe {
+        sys::rtcCommitGeometry(geom);
+        sys::rtcAttachGeometryByID(scene, geom, id);
+        sys::rtcReleaseGeometry(geom);
+    }
+    check(dev, "geometry commit")
+}
+
 /// One hit returned by [`Accel::intersect`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RawHit {
@@ -143,6 +218,74 @@ pub struct RawHit {
 /// A committed Embree scene of triangles; immutable and shareable across threads.
 pub struct Accel {
     scene: sys::RTCScene,
+    /// With cut-outs: geometry 0 holds the opaque triangles, geometry 1 those that may be cut
+    /// out, with the filter functions; `None` (one geometry of all triangles, no filter) otherwise.
+    /// Boxed, so that the address Embree holds as the geometry's user data stays put; dropped after
+    /// the scene (`Drop` releases the scene before the fields go).
+    cutouts: Option<Box<Cutouts>>,
+}
+
+/// Decides whether a candidate hit on a cut-out triangle is rejected (the ray goes on): the
+/// triangle's index among the cut-out ones, the hit's barycentric (u, v), and a number in [0, 1)
+/// hashed from the ray and the triangle for stochastic coverage. Must not panic.
+pub type CutTest = dyn Fn(u32, [f32; 2], f64) -> bool + Send + Sync;
+
+/// The two geometries' triangle numbers and the cut-out test.
+struct Cutouts {
+    /// Index (in the buffer given to [`Accel::with_cutouts`]) of geometry 0's triangle `primID`.
+    opaque: Vec<u32>,
+    /// Likewise for geometry 1, the cut-out triangles.
+    cut: Vec<u32>,
+    /// Until set ([`Accel::set_cut_test`]) the cut-out triangles are opaque.
+    test: Option<Box<CutTest>>,
+}
+
+impl Cutouts {
+    #[inline]
+    fn global(&self, geom: u32, prim: u32) -> u32 {
+        let map = if geom == 0 { &self.opaque } else { &self.cut };
+        map.get(prim as usize).copied().unwrap_or(prim)
+    }
+}
+
+/// Embree's intersection and occlusion filter of the cut-out geometry: rejects the candidate hits
+/// the test says are cut out. Reads the ray and hit in Embree's SOA layout for `N` rays
+/// (`RTCRayN_*` / `RTCHitN_*` in rtcore_ray.h: field k of ray i at word k·N + i).
+unsafe extern "C" fn cutout_filter(args: *const sys::RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes valid arguments for the duration of the call; the geometry's user
+    // data is the `Cutouts` box owned by the `Accel` whose scene is being queried (it outlives
+    // every query, and nothing mutates it while queries run: `set_cut_test` takes `&mut Accel`).
+    let (args, cut) = unsafe { (&*args, &*((*args).geometryUserPtr as *const Cutouts)) };
+    let Some(test) = cut.test.as_deref() else {
+        return;
+    };
+    let n = args.N as usize;
+    let (ray, hit) = (args.ray as *const f32, args.hit as *const f32);
+    for i in 0..n {
+        // SAFETY: `valid` has N entries, the ray N × 12 words and the hit N × (7 + instance
+        // levels) words; the indices below stay within the first 7 fields of each.
+        unsafe {
+            if *args.valid.add(i) == 0 {
+                continue;
+            }
+            let word = |p: *const f32, k: usize| *p.add(k * n + i);
+            let prim = word(hit, 5).to_bits();
+            let bary = [word(hit, 3), word(hit, 4)];
+            let global = cut.cut.get(prim as usize).copied().unwrap_or(u32::MAX);
+            let xi = crate::rng::hash_unit(&[
+                word(ray, 0).to_bits(),
+                word(ray, 1).to_bits(),
+                word(ray, 2).to_bits(),
+                word(ray, 4).to_bits(),
+                word(ray, 5).to_bits(),
+                word(ray, 6).to_bits(),
+                global,
+            ]);
+            if test(prim, bary, xi) {
+                *args.valid.add(i) = 0;
+            }
+        }
+    }
 }
 
 // SAFETY: a committed Embree scene is read-only; Embree documents rtcIntersect1/rtcOccluded1 as safe
@@ -163,6 +306,19 @@ impl Accel {
     /// into buffers Embree allocates, so the inputs need not outlive the scene. Triangles must index
     /// valid vertices (the scene loader guarantees it and drops degenerate ones).
     pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Accel, AccelError> {
+        Accel::with_cutouts(positions, triangles, &[])
+    }
+
+    /// As [`Accel::new`], with the triangles whose indices are in `cutout` (strictly increasing)
+    /// in a geometry of their own that has Embree's intersection and occlusion filters, so that
+    /// rays pass through them where [`Accel::set_cut_test`] says; the other triangles' geometry
+    /// has no filter and costs what it did. Hits and point queries report indices into
+    /// `triangles` either way.
+    pub fn with_cutouts(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        cutout: &[u32],
+    ) -> Result<Accel, AccelError> {
         if triangles.len() >= u32::MAX as usize || positions.len() >= u32::MAX as usize {
             return Err(AccelError::TooLarge(triangles.len(), positions.len()));
         }
@@ -172,86 +328,75 @@ impl Accel {
                 .flatten()
                 .all(|&i| (i as usize) < positions.len())
         );
+        debug_assert!(cutout.windows(2).all(|w| w[0] < w[1]));
+        debug_assert!(cutout.iter().all(|&i| (i as usize) < triangles.len()));
         let dev = device()?;
         // SAFETY: dev is a live device; the scene is released by Drop (or below on error).
         let scene = unsafe { sys::rtcNewScene(dev) };
         check(dev, "rtcNewScene")?;
-        let accel = Accel { scene };
+        let mut accel = Accel {
+            scene,
+            cutouts: None,
+        };
         // SAFETY: scene is live. Robust mode avoids optimisations that can let rays slip through
         // shared edges and vertices, which the FTPD walks cross often.
         unsafe {
             sys::rtcSetSceneFlags(scene, sys::RTCSceneFlags_RTC_SCENE_FLAG_ROBUST);
             sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality_RTC_BUILD_QUALITY_HIGH);
         }
-        if !triangles.is_empty() {
-            // SAFETY: dev is live; the geometry is released after being attached (the scene keeps a
-            // reference).
-            let geom = unsafe {
-                sys::rtcNewGeometry(dev, sys::RTCGeometryType_RTC_GEOMETRY_TYPE_TRIANGLE)
+        if cutout.is_empty() {
+            if !triangles.is_empty() {
+                attach(dev, scene, 0, positions, triangles, None)?;
+            }
+        } else {
+            let mut is_cut = vec![false; triangles.len()];
+            for &i in cutout {
+                is_cut[i as usize] = true;
+            }
+            let opaque: Vec<u32> = (0..triangles.len() as u32)
+                .filter(|&i| !is_cut[i as usize])
+                .collect();
+            let pick = |ids: &[u32]| -> Vec<[u32; 3]> {
+                ids.iter().map(|&i| triangles[i as usize]).collect()
             };
-            check(dev, "rtcNewGeometry")?;
-            // SAFETY: Embree allocates a buffer of positions.len() items of 12 bytes (plus its own
-            // padding) and returns a pointer to it, or null on failure (checked).
-            let vbuf = unsafe {
-                sys::rtcSetNewGeometryBuffer(
-                    geom,
-                    sys::RTCBufferType_RTC_BUFFER_TYPE_VERTEX,
-                    0,
-                    sys::RTCFormat_RTC_FORMAT_FLOAT3,
-                    12,
-                    positions.len(),
-                )
-            } as *mut f32;
-            check(dev, "vertex buffer")?;
-            // SAFETY: as above, triangles.len() items of 3 u32.
-            let ibuf = unsafe {
-                sys::rtcSetNewGeometryBuffer(
-                    geom,
-                    sys::RTCBufferType_RTC_BUFFER_TYPE_INDEX,
-                    0,
-                    sys::RTCFormat_RTC_FORMAT_UINT3,
-                    12,
-                    triangles.len(),
-                )
-            } as *mut u32;
-            check(dev, "index buffer")?;
-            if vbuf.is_null() || ibuf.is_null() {
-                // SAFETY: geom is live and not yet attached.
-                unsafe { sys::rtcReleaseGeometry(geom) };
-                return Err(AccelError::Embree {
-                    code: 0,
-                    during: "buffer allocation",
-                    message: "null buffer".into(),
-                });
+            let cuts = Box::new(Cutouts {
+                opaque: opaque.clone(),
+                cut: cutout.to_vec(),
+                test: None,
+            });
+            if !opaque.is_empty() {
+                attach(dev, scene, 0, positions, &pick(&opaque), None)?;
             }
-            // SAFETY: vbuf has room for positions.len()*3 f32 and ibuf for triangles.len()*3 u32
-            // (requested above); the sources are plain arrays of f32/u32 of exactly that length, and
-            // the regions cannot overlap (Embree's fresh allocations).
-            unsafe {
-                std::ptr::copy_nonoverlapping(
-                    positions.as_ptr() as *const f32,
-                    vbuf,
-                    positions.len() * 3,
-                );
-                std::ptr::copy_nonoverlapping(
-                    triangles.as_ptr() as *const u32,
-                    ibuf,
-                    triangles.len() * 3,
-                );
-            }
-            // SAFETY: geom and scene are live; after attaching, the scene holds its own reference,
-            // so releasing ours is the documented pattern.
-            unsafe {
-                sys::rtcCommitGeometry(geom);
-                sys::rtcAttachGeometry(scene, geom);
-                sys::rtcReleaseGeometry(geom);
-            }
-            check(dev, "geometry commit")?;
+            let user = &*cuts as *const Cutouts as *mut c_void;
+            accel.cutouts = Some(cuts);
+            attach(dev, scene, 1, positions, &pick(cutout), Some(user))?;
         }
         // SAFETY: scene is live and fully described.
         unsafe { sys::rtcCommitScene(scene) };
         check(dev, "rtcCommitScene")?;
         Ok(accel)
+    }
+
+    /// Sets the test that decides, per candidate hit, whether a cut-out triangle is absent there
+    /// (see [`CutTest`]); no effect on a scene built without cut-outs.
+    pub fn set_cut_test(&mut self, test: Box<CutTest>) {
+        if let Some(c) = self.cutouts.as_mut() {
+            c.test = Some(test);
+        }
+    }
+
+    /// True when the scene was built with cut-out triangles.
+    pub fn has_cutouts(&self) -> bool {
+        self.cutouts.is_some()
+    }
+
+    /// The index into the triangles given at build time of triangle `prim` of geometry `geom`.
+    #[inline]
+    fn global(&self, geom: u32, prim: u32) -> u32 {
+        match &self.cutouts {
+            None => prim,
+            Some(c) => c.global(geom, prim),
+        }
     }
 
     /// Closest hit along `o + t d` for t in (tnear, tfar), or `None`.
@@ -288,9 +433,9 @@ impl Accel {
             // SAFETY: as above; a null argument struct selects Embree 4's default query arguments.
             unsafe { sys::rtcIntersect1(self.scene, rh, std::ptr::null_mut()) };
         }
-        (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
+        (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then(|| RawHit {
             t: rh.ray.tfar,
-            prim: rh.hit.primID,
+            prim: self.global(rh.hit.geomID, rh.hit.primID),
             u: rh.hit.u,
             v: rh.hit.v,
         })
@@ -326,6 +471,8 @@ pub const MAX_NEAR: usize = 64;
 #[derive(Clone, Copy, Debug)]
 pub struct Near {
     prims: [u32; MAX_NEAR],
+    /// The geometry of each (0, or 1 for cut-out triangles), until mapped to triangle indices.
+    geoms: [u32; MAX_NEAR],
     len: usize,
 }
 
@@ -340,9 +487,16 @@ impl Near {
 unsafe extern "C" fn collect_near(args: *mut sys::RTCPointQueryFunctionArguments) -> bool {
     // SAFETY: Embree passes valid arguments for the duration of the call; their `userPtr` is the
     // `Near` that `triangles_near` handed to rtcPointQuery, live and used by nobody else meanwhile.
-    let (prim, near) = unsafe { ((*args).primID, &mut *((*args).userPtr as *mut Near)) };
+    let (prim, geom, near) = unsafe {
+        (
+            (*args).primID,
+            (*args).geomID,
+            &mut *((*args).userPtr as *mut Near),
+        )
+    };
     if near.len < MAX_NEAR {
         near.prims[near.len] = prim;
+        near.geoms[near.len] = geom;
         near.len += 1;
     }
     false
@@ -354,6 +508,7 @@ impl Accel {
     pub fn triangles_near(&self, p: Vec3, radius: f32) -> Near {
         let mut near = Near {
             prims: [0; MAX_NEAR],
+            geoms: [0; MAX_NEAR],
             len: 0,
         };
         if !(p.is_finite() && radius.is_finite() && radius >= 0.0) {
@@ -393,6 +548,11 @@ impl Accel {
                 &mut near as *mut Near as *mut c_void,
             )
         };
+        if self.cutouts.is_some() {
+            for k in 0..near.len {
+                near.prims[k] = self.global(near.geoms[k], near.prims[k]);
+            }
+        }
         near
     }
 }

@@ -13,6 +13,17 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// A number in [0, 1) that is a fixed function of `words` (SplitMix64 over them): for decisions
+/// that must be random across rays but the same wherever the same ray is traced, on any thread
+/// (stochastic cut-outs, keyed by the ray's bits and the triangle).
+#[inline]
+pub fn hash_unit(words: &[u32]) -> f64 {
+    let h = words
+        .iter()
+        .fold(0x2545_F491_4F6C_DD1D_u64, |h, &w| mix64(h ^ w as u64));
+    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
 /// A uniform random number source for one sample stream.
 pub struct Sampler {
     rng: Pcg64Mcg,

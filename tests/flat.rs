@@ -91,7 +91,7 @@ fn zoo(pl: &Flatland) -> Scene {
         name: name.into(),
         bsdf,
         emission,
-        base_color: None,
+        maps: Default::default(),
     };
     let materials = vec![
         Material::diffuse("floor", Rgb::splat(0.6)),
@@ -329,7 +329,7 @@ fn furnace(le: Rgb, a: f64) -> Scene {
         name: "wall".into(),
         bsdf: Bsdf::Diffuse { kd: Rgb::splat(a) },
         emission: le,
-        base_color: None,
+        maps: Default::default(),
     };
     let mut scene = extruded(&z0(), &[(pts, true, 0)], vec![wall]);
     scene.prepare_flatland(z0(), "z=0").unwrap();

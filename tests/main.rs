@@ -3,6 +3,7 @@ mod bad_input;
 mod bsdf;
 mod cli;
 mod converge;
+mod cutout;
 mod driver;
 mod flat;
 mod ftpd;

@@ -631,7 +631,7 @@ fn stability_phong_exponents_up_to_1e6_reach_the_mirror() {
             name: "plane".into(),
             bsdf,
             emission: Rgb::ZERO,
-            base_color: None,
+            maps: Default::default(),
         };
         build(
             "plane",
@@ -727,7 +727,7 @@ fn stability_total_internal_reflection_is_capped_and_counted() {
             tint: Rgb::ONE,
         },
         emission: Rgb::ZERO,
-        base_color: None,
+        maps: Default::default(),
     };
     let slab = build("slab", pos, tris, vec![0; n], vec![glass]);
     let p = params(Weighting::Unweighted, 5.0, 10.0, 2.0, 16);
@@ -890,7 +890,7 @@ fn stability_unlit_regions_are_invalid_never_nan() {
         name: "light".into(),
         bsdf: Bsdf::Black,
         emission: Rgb::splat(10.0),
-        base_color: None,
+        maps: Default::default(),
     };
     let scene = build(
         "two boxes",

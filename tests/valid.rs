@@ -266,7 +266,7 @@ fn furnace(a: f64, le: f64) -> Scene {
         name: "wall".into(),
         bsdf: Bsdf::Diffuse { kd: Rgb::splat(a) },
         emission: Rgb::splat(le),
-        base_color: None,
+        maps: Default::default(),
     };
     let scene = build("furnace", p, t, vec![0; n], vec![wall]);
     assert!(scene.triangles.len() >= 1000);
@@ -571,7 +571,7 @@ fn valid_area_light_on_plane_matches_lambert_and_quadrature() {
         name: "light".into(),
         bsdf: Bsdf::Black,
         emission: Rgb::splat(le),
-        base_color: None,
+        maps: Default::default(),
     };
     let scene = build(
         "area",
@@ -1007,7 +1007,7 @@ fn valid_glossy_sigma_falls_with_the_exponent_towards_its_mirror_limit() {
             name: "plane".into(),
             bsdf,
             emission: Rgb::ZERO,
-            base_color: None,
+            maps: Default::default(),
         });
         run_ftpd(&scene, setup.x(), &p, seed, 32, 20_000)
     };

@@ -114,6 +114,11 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
             f.textures,
             "no textured material: albedos are constant per material",
         ),
+        e(
+            "cut-outs",
+            f.cutouts,
+            "no material has alpha: one geometry without filter functions",
+        ),
         e("flatland", k.flatland, "3D: directions on the sphere"),
     ]
 }

@@ -21,6 +21,8 @@ pub struct Features {
     pub sky: bool,
     /// Albedos read from textures at each hit.
     pub textures: bool,
+    /// Cut-out (alpha-masked) triangles, which rays pass through where their coverage says.
+    pub cutouts: bool,
 }
 
 impl Features {
@@ -72,6 +74,7 @@ impl fmt::Display for Features {
             (self.sun, "sun"),
             (self.sky, "sky"),
             (self.textures, "textures"),
+            (self.cutouts, "cut-outs"),
         ]
         .iter()
         .filter(|(on, _)| *on)

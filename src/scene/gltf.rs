@@ -25,8 +25,10 @@
 //! `KHR_texture_transform`) multiplies the Lambertian albedo at each hit (the material's own `kd`,
 //! which holds `baseColorFactor`, times the sRGB-decoded texel). Other textures (metallic-roughness,
 //! emissive, normal, occlusion, transmission) are ignored with one warning per file, their factors
-//! are used; alpha, `doubleSided` (opaque surfaces are two-sided anyway) and other extensions are
-//! ignored.
+//! are used; `doubleSided` (opaque surfaces are two-sided anyway) and other extensions are ignored.
+//! `alphaMode` `MASK` makes a cut-out where the base colour's alpha (factor × texel) is below
+//! `alphaCutoff` (default 0.5); `BLEND` makes a stochastic cut-out, present with probability α
+//! (exact where α is 0 or 1, and unbiased between); both are seen by every ray.
 //!
 //! Lights (`KHR_lights_punctual`): a point light becomes an isotropic point light at the node's world
 //! position with intensity `color × intensity`. glTF gives that intensity in candela (lm/sr); it is
@@ -40,7 +42,7 @@
 
 use crate::math::Rgb;
 use crate::scene::material::Bsdf;
-use crate::scene::material::TextureRef;
+use crate::scene::material::{Alpha, AlphaMode, TextureRef};
 use crate::scene::material::{Material, conserve_energy};
 use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
 use crate::scene::{Camera, Light, LoadReport, Scene};
@@ -142,16 +144,21 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
             .map(|&i| decode_image(&doc, i, &buffers, path))
             .collect::<anyhow::Result<Vec<_>>>()?;
         for (m, image, wrap, transform) in texture_requests {
+            let texture = TextureRef {
+                texture: images.binary_search(&image).unwrap_or(0) as u32,
+                factor: Rgb::ONE,
+                wrap,
+                transform,
+            };
+            // The base colour's alpha channel is the coverage of a cut-out.
+            if let Some(alpha) = materials[m].maps.alpha.as_mut() {
+                alpha.map = Some(texture.clone());
+            }
             let factor = match &materials[m].bsdf {
                 Bsdf::Diffuse { kd } | Bsdf::Glossy { kd, .. } | Bsdf::Mirror { kd, .. } => *kd,
                 _ => continue,
             };
-            materials[m].base_color = Some(TextureRef {
-                texture: images.binary_search(&image).unwrap_or(0) as u32,
-                factor,
-                wrap,
-                transform,
-            });
+            materials[m].maps.base_color = Some(TextureRef { factor, ..texture });
         }
         let set = TextureSet {
             textures: decoded.into_iter().map(std::sync::Arc::new).collect(),
@@ -1144,7 +1151,7 @@ pub fn map_pbr(name: &str, p: &PbrParams) -> Material {
         name: name.to_string(),
         bsdf,
         emission,
-        base_color: None,
+        maps: Default::default(),
     }
 }
 
@@ -1168,7 +1175,7 @@ fn other_textures(m: &::gltf::Material) -> bool {
 fn convert_material(m: &::gltf::Material, label: &str) -> (Material, Vec<String>, bool) {
     let mut warnings = Vec::new();
     let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, _alpha] = pbr.base_color_factor();
+    let [r, g, b, alpha] = pbr.base_color_factor();
     let strength = m.emissive_strength().unwrap_or(1.0) as f64;
     let transmission = m.transmission();
     let ior = match m.ior() {
@@ -1198,7 +1205,22 @@ fn convert_material(m: &::gltf::Material, label: &str) -> (Material, Vec<String>
             .as_ref()
             .is_some_and(|t| t.transmission_texture().is_some());
     let name = m.name().map_or_else(|| label.to_string(), str::to_string);
-    (map_pbr(&name, &params), warnings, has_texture)
+    let mut material = map_pbr(&name, &params);
+    // Coverage: the base colour's alpha (factor times texel, set with the texture).
+    let mode = match m.alpha_mode() {
+        ::gltf::material::AlphaMode::Opaque => None,
+        ::gltf::material::AlphaMode::Mask => Some(AlphaMode::Mask {
+            cutoff: m.alpha_cutoff().unwrap_or(0.5) as f64,
+        }),
+        ::gltf::material::AlphaMode::Blend => Some(AlphaMode::Stochastic),
+    };
+    material.maps.alpha = mode.map(|mode| Alpha {
+        factor: (alpha as f64).clamp(0.0, 1.0),
+        map: None,
+        channel: 3,
+        mode,
+    });
+    (material, warnings, has_texture)
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@
 //! warning.
 
 use crate::math::Rgb;
-use crate::scene::texture::{UvTransform, Wrap};
+use crate::scene::texture::{Texture, UvTransform, Wrap};
 
 /// A surface's scattering model.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,8 +44,87 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Emitted radiance (front side of the triangle only).
     pub emission: Rgb,
-    /// A texture whose colour (times its factor) replaces the Lambertian albedo `kd` at each hit.
+    /// Textures read at each hit, and the cut-out.
+    pub maps: Maps,
+}
+
+/// What a material reads from textures at each hit. All `None` (the default) for a material
+/// without textures, which then costs nothing per hit.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Maps {
+    /// Replaces the Lambertian albedo `kd` by its colour times its factor (glTF
+    /// `baseColorTexture`, MTL `map_Kd`).
     pub base_color: Option<TextureRef>,
+    /// Replaces the specular albedo `ks` of glossy and mirror models (MTL `map_Ks`).
+    pub specular: Option<TextureRef>,
+    /// Replaces the emitted radiance (glTF `emissiveTexture`, MTL `map_Ke`); the factor holds the
+    /// material's emission.
+    pub emission: Option<TextureRef>,
+    /// Where the surface is cut out: rays pass through it there ([`Alpha`]).
+    pub alpha: Option<Alpha>,
+}
+
+/// A cut-out: the surface is present where its coverage α (a constant, times a texture channel
+/// when there is one) says so, and every ray (walks, radiance paths, shadow rays, the on-surface
+/// point query) passes through it elsewhere.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Alpha {
+    /// Constant coverage (MTL `d`, glTF `baseColorFactor`'s alpha).
+    pub factor: f64,
+    /// The texture whose channel `channel` multiplies `factor` (MTL `map_d`, glTF base colour).
+    pub map: Option<TextureRef>,
+    /// 3 for the alpha channel; 0 (red) for an MTL `map_d` image without one.
+    pub channel: usize,
+    pub mode: AlphaMode,
+}
+
+/// How coverage decides presence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Present where α ≥ the cutoff (glTF `MASK`).
+    Mask { cutoff: f64 },
+    /// Present with probability α, decided per ray by a hash of the ray and the triangle (glTF
+    /// `BLEND`, MTL `d`/`map_d`): unbiased for fractional coverage, and exactly a mask where α is
+    /// 0 or 1, as in leaf textures.
+    Stochastic,
+}
+
+impl Maps {
+    /// True when some map reads a texture, so hits need texture coordinates.
+    pub fn reads_textures(&self) -> bool {
+        self.base_color.is_some()
+            || self.specular.is_some()
+            || self.emission.is_some()
+            || self.alpha.as_ref().is_some_and(|a| a.map.is_some())
+    }
+}
+
+impl Alpha {
+    /// True when the surface is present everywhere (no texture and a coverage that always
+    /// passes): then it is no cut-out at all.
+    pub fn is_opaque(&self) -> bool {
+        self.map.is_none()
+            && match self.mode {
+                AlphaMode::Mask { cutoff } => self.factor >= cutoff,
+                AlphaMode::Stochastic => self.factor >= 1.0,
+            }
+    }
+
+    /// True when the surface is absent at texture coordinate `uv` (v up) for a ray whose hash is
+    /// `xi` ∈ [0, 1).
+    #[inline]
+    pub fn cut(&self, textures: &[std::sync::Arc<Texture>], uv: [f64; 2], xi: f64) -> bool {
+        let mut a = self.factor;
+        if let Some(map) = &self.map
+            && let Some(t) = textures.get(map.texture as usize)
+        {
+            a *= map.texel(t, uv)[self.channel.min(3)];
+        }
+        match self.mode {
+            AlphaMode::Mask { cutoff } => !(a >= cutoff),
+            AlphaMode::Stochastic => !(xi < a),
+        }
+    }
 }
 
 /// A material's reference to one of the scene's textures.
@@ -57,6 +136,17 @@ pub struct TextureRef {
     pub factor: Rgb,
     pub wrap: (Wrap, Wrap),
     pub transform: UvTransform,
+}
+
+impl TextureRef {
+    /// The RGBA texel of `texture` (this reference's image) at `uv` (v up), bilinear, after the
+    /// wrap and the transform (which acts in glTF's UV space, whose v points down); the factor is
+    /// not applied.
+    #[inline]
+    pub fn texel(&self, texture: &Texture, uv: [f64; 2]) -> [f64; 4] {
+        let (s, t) = self.transform.apply(uv[0], 1.0 - uv[1]);
+        texture.lookup(s, 1.0 - t, self.wrap)
+    }
 }
 
 impl Bsdf {
@@ -85,7 +175,7 @@ impl Material {
                 kd: Rgb::splat(0.5),
             },
             emission: Rgb::ZERO,
-            base_color: None,
+            maps: Maps::default(),
         }
     }
 
@@ -94,7 +184,7 @@ impl Material {
             name: name.into(),
             bsdf: Bsdf::Diffuse { kd },
             emission: Rgb::ZERO,
-            base_color: None,
+            maps: Maps::default(),
         }
     }
 }

@@ -146,7 +146,9 @@ pub struct Scene {
     /// Texture coordinates per vertex (same indexing as `positions`; v up), empty when no material
     /// has a texture: then hits never look.
     uvs: Vec<glam::Vec2>,
-    /// The decoded textures that materials refer to ([`Material::base_color`]).
+    /// Per material: its triangles are cut-outs (it has alpha and does not emit).
+    cut_materials: Vec<bool>,
+    /// The decoded textures that materials refer to ([`Material::maps`]).
     pub textures: crate::scene::texture::TextureSet,
     /// The slice plane of a flatland run with its light cross-sections and 2D materials, set by
     /// [`Scene::prepare_flatland`]; `None` for 3D runs.
@@ -352,11 +354,34 @@ impl Scene {
             center,
             0.5 * extent,
         );
-        let features = Features::of(&materials, &tri_material, &lights);
+        let mut features = Features::of(&materials, &tri_material, &lights);
+        // Cut-outs: the triangles of materials with alpha, in a geometry of their own. An emitter
+        // stays opaque (its light samples would otherwise land on cut-out texels).
+        let mut cut_materials = vec![false; materials.len()];
+        for (k, m) in materials.iter().enumerate() {
+            if m.maps.alpha.as_ref().is_some_and(|a| !a.is_opaque()) {
+                if m.emission == Rgb::ZERO {
+                    cut_materials[k] = true;
+                } else {
+                    report.warnings.push(format!(
+                        "material '{}' emits light: its alpha is ignored (emitters are opaque)",
+                        m.name
+                    ));
+                }
+            }
+        }
+        let cutout: Vec<u32> = if cut_materials.contains(&true) {
+            (0..triangles.len() as u32)
+                .filter(|&i| cut_materials[tri_material[i as usize] as usize])
+                .collect()
+        } else {
+            Vec::new()
+        };
+        features.cutouts = !cutout.is_empty();
         let t_bvh = std::time::Instant::now();
-        let accel = Accel::new(&positions, &triangles)?;
+        let accel = Accel::with_cutouts(&positions, &triangles, &cutout)?;
         report.bvh_seconds = t_bvh.elapsed().as_secs_f64();
-        Ok(Scene {
+        let mut scene = Scene {
             source: source.to_path_buf(),
             positions,
             normals,
@@ -375,8 +400,81 @@ impl Scene {
             uvs: Vec::new(),
             textures: Default::default(),
             flat: None,
+            cut_materials,
             accel,
-        })
+        };
+        scene.install_cut_test(&cutout);
+        Ok(scene)
+    }
+
+    /// Gives the acceleration structure the cut-out test of triangles `cutout` (their materials'
+    /// [`Alpha`](crate::scene::material::Alpha) at the hit's texture coordinate), holding what it
+    /// reads (coverage, corner coordinates, textures) in its own compact table, one entry per
+    /// cut-out triangle.
+    fn install_cut_test(&mut self, cutout: &[u32]) {
+        if cutout.is_empty() {
+            return;
+        }
+        let alphas: Vec<crate::scene::material::Alpha> = self
+            .materials
+            .iter()
+            .map(|m| {
+                m.maps
+                    .alpha
+                    .clone()
+                    .unwrap_or(crate::scene::material::Alpha {
+                        factor: 1.0,
+                        map: None,
+                        channel: 3,
+                        mode: crate::scene::material::AlphaMode::Stochastic,
+                    })
+            })
+            .collect();
+        let table: Vec<(u32, [glam::Vec2; 3])> = cutout
+            .iter()
+            .map(|&t| {
+                let uv = if self.uvs.is_empty() {
+                    [glam::Vec2::ZERO; 3]
+                } else {
+                    self.corner_uvs(t)
+                };
+                (self.tri_material[t as usize], uv)
+            })
+            .collect();
+        let textures = self.textures.textures.clone();
+        self.accel.set_cut_test(Box::new(move |k, bary, xi| {
+            table.get(k as usize).is_some_and(|&(m, uv)| {
+                alphas[m as usize].cut(&textures, interpolate_uv(uv, bary), xi)
+            })
+        }));
+    }
+
+    /// True when triangle `prim` is cut out at `p` (a point on or near it: its closest point is
+    /// tested), for the point query; the coverage hash is keyed by the point and the triangle.
+    fn cut_at(&self, prim: u32, p: DVec3) -> bool {
+        let m = self.tri_material[prim as usize];
+        if !self.cut_materials[m as usize] {
+            return false;
+        }
+        let Some(alpha) = &self.materials[m as usize].maps.alpha else {
+            return false;
+        };
+        let [a, b, c] =
+            self.triangles[prim as usize].map(|v| self.positions[v as usize].as_dvec3());
+        let q = closest_point_on_triangle(p, a, b, c);
+        let bary = barycentric(q, a, b, c).map(|x| x as f32);
+        let uv = if self.uvs.is_empty() {
+            [0.0; 2]
+        } else {
+            self.hit_uv(prim, bary)
+        };
+        let xi = crate::rng::hash_unit(&[
+            (p.x as f32).to_bits(),
+            (p.y as f32).to_bits(),
+            (p.z as f32).to_bits(),
+            prim,
+        ]);
+        alpha.cut(&self.textures.textures, uv, xi)
     }
 
     /// Unit geometric normal of triangle `i`, (v1 - v0) × (v2 - v0) normalised (front side).
@@ -397,11 +495,17 @@ impl Scene {
         uvs: Vec<glam::Vec2>,
         textures: crate::scene::texture::TextureSet,
     ) {
-        let used = self.materials.iter().any(|m| m.base_color.is_some());
+        let used = self.materials.iter().any(|m| m.maps.reads_textures());
         if used && uvs.len() == self.positions.len() {
             self.uvs = uvs;
             self.textures = textures;
             self.features.textures = true;
+        }
+        if self.accel.has_cutouts() {
+            let cutout: Vec<u32> = (0..self.triangles.len() as u32)
+                .filter(|&t| self.cut_materials[self.tri_material[t as usize] as usize])
+                .collect();
+            self.install_cut_test(&cutout);
         }
     }
 
@@ -420,15 +524,19 @@ impl Scene {
     /// that the hit code of scenes without stays as small as it was.
     #[inline(never)]
     fn texel_albedo(&self, hit: &Hit) -> Option<Rgb> {
-        let tex = self.materials[hit.material as usize].base_color.as_ref()?;
-        let [a, b, c] = self.corner_uvs(hit.prim);
-        let [u, v] = hit.bary.map(|x| x as f64);
-        let w = 1.0 - u - v;
-        let uv = |k: usize| w * a[k] as f64 + u * b[k] as f64 + v * c[k] as f64;
-        // The transform acts in glTF's UV space, whose v points down.
-        let (s, t) = tex.transform.apply(uv(0), 1.0 - uv(1));
+        let tex = self.materials[hit.material as usize]
+            .maps
+            .base_color
+            .as_ref()?;
         let texture = &self.textures.textures[tex.texture as usize];
-        Some(tex.factor * texture.rgb(s, 1.0 - t, tex.wrap))
+        let [r, g, b, _] = tex.texel(texture, self.hit_uv(hit.prim, hit.bary));
+        Some(tex.factor * Rgb::new(r, g, b))
+    }
+
+    /// The interpolated texture coordinate (v up) at barycentric `bary` of triangle `prim`.
+    #[inline]
+    pub fn hit_uv(&self, prim: u32, bary: [f32; 2]) -> [f64; 2] {
+        interpolate_uv(self.corner_uvs(prim), bary)
     }
 
     /// The texture coordinates (v up) of triangle `prim`'s three corners; only called in scenes
@@ -791,8 +899,19 @@ impl Scene {
     ) -> ([u32; crate::accel::MAX_NEAR], usize) {
         let near = self.accel.triangles_near(p.as_vec3(), radius as f32);
         let mut prims = [0u32; crate::accel::MAX_NEAR];
-        let len = near.prims().len();
+        let mut len = near.prims().len();
         prims[..len].copy_from_slice(near.prims());
+        if self.features.cutouts {
+            // Triangles cut out where the point lies are not there for it either.
+            let mut kept = 0;
+            for k in 0..len {
+                if !self.cut_at(prims[k], p) {
+                    prims[kept] = prims[k];
+                    kept += 1;
+                }
+            }
+            len = kept;
+        }
         prims[..len].sort_unstable();
         (prims, len)
     }
@@ -887,6 +1006,29 @@ impl OffSurfaces {
             self.push(a, n, 0.5 * self.eps);
         }
     }
+}
+
+/// The texture coordinate at barycentric `bary` = (u, v) of a triangle whose corners have `uv`:
+/// (1 − u − v) uv₀ + u uv₁ + v uv₂.
+#[inline]
+pub fn interpolate_uv(uv: [glam::Vec2; 3], bary: [f32; 2]) -> [f64; 2] {
+    let [u, v] = bary.map(|x| x as f64);
+    let w = 1.0 - u - v;
+    let at = |k: usize| w * uv[0][k] as f64 + u * uv[1][k] as f64 + v * uv[2][k] as f64;
+    [at(0), at(1)]
+}
+
+/// Barycentric (u, v) of a point `p` in the plane of triangle (a, b, c): p = (1-u-v) a + u b + v c
+/// (0 for a degenerate triangle).
+pub fn barycentric(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 2] {
+    let (e1, e2, d) = (b - a, c - a, p - a);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d1, d2) = (d.dot(e1), d.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    if !(det.abs() > 0.0) || !det.is_finite() {
+        return [0.0; 2];
+    }
+    [(d22 * d1 - d12 * d2) / det, (d11 * d2 - d12 * d1) / det]
 }
 
 /// The point of triangle (a, b, c) closest to `p` (Ericson, Real-Time Collision Detection, 5.1.5).

@@ -533,7 +533,7 @@ pub fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
             name: m.name.clone(),
             bsdf,
             emission,
-            base_color: None,
+            maps: Default::default(),
         },
         warn,
     )

@@ -1,0 +1,301 @@
+//! Alpha cut-outs: a quad with a checkerboard coverage texture against geometry of its opaque
+//! squares only. The two scenes differ in triangles, BVH and the path every ray takes through
+//! Embree (filter functions rejecting hits on one side, nothing to hit on the other), so agreement
+//! of σ and fluence cell by cell, within a few of their standard errors and with independent seeds,
+//! checks the walks, the radiance paths and their shadow rays alike; the ray and point queries are
+//! also checked one by one where the answer is known exactly.
+
+use ftpd3d::ftpd::moments::Moments;
+use ftpd3d::ftpd::{Params, Weighting, sample_point};
+use ftpd3d::math::Rgb;
+use ftpd3d::rng::Sampler;
+use ftpd3d::scene::material::{Alpha, AlphaMode, Material, TextureRef};
+use ftpd3d::scene::texture::{Texture, TextureSet, UvTransform, Wrap};
+use ftpd3d::scene::{LoadReport, Scene};
+use glam::{DVec3, Vec2, Vec3};
+use std::path::Path;
+use std::sync::Arc;
+
+/// Texels per side of the checkerboard.
+const N: usize = 4;
+/// Height of the cut-out quad over the floor.
+const H: f32 = 1.0;
+
+/// Texel (i, j) (column i from the left, row j from the top) is opaque when i + j is even.
+fn opaque_texel(i: usize, j: usize) -> bool {
+    (i + j).is_multiple_of(2)
+}
+
+/// A quad in z = `z` over [x0, x1] × [y0, y1], front side +z (two triangles), with per-vertex
+/// texture coordinates u = x, v = y.
+fn quad(
+    pos: &mut Vec<Vec3>,
+    uv: &mut Vec<Vec2>,
+    tris: &mut Vec<[u32; 3]>,
+    mats: &mut Vec<u32>,
+    [x0, x1, y0, y1]: [f32; 4],
+    z: f32,
+    m: u32,
+) {
+    let b = pos.len() as u32;
+    for (x, y) in [(x0, y0), (x1, y0), (x1, y1), (x0, y1)] {
+        pos.push(Vec3::new(x, y, z));
+        uv.push(Vec2::new(x, y));
+    }
+    tris.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+    mats.extend([m, m]);
+}
+
+/// The floor (z = 0, albedo 0.5) under the unit square at height `H` (albedo 0.8, two-sided
+/// like every opaque surface), lit by a point light above: either one quad with the
+/// checkerboard as its coverage (`mode`), or only the opaque squares as geometry (`None`).
+fn scene(mode: Option<AlphaMode>) -> Scene {
+    let (mut pos, mut uv, mut tris, mut mats) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    quad(
+        &mut pos,
+        &mut uv,
+        &mut tris,
+        &mut mats,
+        [-2., 3., -2., 3.],
+        0.0,
+        0,
+    );
+    let mut leaf = Material::diffuse("leaf", Rgb::splat(0.8));
+    let mut textures = TextureSet::default();
+    match mode {
+        Some(mode) => {
+            quad(
+                &mut pos,
+                &mut uv,
+                &mut tris,
+                &mut mats,
+                [0., 1., 0., 1.],
+                H,
+                1,
+            );
+            let texels = (0..N * N)
+                .map(|k| {
+                    let a = if opaque_texel(k % N, k / N) { 1.0 } else { 0.0 };
+                    [0.8, 0.8, 0.8, a]
+                })
+                .collect();
+            textures.textures.push(Arc::new(
+                Texture::new(N, N, texels, "checkerboard").unwrap(),
+            ));
+            leaf.maps.alpha = Some(Alpha {
+                factor: 1.0,
+                map: Some(TextureRef {
+                    texture: 0,
+                    factor: Rgb::ONE,
+                    wrap: (Wrap::ClampToEdge, Wrap::ClampToEdge),
+                    transform: UvTransform::default(),
+                }),
+                channel: 3,
+                mode,
+            });
+        }
+        None => {
+            let s = 1.0 / N as f32;
+            for j in 0..N {
+                for i in 0..N {
+                    if opaque_texel(i, j) {
+                        // Row j from the top spans v (= y) in [1 − (j+1)/N, 1 − j/N].
+                        let (x0, y1) = (i as f32 * s, 1.0 - j as f32 * s);
+                        let r = [x0, x0 + s, y1 - s, y1];
+                        quad(&mut pos, &mut uv, &mut tris, &mut mats, r, H, 1);
+                    }
+                }
+            }
+        }
+    }
+    let floor = Material::diffuse("floor", Rgb::splat(0.5));
+    let mut scene = Scene::build(
+        Path::new("cutout-test"),
+        pos,
+        Vec::new(),
+        tris,
+        mats,
+        vec![floor, leaf],
+        LoadReport::default(),
+    )
+    .unwrap();
+    scene.set_textures(uv, textures);
+    scene.add_point_light(DVec3::new(0.4, 0.55, 3.0), Rgb::splat(20.0));
+    scene
+}
+
+#[test]
+fn cutout_rays_and_point_queries_pass_through_transparent_texels_only() {
+    for mode in [AlphaMode::Mask { cutoff: 0.5 }, AlphaMode::Stochastic] {
+        rays_and_point_queries(mode);
+    }
+}
+
+/// Stochastic coverage is exact only where the bilinear α is 0 or 1, at the texel centres.
+fn rays_and_point_queries(mode: AlphaMode) {
+    let cut = scene(Some(mode));
+    let points: &[(f64, f64)] = match mode {
+        AlphaMode::Mask { .. } => &[(0.5, 0.5), (0.1, 0.1), (0.9, 0.9)],
+        AlphaMode::Stochastic => &[(0.5, 0.5)],
+    };
+    assert!(cut.features.cutouts);
+    assert!(!scene(None).features.cutouts);
+    let s = 1.0 / N as f64;
+    for j in 0..N {
+        for i in 0..N {
+            // The centre of texel (i, j) and a point a tenth of a texel inside its corner.
+            for &(fx, fy) in points {
+                let (x, y) = ((i as f64 + fx) * s, 1.0 - (j as f64 + fy) * s);
+                let o = DVec3::new(x, y, 2.0);
+                let hit = cut.intersect(o, -DVec3::Z, f64::INFINITY).unwrap();
+                let z_expected = if opaque_texel(i, j) { H as f64 } else { 0.0 };
+                assert!(
+                    (hit.p.z - z_expected).abs() < 1e-6,
+                    "texel ({i}, {j}) at ({x}, {y}): hit z = {}",
+                    hit.p.z
+                );
+                // A shadow ray to a point just above the floor sees the same.
+                let blocked = cut.occluded(o, -DVec3::Z, 1.9);
+                assert_eq!(blocked, opaque_texel(i, j), "shadow ray at ({x}, {y})");
+                // A point on the quad is moved off it only where the quad is there.
+                let on = DVec3::new(x, y, H as f64);
+                let moved = cut.off_surfaces(on) != on;
+                assert_eq!(moved, opaque_texel(i, j), "point query at ({x}, {y})");
+            }
+        }
+    }
+}
+
+/// σ (unweighted and radiance-weighted) and fluence on a grid of points in the plane y = 0.55
+/// through the checkerboard, for the cut-out and for the geometry of the opaque squares, with
+/// independent seeds: the difference of each pair over its combined standard error.
+fn z_scores(mode: AlphaMode) -> Vec<(String, f64)> {
+    let scenes = [scene(Some(mode)), scene(None)];
+    let mut out = Vec::new();
+    let n = 3000;
+    for weighting in [Weighting::Unweighted, Weighting::Radiance] {
+        let p = Params {
+            t0: 0.3,
+            t1: 0.8,
+            theta_max: 0.15,
+            weighting,
+            max_bounces: 8,
+            flat: None,
+        };
+        for ix in 0..6 {
+            for iz in 0..4 {
+                let x = DVec3::new(-0.25 + 0.3 * ix as f64, 0.55, 0.3 + 0.5 * iz as f64);
+                let cells: Vec<(f64, f64, f64, f64)> = scenes
+                    .iter()
+                    .enumerate()
+                    .map(|(k, sc)| {
+                        let mut s = Sampler::new(11 + k as u64, ix * 4 + iz, weighting as u64);
+                        let mut m = Moments::default();
+                        let (mut f, mut f2) = (0.0, 0.0);
+                        for _ in 0..n {
+                            let smp = sample_point(sc, x, &p, &mut s);
+                            m.add_sample(smp.c, smp.delta, smp.weight);
+                            let w = ftpd3d::math::luminance(smp.weight);
+                            f += w;
+                            f2 += w * w;
+                        }
+                        let v = m.finalize();
+                        let mean = f / n as f64;
+                        let se = ((f2 / n as f64 - mean * mean).max(0.0) / (n - 1) as f64).sqrt();
+                        (v.sigma, v.stderr, mean, se)
+                    })
+                    .collect();
+                let (a, b) = (cells[0], cells[1]);
+                let z = |x: f64, sx: f64, y: f64, sy: f64| {
+                    let se = (sx * sx + sy * sy).sqrt();
+                    if se > 0.0 { (x - y) / se } else { 0.0 }
+                };
+                let at = format!("{weighting:?} at {:.2},{:.2}", x.x, x.z);
+                out.push((format!("σ {at}"), z(a.0, a.1, b.0, b.1)));
+                if weighting == Weighting::Radiance {
+                    out.push((format!("fluence {at}"), z(a.2, a.3, b.2, b.3)));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Checks a set of z-scores from independent estimates of equal expectations: none beyond 4.5,
+/// and no more beyond 3 than a binomial tail allows (expected 0.27 %; at most 1 + 3 % of them).
+fn assert_consistent(what: &str, zs: &[(String, f64)]) {
+    let beyond3: Vec<_> = zs.iter().filter(|(_, z)| z.abs() > 3.0).collect();
+    let mean_sq = zs.iter().map(|(_, z)| z * z).sum::<f64>() / zs.len() as f64;
+    eprintln!(
+        "{what}: {} comparisons, mean z² {mean_sq:.2}, beyond 3: {beyond3:?}",
+        zs.len()
+    );
+    for (name, z) in zs {
+        assert!(z.abs() <= 4.5, "{what}: {name}: z = {z:.2}");
+    }
+    assert!(
+        beyond3.len() as f64 <= 1.0 + 0.03 * zs.len() as f64,
+        "{what}: {} of {} beyond 3 standard errors",
+        beyond3.len(),
+        zs.len()
+    );
+}
+
+#[test]
+fn cutout_checkerboard_matches_the_opaque_squares_as_geometry() {
+    assert_consistent("mask", &z_scores(AlphaMode::Mask { cutoff: 0.5 }));
+}
+
+/// Stochastic coverage: at random points of the quad, a ray straight down passes with probability
+/// 1 − α, α being the bilinear interpolation of the texels' coverage written out here (texel
+/// centres at (i + ½)/N, clamped at the edges); the passes, summed over points and rays, agree
+/// with the sum of 1 − α within 4 binomial standard errors, for the closest-hit and the shadow query,
+/// and for a point query at the same places.
+#[test]
+fn cutout_stochastic_coverage_passes_in_proportion_to_the_bilinear_alpha() {
+    let cut = scene(Some(AlphaMode::Stochastic));
+    let alpha_at = |x: f64, y: f64| {
+        let at = |i: i64, j: i64| {
+            let (i, j) = (i.clamp(0, N as i64 - 1), j.clamp(0, N as i64 - 1));
+            if opaque_texel(i as usize, j as usize) {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        let (fx, fy) = (x * N as f64 - 0.5, (1.0 - y) * N as f64 - 0.5);
+        let (i, j) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - i, fy - j);
+        let (i, j) = (i as i64, j as i64);
+        (1.0 - ty) * ((1.0 - tx) * at(i, j) + tx * at(i + 1, j))
+            + ty * ((1.0 - tx) * at(i, j + 1) + tx * at(i + 1, j + 1))
+    };
+    let mut s = Sampler::new(3, 0, 0);
+    let (mut expected, mut var) = (0.0, 0.0);
+    let mut passed = [0.0; 3];
+    let n = 20_000;
+    for _ in 0..n {
+        let (x, y) = s.next_2d();
+        let q = 1.0 - alpha_at(x, y);
+        expected += q;
+        var += q * (1.0 - q);
+        // A fresh origin per ray: the decision is a hash of the ray.
+        let o = DVec3::new(x, y, 1.5 + s.next_f64());
+        let hit = cut.intersect(o, -DVec3::Z, f64::INFINITY).unwrap();
+        passed[0] += (hit.p.z < 0.5) as u8 as f64;
+        passed[1] += !cut.occluded(o, -DVec3::Z, o.z - 0.5) as u8 as f64;
+        let on = DVec3::new(x, y, H as f64);
+        passed[2] += (cut.off_surfaces(on) == on) as u8 as f64;
+    }
+    let se = var.sqrt();
+    for (what, p) in ["closest hit", "shadow ray", "point query"]
+        .iter()
+        .zip(passed)
+    {
+        eprintln!("{what}: {p} passed, expected {expected:.1} ± {se:.1}");
+        assert!(
+            (p - expected).abs() <= 4.0 * se,
+            "{what}: {p} passed, expected {expected:.1} ± {se:.1}"
+        );
+    }
+}
