@@ -299,3 +299,50 @@ fn cutout_stochastic_coverage_passes_in_proportion_to_the_bilinear_alpha() {
         );
     }
 }
+
+/// Writes `name`.obj and `name`.mtl in `dir`: the floor and the unit quad at height `H` with
+/// texture coordinates, the quad's material given by `leaf` (MTL statements).
+fn write_obj(dir: &Path, name: &str, leaf: &str) -> std::path::PathBuf {
+    let obj = format!(
+        "mtllib {name}.mtl\n\
+         v -2 -2 0\nv 3 -2 0\nv 3 3 0\nv -2 3 0\n\
+         v 0 0 {H}\nv 1 0 {H}\nv 1 1 {H}\nv 0 1 {H}\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         usemtl floor\nf 1 2 3\nf 1 3 4\n\
+         usemtl leaf\nf 5/1 6/2 7/3\nf 5/1 7/3 8/4\n"
+    );
+    std::fs::write(dir.join(format!("{name}.obj")), obj).unwrap();
+    std::fs::write(
+        dir.join(format!("{name}.mtl")),
+        format!("newmtl floor\nKd 0.5 0.5 0.5\n\nnewmtl leaf\nKd 0.8 0.8 0.8\n{leaf}\n"),
+    )
+    .unwrap();
+    dir.join(format!("{name}.obj"))
+}
+
+/// MTL `d` alone: rays pass the quad with probability 1 − d (binomial, 4 standard errors), and a
+/// dielectric ignores it.
+#[test]
+fn cutout_mtl_dissolve_passes_one_minus_d_of_the_rays() {
+    let dir = crate::support::temp_dir("cutout", "dissolve");
+    let d = 0.3;
+    let scene = ftpd3d::scene::load::load_scene(&write_obj(&dir, "d", &format!("d {d}"))).unwrap();
+    assert!(scene.features.cutouts);
+    let mut s = Sampler::new(4, 0, 0);
+    let n = 20_000;
+    let mut passed = 0.0;
+    for _ in 0..n {
+        let (x, y) = s.next_2d();
+        let o = DVec3::new(x, y, 1.5 + s.next_f64());
+        passed += !scene.occluded(o, -DVec3::Z, o.z - 0.5) as u8 as f64;
+    }
+    let expected = n as f64 * (1.0 - d);
+    let se = (n as f64 * d * (1.0 - d)).sqrt();
+    assert!(
+        (passed - expected).abs() <= 4.0 * se,
+        "{passed} passed, expected {expected} ± {se}"
+    );
+    let glass = write_obj(&dir, "glass", "illum 7\nNi 1.5\nd 0.3");
+    let scene = ftpd3d::scene::load::load_scene(&glass).unwrap();
+    assert!(!scene.features.cutouts);
+}

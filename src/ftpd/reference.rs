@@ -127,9 +127,9 @@ pub fn radiance_plain(
         }
         let own = &scene.material(&hit).bsdf;
         let textured;
-        let bsdf = match scene.textured_albedo(&hit) {
-            Some(kd) => {
-                textured = own.with_kd(kd);
+        let bsdf = match scene.textured_bsdf(&hit) {
+            Some(b) => {
+                textured = b;
                 &textured
             }
             None => own,

@@ -12,6 +12,8 @@
 //! | `illum 4`, `6`, `7`, `9`              | smooth dielectric, index `Ni` (default 1.5), tint `Tf` |
 //! | `Ke` > 0 (any illum)                  | area light of radiance `Ke`, front side only          |
 //! | no `Kd`                               | `Kd` = 0.5 grey (0 when the material emits)           |
+//! | `map_Kd`, `map_Ks`                    | textures replacing `Kd`, `Ks` at each hit             |
+//! | `d` < 1, `map_d` (not on dielectrics) | stochastic cut-out of coverage `d` × texel            |
 //!
 //! Albedos whose sum exceeds 1 in some channel are scaled down to 1 (energy conservation) with a
 //! warning.
@@ -150,18 +152,33 @@ impl TextureRef {
 }
 
 impl Bsdf {
-    /// The same model with its Lambertian albedo replaced (a texel); models without one are
-    /// returned as they are. Out of line: only textured scenes call it.
+    /// The same model with its Lambertian albedo `kd` and specular albedo `ks` replaced where given
+    /// (texels), scaled down where their sum exceeds 1 as at load; models without them are returned
+    /// as they are. Out of line: only textured scenes call it.
     #[inline(never)]
-    pub fn with_kd(&self, kd: Rgb) -> Bsdf {
+    pub fn with_albedos(&self, kd: Option<Rgb>, ks: Option<Rgb>) -> Bsdf {
         match self {
-            Bsdf::Diffuse { .. } => Bsdf::Diffuse { kd },
-            Bsdf::Glossy { ks, exponent, .. } => Bsdf::Glossy {
-                kd,
-                ks: *ks,
-                exponent: *exponent,
+            Bsdf::Diffuse { kd: own } => Bsdf::Diffuse {
+                kd: kd.unwrap_or(*own).min(Rgb::ONE),
             },
-            Bsdf::Mirror { ks, .. } => Bsdf::Mirror { kd, ks: *ks },
+            Bsdf::Glossy {
+                kd: kd0,
+                ks: ks0,
+                exponent,
+            } => {
+                let (mut kd, mut ks) = (kd.unwrap_or(*kd0), ks.unwrap_or(*ks0));
+                conserve_energy(&mut kd, &mut ks);
+                Bsdf::Glossy {
+                    kd,
+                    ks,
+                    exponent: *exponent,
+                }
+            }
+            Bsdf::Mirror { kd: kd0, ks: ks0 } => {
+                let (mut kd, mut ks) = (kd.unwrap_or(*kd0), ks.unwrap_or(*ks0));
+                conserve_energy(&mut kd, &mut ks);
+                Bsdf::Mirror { kd, ks }
+            }
             other => other.clone(),
         }
     }

@@ -9,6 +9,7 @@ pub mod gltf;
 pub mod light;
 pub mod load;
 pub mod material;
+pub mod mtl_maps;
 pub mod obj;
 pub mod obj_parse;
 pub mod sidecar;
@@ -17,6 +18,7 @@ pub mod texture;
 use crate::accel::{Accel, RawHit};
 use crate::math::Rgb;
 use crate::scene::flat::{FlatScene, Flatland};
+use crate::scene::material::{Bsdf, TextureRef};
 use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -509,28 +511,33 @@ impl Scene {
         }
     }
 
-    /// The Lambertian albedo at a hit of a material with a base-colour texture (its factor × the
-    /// texel, bilinear at the interpolated UV); `None` for untextured materials, which keep their
-    /// own. Scenes without textures return at the first test.
+    /// The scattering model at a hit of a material with textures: its albedos replaced by the
+    /// texels (base colour × its factor for `kd`, specular × its factor for `ks`, bilinear at the
+    /// interpolated texture coordinate); `None` for materials without, which keep their own.
+    /// Scenes without textures return at the first test.
     #[inline(always)]
-    pub fn textured_albedo(&self, hit: &Hit) -> Option<Rgb> {
+    pub fn textured_bsdf(&self, hit: &Hit) -> Option<Bsdf> {
         if self.uvs.is_empty() {
             return None;
         }
-        self.texel_albedo(hit)
+        self.texel_bsdf(hit)
     }
 
-    /// [`textured_albedo`](Self::textured_albedo) in a scene with textures: kept out of line, so
+    /// [`textured_bsdf`](Self::textured_bsdf) in a scene with textures: kept out of line, so
     /// that the hit code of scenes without stays as small as it was.
     #[inline(never)]
-    fn texel_albedo(&self, hit: &Hit) -> Option<Rgb> {
-        let tex = self.materials[hit.material as usize]
-            .maps
-            .base_color
-            .as_ref()?;
-        let texture = &self.textures.textures[tex.texture as usize];
-        let [r, g, b, _] = tex.texel(texture, self.hit_uv(hit.prim, hit.bary));
-        Some(tex.factor * Rgb::new(r, g, b))
+    fn texel_bsdf(&self, hit: &Hit) -> Option<Bsdf> {
+        let m = &self.materials[hit.material as usize];
+        let (base, spec) = (m.maps.base_color.as_ref(), m.maps.specular.as_ref());
+        if base.is_none() && spec.is_none() {
+            return None;
+        }
+        let uv = self.hit_uv(hit.prim, hit.bary);
+        let colour = |t: &TextureRef| {
+            let [r, g, b, _] = t.texel(&self.textures.textures[t.texture as usize], uv);
+            t.factor * Rgb::new(r, g, b)
+        };
+        Some(m.bsdf.with_albedos(base.map(colour), spec.map(colour)))
     }
 
     /// The interpolated texture coordinate (v up) at barycentric `bary` of triangle `prim`.

@@ -61,6 +61,7 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
     // named before it; runs of faces end at `o`, `g` and a `usemtl` that changes the material.
     let mut mtl_notes = Vec::new();
     let mut list: Vec<tobj::Material> = Vec::new();
+    let mut lib_dirs: Vec<std::path::PathBuf> = Vec::new();
     let mut by_name: HashMap<String, usize> = HashMap::new();
     let mut mtl_error = None;
     // (first triangle, material or None) of each run.
@@ -71,6 +72,10 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
                 match load_mtl(&file, dir, Path::new(lib), &mut mtl_notes) {
                     Ok((mut mats, map)) => {
                         let offset = list.len();
+                        // Texture paths are relative to the library's own directory.
+                        let lib_dir = dir.join(lib).parent().map(Path::to_path_buf);
+                        lib_dirs
+                            .extend(std::iter::repeat_n(lib_dir.unwrap_or_default(), mats.len()));
                         list.append(&mut mats);
                         by_name.extend(map.into_iter().map(|(k, i)| (k, i + offset)));
                     }
@@ -93,6 +98,8 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
         }
     }
     let mut materials = convert_materials(&file, &list, &mut report);
+    let textures =
+        crate::scene::mtl_maps::apply(&file, &list, &lib_dirs, &mut materials, &mut report);
     if materials.is_empty()
         && let Some(e) = mtl_error
         && mtl_notes.is_empty()
@@ -120,7 +127,7 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
         triangles,
         ..
     } = data;
-    let scene = Scene::from_parts(
+    let mut scene = Scene::from_parts(
         path,
         positions,
         triangles,
@@ -136,6 +143,8 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
             scene.report.triangles_read
         );
     }
+    // Texture coordinates are not stored by the parser yet: no texture is kept.
+    scene.set_textures(Vec::new(), textures);
     Ok(scene)
 }
 
@@ -395,6 +404,8 @@ fn prescan_mtl(file: &str, text: &str) -> Result<String, String> {
                 return bad("'illum' needs a whole number");
             }
             "newmtl" if rest.is_empty() => return bad("'newmtl' needs a material name"),
+            // A map without a file names nothing to read (tobj would refuse the library).
+            k if k.starts_with("map_") && rest.is_empty() => continue,
             _ => {}
         }
         out.push_str(raw);

@@ -101,9 +101,9 @@ pub fn walk_counted<K: Kernel>(
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
         // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
-        let bsdf = match scene.textured_albedo(&hit) {
-            Some(kd) => {
-                textured = bsdf.with_kd(kd);
+        let bsdf = match scene.textured_bsdf(&hit) {
+            Some(b) => {
+                textured = b;
                 &textured
             }
             None => bsdf,
@@ -247,9 +247,9 @@ pub fn radiance<K: Kernel>(
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
         // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
-        let bsdf = match scene.textured_albedo(&hit) {
-            Some(kd) => {
-                textured = bsdf.with_kd(kd);
+        let bsdf = match scene.textured_bsdf(&hit) {
+            Some(b) => {
+                textured = b;
                 &textured
             }
             None => bsdf,
