@@ -25,7 +25,10 @@ fn quad_bin() -> Vec<u8> {
     b
 }
 
-/// This process's scratch directory, with `m.obj`, `m.mtl` and `b.bin` in it.
+/// A 2 × 2 RGBA PNG (opaque and transparent texels), for texture maps to name.
+const RGBA_PNG: &[u8] = include_bytes!("../seeds/image/rgba_2x2.png");
+
+/// This process's scratch directory, with `m.obj`, `m.mtl`, `b.bin`, `t.png` and `bad.png` in it.
 pub fn dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -34,6 +37,8 @@ pub fn dir() -> &'static Path {
         std::fs::write(d.join("m.obj"), MESH_OBJ).unwrap();
         std::fs::write(d.join("m.mtl"), MESH_MTL).unwrap();
         std::fs::write(d.join("b.bin"), quad_bin()).unwrap();
+        std::fs::write(d.join("t.png"), RGBA_PNG).unwrap();
+        std::fs::write(d.join("bad.png"), &RGBA_PNG[..RGBA_PNG.len() / 2]).unwrap();
         d
     })
 }
