@@ -8,15 +8,75 @@
 //! - Embree 4's queries take optional argument structs: passing null selects the defaults.
 //!
 //! Object lifecycle: a device is created once per process (its TBB thread pool is process-wide); a
-//! scene is created, given one triangle geometry whose vertex and index buffers Embree allocates
-//! (`rtcSetNewGeometryBuffer`, which also pads the vertex buffer as Embree requires), committed, and
-//! released on drop. After commit the scene is immutable and queries may run on any thread.
+//! scene is created, given one triangle geometry that reads the scene's own vertex and index arrays
+//! in place (`rtcSetSharedGeometryBuffer`: no copies), committed, and released on drop. The arrays
+//! are [`SharedArray`]s: immutable, padded as Embree requires, and kept alive by the [`Accel`]
+//! (a reference count) for as long as Embree may read them. After commit the scene is immutable
+//! and queries may run on any thread.
 
 use embree_sys as sys;
 use glam::Vec3;
 use std::cell::RefCell;
 use std::ffi::{CStr, c_char, c_void};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
+
+/// Zeroed elements after the end of a [`SharedArray`]: Embree reads vertices with 16-byte loads,
+/// so the last one must be followed by at least 4 readable bytes; two elements (24 bytes for a
+/// vertex, 24 for a triangle's indices) cover 16 bytes past the end whatever the element.
+const SHARED_PAD: usize = 2;
+
+// The layouts Embree is told (RTC_FORMAT_FLOAT3 and RTC_FORMAT_UINT3, stride 12).
+const _: () = assert!(std::mem::size_of::<Vec3>() == 12 && std::mem::align_of::<Vec3>() == 4);
+const _: () = assert!(std::mem::size_of::<[u32; 3]>() == 12);
+
+/// An array that Embree reads in place (a shared geometry buffer): immutable (it derefs to a
+/// slice and offers no way to change it), followed by [`SHARED_PAD`] zeroed elements that Embree
+/// may read, and reference-counted, so that the [`Accel`] reading it keeps it alive. Cloning
+/// shares the array.
+pub struct SharedArray<T: Copy + Default>(Arc<Vec<T>>);
+
+impl<T: Copy + Default> SharedArray<T> {
+    /// Takes `v` over; its spare capacity is grown by the padding if needed (a reallocation that
+    /// moves pages rather than copying them, for large arrays), which is zeroed.
+    pub fn new(mut v: Vec<T>) -> Self {
+        v.shrink_to(v.len() + SHARED_PAD);
+        v.reserve_exact(SHARED_PAD);
+        for p in &mut v.spare_capacity_mut()[..SHARED_PAD] {
+            p.write(T::default());
+        }
+        SharedArray(Arc::new(v))
+    }
+
+    /// The elements and the padding after them, for Embree.
+    fn padded_ptr(&self) -> *const T {
+        self.0.as_ptr()
+    }
+}
+
+impl<T: Copy + Default> Clone for SharedArray<T> {
+    fn clone(&self) -> Self {
+        SharedArray(Arc::clone(&self.0))
+    }
+}
+
+impl<T: Copy + Default> std::ops::Deref for SharedArray<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.0
+    }
+}
+
+impl<T: Copy + Default + std::fmt::Debug> std::fmt::Debug for SharedArray<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.0.iter()).finish()
+    }
+}
+
+impl<T: Copy + Default> Default for SharedArray<T> {
+    fn default() -> Self {
+        SharedArray::new(Vec::new())
+    }
+}
 
 /// Errors reported by Embree, through its error callback or its error code.
 #[derive(Debug, thiserror::Error)]
@@ -140,9 +200,13 @@ pub struct RawHit {
     pub v: f32,
 }
 
-/// A committed Embree scene of triangles; immutable and shareable across threads.
+/// A committed Embree scene of triangles; immutable and shareable across threads. It holds the
+/// vertex and index arrays Embree reads (shared buffers), so they live at least as long as the
+/// Embree scene: `Drop` releases the scene first, then the fields (the arrays) are dropped.
 pub struct Accel {
     scene: sys::RTCScene,
+    shared_positions: SharedArray<Vec3>,
+    shared_triangles: SharedArray<[u32; 3]>,
 }
 
 // SAFETY: a committed Embree scene is read-only; Embree documents rtcIntersect1/rtcOccluded1 as safe
@@ -159,10 +223,13 @@ impl Drop for Accel {
 }
 
 impl Accel {
-    /// Builds and commits a scene of `triangles` over `positions`. Vertex and index data are copied
-    /// into buffers Embree allocates, so the inputs need not outlive the scene. Triangles must index
-    /// valid vertices (the scene loader guarantees it and drops degenerate ones).
-    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Accel, AccelError> {
+    /// Builds and commits a scene of `triangles` over `positions`. Embree reads both arrays in
+    /// place, for as long as the scene exists: the `Accel` keeps a reference to each. Triangles
+    /// must index valid vertices (the scene loader guarantees it and drops degenerate ones).
+    pub fn new(
+        positions: &SharedArray<Vec3>,
+        triangles: &SharedArray<[u32; 3]>,
+    ) -> Result<Accel, AccelError> {
         if triangles.len() >= u32::MAX as usize || positions.len() >= u32::MAX as usize {
             return Err(AccelError::TooLarge(triangles.len(), positions.len()));
         }
@@ -176,7 +243,11 @@ impl Accel {
         // SAFETY: dev is a live device; the scene is released by Drop (or below on error).
         let scene = unsafe { sys::rtcNewScene(dev) };
         check(dev, "rtcNewScene")?;
-        let accel = Accel { scene };
+        let accel = Accel {
+            scene,
+            shared_positions: positions.clone(),
+            shared_triangles: triangles.clone(),
+        };
         // SAFETY: scene is live. Robust mode avoids optimisations that can let rays slip through
         // shared edges and vertices, which the FTPD walks cross often.
         unsafe {
@@ -190,54 +261,39 @@ impl Accel {
                 sys::rtcNewGeometry(dev, sys::RTCGeometryType_RTC_GEOMETRY_TYPE_TRIANGLE)
             };
             check(dev, "rtcNewGeometry")?;
-            // SAFETY: Embree allocates a buffer of positions.len() items of 12 bytes (plus its own
-            // padding) and returns a pointer to it, or null on failure (checked).
-            let vbuf = unsafe {
-                sys::rtcSetNewGeometryBuffer(
+            // SAFETY: geom is live. The arrays are Vec3 (three f32, 12 bytes, `glam`'s layout without
+            // SIMD alignment) and [u32; 3] (12 bytes), 4-byte aligned as Embree requires, of
+            // exactly the item counts given, followed by SHARED_PAD zeroed elements (24 bytes), so
+            // Embree's 16-byte loads of the last vertex stay inside the allocation. They are never
+            // changed (`SharedArray` has no mutable access) and outlive the Embree scene: `accel`
+            // holds a reference to each and releases the scene before dropping them (on error
+            // below too, since `accel` is dropped then).
+            unsafe {
+                sys::rtcSetSharedGeometryBuffer(
                     geom,
                     sys::RTCBufferType_RTC_BUFFER_TYPE_VERTEX,
                     0,
                     sys::RTCFormat_RTC_FORMAT_FLOAT3,
+                    accel.shared_positions.padded_ptr() as *const c_void,
+                    0,
                     12,
                     positions.len(),
-                )
-            } as *mut f32;
-            check(dev, "vertex buffer")?;
-            // SAFETY: as above, triangles.len() items of 3 u32.
-            let ibuf = unsafe {
-                sys::rtcSetNewGeometryBuffer(
+                );
+                sys::rtcSetSharedGeometryBuffer(
                     geom,
                     sys::RTCBufferType_RTC_BUFFER_TYPE_INDEX,
                     0,
                     sys::RTCFormat_RTC_FORMAT_UINT3,
+                    accel.shared_triangles.padded_ptr() as *const c_void,
+                    0,
                     12,
                     triangles.len(),
-                )
-            } as *mut u32;
-            check(dev, "index buffer")?;
-            if vbuf.is_null() || ibuf.is_null() {
+                );
+            }
+            if let Err(e) = check(dev, "shared geometry buffers") {
                 // SAFETY: geom is live and not yet attached.
                 unsafe { sys::rtcReleaseGeometry(geom) };
-                return Err(AccelError::Embree {
-                    code: 0,
-                    during: "buffer allocation",
-                    message: "null buffer".into(),
-                });
-            }
-            // SAFETY: vbuf has room for positions.len()*3 f32 and ibuf for triangles.len()*3 u32
-            // (requested above); the sources are plain arrays of f32/u32 of exactly that length, and
-            // the regions cannot overlap (Embree's fresh allocations).
-            unsafe {
-                std::ptr::copy_nonoverlapping(
-                    positions.as_ptr() as *const f32,
-                    vbuf,
-                    positions.len() * 3,
-                );
-                std::ptr::copy_nonoverlapping(
-                    triangles.as_ptr() as *const u32,
-                    ibuf,
-                    triangles.len() * 3,
-                );
+                return Err(e);
             }
             // SAFETY: geom and scene are live; after attaching, the scene holds its own reference,
             // so releasing ours is the documented pattern.
@@ -497,7 +553,8 @@ mod tests {
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(0.0, 1.0, 0.0),
         ];
-        Accel::new(&p, &[[0, 1, 2]]).expect("scene builds")
+        Accel::new(&SharedArray::new(p.to_vec()), &SharedArray::new(vec![[0, 1, 2]]))
+            .expect("scene builds")
     }
 
     #[test]
@@ -565,7 +622,7 @@ mod tests {
             0.0,
             f32::INFINITY
         ));
-        let empty = Accel::new(&[], &[]).unwrap();
+        let empty = Accel::new(&SharedArray::default(), &SharedArray::default()).unwrap();
         assert_eq!(
             empty.intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY),
             None

@@ -19,7 +19,7 @@ pub fn translated(scene: &Scene, offset: Vec3) -> Scene {
         &scene.source,
         scene.positions.iter().map(|p| *p + offset).collect(),
         scene.normals.clone(),
-        scene.triangles.clone(),
+        scene.triangles.to_vec(),
         scene.tri_material.clone(),
         scene.materials.clone(),
         Default::default(),

@@ -14,7 +14,7 @@ pub mod obj_parse;
 pub mod sidecar;
 pub mod texture;
 
-use crate::accel::{Accel, RawHit};
+use crate::accel::{Accel, RawHit, SharedArray};
 use crate::math::Rgb;
 use crate::scene::flat::{FlatScene, Flatland};
 use glam::{DVec3, Vec3};
@@ -119,11 +119,13 @@ pub enum Shading {
 /// A loaded scene.
 pub struct Scene {
     pub source: PathBuf,
-    pub positions: Vec<Vec3>,
+    /// The vertices, read in place by Embree (hence immutable).
+    pub positions: SharedArray<Vec3>,
     /// Per-vertex shading normals, same indexing as `positions`, when the loader gave them so
     /// (glTF); empty otherwise (see [`Scene::has_shading_normals`]).
     pub normals: Vec<Vec3>,
-    pub triangles: Vec<[u32; 3]>,
+    /// Each triangle's vertex indices, read in place by Embree (hence immutable).
+    pub triangles: SharedArray<[u32; 3]>,
     pub tri_material: Vec<u32>,
     pub materials: Vec<Material>,
     pub lights: LightSet,
@@ -246,9 +248,10 @@ impl Scene {
     /// area, non-finite coordinates, out-of-range indices) are dropped and counted in the report.
     ///
     /// Memory: the triangle arrays are compacted in place, and the per-triangle records are made
-    /// before the BVH build, so that no loader buffer is alive while Embree builds; what stays per
-    /// triangle is its indices (12 bytes), material (4), the 64-byte hit record and, with shading
-    /// normals, their 36 bytes.
+    /// before the BVH build, so that no loader buffer is alive while Embree builds; Embree reads
+    /// the vertex and index arrays in place ([`SharedArray`]). What stays per triangle is its
+    /// indices (12 bytes), material (4), the 64-byte hit record and, with shading normals, their
+    /// 36 bytes.
     pub fn from_parts(
         source: &Path,
         positions: Vec<Vec3>,
@@ -353,6 +356,8 @@ impl Scene {
             0.5 * extent,
         );
         let features = Features::of(&materials, &tri_material, &lights);
+        // Embree reads these two in place: from here on they are immutable.
+        let (positions, triangles) = (SharedArray::new(positions), SharedArray::new(triangles));
         let t_bvh = std::time::Instant::now();
         let accel = Accel::new(&positions, &triangles)?;
         report.bvh_seconds = t_bvh.elapsed().as_secs_f64();
