@@ -17,7 +17,7 @@ pub mod texture;
 use crate::accel::{Accel, RawHit, SharedArray};
 use crate::math::Rgb;
 use crate::scene::flat::{FlatScene, Flatland};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
 pub use features::Features;
@@ -116,6 +116,31 @@ pub enum Shading {
     PerCorner(Vec<[Vec3; 3]>),
 }
 
+/// Texture coordinates (v up), as a loader hands them to [`Scene::from_parts`] or
+/// [`Scene::set_textures`] and as the scene keeps them; read only through
+/// [`Scene::corner_uvs`].
+#[derive(Clone, Debug, Default)]
+pub enum TexCoords {
+    /// None: every corner reads (0, 0).
+    #[default]
+    None,
+    /// One per vertex, same indexing as the positions (glTF).
+    PerVertex(Vec<Vec2>),
+    /// A table and, per triangle, its corners' indices into it (OBJ's `vt` and the faces' vt
+    /// indices: a vertex may have other coordinates in each face); an index past the table
+    /// (a corner without `vt`) reads (0, 0).
+    PerCorner {
+        table: Vec<Vec2>,
+        corners: Vec<[u32; 3]>,
+    },
+}
+
+impl TexCoords {
+    pub fn is_none(&self) -> bool {
+        matches!(self, TexCoords::None)
+    }
+}
+
 /// A loaded scene.
 pub struct Scene {
     pub source: PathBuf,
@@ -145,9 +170,9 @@ pub struct Scene {
     /// that a hit reads one record instead of the index and three normal entries; empty when the
     /// scene has no shading normals.
     tri_shading: Vec<[Vec3; 3]>,
-    /// Texture coordinates per vertex (same indexing as `positions`; v up), empty when no material
-    /// has a texture: then hits never look.
-    uvs: Vec<glam::Vec2>,
+    /// Texture coordinates (v up), [`TexCoords::None`] when no material has a texture: then hits
+    /// never look.
+    uvs: TexCoords,
     /// The decoded textures that materials refer to ([`Material::base_color`]).
     pub textures: crate::scene::texture::TextureSet,
     /// The slice plane of a flatland run with its light cross-sections and 2D materials, set by
@@ -239,6 +264,7 @@ impl Scene {
             triangles,
             tri_material,
             shading,
+            TexCoords::None,
             materials,
             report,
         )
@@ -247,23 +273,41 @@ impl Scene {
     /// Assembles a scene and builds its Embree acceleration structure. Degenerate triangles (zero
     /// area, non-finite coordinates, out-of-range indices) are dropped and counted in the report.
     ///
+    /// Texture coordinates are kept only when some material has a texture
+    /// ([`Material::base_color`]); hits read them once the textures are attached
+    /// ([`Scene::attach_textures`]). Per-vertex ones of another length than `positions` are
+    /// dropped.
+    ///
     /// Memory: the triangle arrays are compacted in place, and the per-triangle records are made
     /// before the BVH build, so that no loader buffer is alive while Embree builds; Embree reads
     /// the vertex and index arrays in place ([`SharedArray`]). What stays per triangle is its
     /// indices (12 bytes), material (4), the 64-byte hit record and, with shading normals, their
-    /// 36 bytes.
+    /// 36 bytes, with per-corner texture coordinates their 12 bytes of indices.
+    #[allow(clippy::too_many_arguments)]
     pub fn from_parts(
         source: &Path,
         positions: Vec<Vec3>,
         mut triangles: Vec<[u32; 3]>,
         mut tri_material: Vec<u32>,
         shading: Shading,
+        texcoords: TexCoords,
         materials: Vec<Material>,
         mut report: LoadReport,
     ) -> anyhow::Result<Scene> {
         assert_eq!(triangles.len(), tri_material.len());
         let n = triangles.len();
         report.triangles_read += n;
+        let textured = materials.iter().any(|m| m.base_color.is_some());
+        let mut texcoords = match texcoords {
+            TexCoords::PerVertex(v) if textured && v.len() == positions.len() => {
+                TexCoords::PerVertex(v)
+            }
+            TexCoords::PerCorner { table, corners } if textured => {
+                assert_eq!(corners.len(), n);
+                TexCoords::PerCorner { table, corners }
+            }
+            _ => TexCoords::None,
+        };
         let (normals, mut corners) = match shading {
             Shading::None => (Vec::new(), None),
             Shading::PerVertex(v) if v.len() == positions.len() => (v, None),
@@ -307,7 +351,14 @@ impl Scene {
                 if let Some(c) = corners.as_mut() {
                     c[kept] = c[k];
                 }
+                if let TexCoords::PerCorner { corners, .. } = &mut texcoords {
+                    corners[kept] = corners[k];
+                }
                 kept += 1;
+            }
+            if let TexCoords::PerCorner { corners, .. } = &mut texcoords {
+                corners.truncate(kept);
+                corners.shrink_to_fit();
             }
             tri_hit.truncate(kept);
             triangles.truncate(kept);
@@ -377,7 +428,7 @@ impl Scene {
             extent,
             tri_hit,
             tri_shading,
-            uvs: Vec::new(),
+            uvs: texcoords,
             textures: Default::default(),
             flat: None,
             accel,
@@ -395,16 +446,22 @@ impl Scene {
         self.tri_hit.iter().map(|t| t.ng)
     }
 
-    /// Sets per-vertex texture coordinates (v up) and the textures materials refer to. Ignored
-    /// (left without) when `uvs` does not have one entry per vertex or no material has a texture.
-    pub fn set_textures(
-        &mut self,
-        uvs: Vec<glam::Vec2>,
-        textures: crate::scene::texture::TextureSet,
-    ) {
+    /// Sets per-vertex texture coordinates (v up) and the textures materials refer to (glTF).
+    /// Ignored (left without) when `uvs` does not have one entry per vertex or no material has a
+    /// texture.
+    pub fn set_textures(&mut self, uvs: Vec<Vec2>, textures: crate::scene::texture::TextureSet) {
         let used = self.materials.iter().any(|m| m.base_color.is_some());
         if used && uvs.len() == self.positions.len() {
-            self.uvs = uvs;
+            self.uvs = TexCoords::PerVertex(uvs);
+            self.attach_textures(textures);
+        }
+    }
+
+    /// Sets the textures materials refer to, in a scene whose texture coordinates came with its
+    /// parts ([`Scene::from_parts`], e.g. OBJ's `vt`); from then on hits read them. Ignored when
+    /// the scene kept no texture coordinates (no material has a texture).
+    pub fn attach_textures(&mut self, textures: crate::scene::texture::TextureSet) {
+        if !self.uvs.is_none() {
             self.textures = textures;
             self.features.textures = true;
         }
@@ -415,7 +472,7 @@ impl Scene {
     /// own. Scenes without textures return at the first test.
     #[inline(always)]
     pub fn textured_albedo(&self, hit: &Hit) -> Option<Rgb> {
-        if self.uvs.is_empty() {
+        if !self.features.textures {
             return None;
         }
         self.texel_albedo(hit)
@@ -436,11 +493,23 @@ impl Scene {
         Some(tex.factor * texture.rgb(s, 1.0 - t, tex.wrap))
     }
 
-    /// The texture coordinates (v up) of triangle `prim`'s three corners; only called in scenes
-    /// with textures.
+    /// The texture coordinates (v up) of triangle `prim`'s three corners: (0, 0) for a corner
+    /// the file gave none (an OBJ face without `vt`) and in a scene without texture coordinates.
     #[inline]
-    pub fn corner_uvs(&self, prim: u32) -> [glam::Vec2; 3] {
-        self.triangles[prim as usize].map(|v| self.uvs[v as usize])
+    pub fn corner_uvs(&self, prim: u32) -> [Vec2; 3] {
+        let i = prim as usize;
+        match &self.uvs {
+            TexCoords::PerVertex(uv) => self.triangles[i].map(|v| uv[v as usize]),
+            TexCoords::PerCorner { table, corners } => {
+                corners[i].map(|k| table.get(k as usize).copied().unwrap_or(Vec2::ZERO))
+            }
+            TexCoords::None => [Vec2::ZERO; 3],
+        }
+    }
+
+    /// The texture coordinates the scene keeps (see [`TexCoords`]).
+    pub fn texcoords(&self) -> &TexCoords {
+        &self.uvs
     }
 
     /// True when hits interpolate shading normals (the file gave normals).
