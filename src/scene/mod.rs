@@ -320,9 +320,9 @@ impl Scene {
         let max_material = materials.len().saturating_sub(1) as u32;
         // The hit records, in parallel; a degenerate triangle's gets a NaN normal and is dropped
         // below (all arrays compacted in place, in order).
+        use rayon::prelude::*;
         let mut tri_hit: Vec<TriHit> = crate::accel::vec_with_huge_pages(n);
         {
-            use rayon::prelude::*;
             tri_hit.par_extend(triangles.par_iter().zip(&tri_material).map(|(tri, &m)| {
                 let ng = triangle_normal(&positions, tri).unwrap_or(DVec3::NAN);
                 let m = m.min(max_material);
@@ -337,7 +337,7 @@ impl Scene {
                 }
             }));
         }
-        let dropped = tri_hit.iter().filter(|h| h.ng.x.is_nan()).count();
+        let dropped = tri_hit.par_iter().filter(|h| h.ng.x.is_nan()).count();
         report.degenerate_dropped += dropped;
         let mut kept = n;
         if dropped > 0 {
@@ -365,7 +365,7 @@ impl Scene {
             triangles.shrink_to_fit();
         }
         tri_material.clear();
-        tri_material.extend(tri_hit.iter().map(|h| h.material));
+        tri_material.par_extend(tri_hit.par_iter().map(|h| h.material));
         tri_material.shrink_to_fit();
         // Bounds of the kept triangles' vertices, in their order (as a sequential loader would:
         // min and max of a signed zero depend on the order).
