@@ -553,8 +553,11 @@ mod tests {
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(0.0, 1.0, 0.0),
         ];
-        Accel::new(&SharedArray::new(p.to_vec()), &SharedArray::new(vec![[0, 1, 2]]))
-            .expect("scene builds")
+        Accel::new(
+            &SharedArray::new(p.to_vec()),
+            &SharedArray::new(vec![[0, 1, 2]]),
+        )
+        .expect("scene builds")
     }
 
     #[test]

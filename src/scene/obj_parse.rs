@@ -543,8 +543,12 @@ fn face<'a>(
                     }
                 }
             }
-            c.data.triangles.push(tri.map(|q| q.index[POSITION as usize]));
-            c.data.tri_normals.push(tri.map(|q| q.index[NORMAL as usize]));
+            c.data
+                .triangles
+                .push(tri.map(|q| q.index[POSITION as usize]));
+            c.data
+                .tri_normals
+                .push(tri.map(|q| q.index[NORMAL as usize]));
             c.data
                 .tri_texcoords
                 .push(tri.map(|q| q.index[TEXCOORD as usize]));
@@ -699,10 +703,38 @@ mod tests {
     #[test]
     fn real_numbers_are_the_standard_parsers_bit_for_bit() {
         let fixed = [
-            "0", "-0", "0.0", "-0.0", "1", "1.", ".5", "-.5", "0.1", "0.123456", "-0.812345",
-            "16777216", "16777217", "16777215.5", "1234567.8", "0.0000001", "0.00000000001",
-            "123456789", "1234567890", "99999999.9", "3.4028235e38", "1e-3", "+1.5", "inf",
-            "-nan", "1.2.3", "", "-", ".", "1-2", "0x10", "00000000000001.5",
+            "0",
+            "-0",
+            "0.0",
+            "-0.0",
+            "1",
+            "1.",
+            ".5",
+            "-.5",
+            "0.1",
+            "0.123456",
+            "-0.812345",
+            "16777216",
+            "16777217",
+            "16777215.5",
+            "1234567.8",
+            "0.0000001",
+            "0.00000000001",
+            "123456789",
+            "1234567890",
+            "99999999.9",
+            "3.4028235e38",
+            "1e-3",
+            "+1.5",
+            "inf",
+            "-nan",
+            "1.2.3",
+            "",
+            "-",
+            ".",
+            "1-2",
+            "0x10",
+            "00000000000001.5",
         ];
         for s in fixed {
             assert_eq!(
@@ -744,7 +776,11 @@ mod tests {
         );
         assert_eq!(
             d.texcoords,
-            [Vec2::new(0.25, 0.5), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)]
+            [
+                Vec2::new(0.25, 0.5),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(0.0, 1.0)
+            ]
         );
         assert_eq!(d.triangles.len(), 5);
         assert_eq!(
