@@ -8,15 +8,77 @@
 //! - Embree 4's queries take optional argument structs: passing null selects the defaults.
 //!
 //! Object lifecycle: a device is created once per process (its TBB thread pool is process-wide); a
-//! scene is created, given one triangle geometry whose vertex and index buffers Embree allocates
-//! (`rtcSetNewGeometryBuffer`, which also pads the vertex buffer as Embree requires), committed, and
-//! released on drop. After commit the scene is immutable and queries may run on any thread.
+//! scene is created, given one triangle geometry that reads the scene's own vertex and index arrays
+//! in place (`rtcSetSharedGeometryBuffer`: no copies), committed, and released on drop. A scene
+//! with cut-outs (alpha) has two geometries over the same vertex array: the opaque triangles, and
+//! the cut-out ones with Embree's intersection and occlusion filter functions. The arrays
+//! are [`SharedArray`]s: immutable, padded as Embree requires, and kept alive by the [`Accel`]
+//! (a reference count) for as long as Embree may read them. After commit the scene is immutable
+//! and queries may run on any thread.
 
 use embree_sys as sys;
 use glam::Vec3;
 use std::cell::RefCell;
 use std::ffi::{CStr, c_char, c_void};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
+
+/// Zeroed elements after the end of a [`SharedArray`]: Embree reads vertices with 16-byte loads,
+/// so the last one must be followed by at least 4 readable bytes; two elements (24 bytes for a
+/// vertex, 24 for a triangle's indices) cover 16 bytes past the end whatever the element.
+const SHARED_PAD: usize = 2;
+
+// The layouts Embree is told (RTC_FORMAT_FLOAT3 and RTC_FORMAT_UINT3, stride 12).
+const _: () = assert!(std::mem::size_of::<Vec3>() == 12 && std::mem::align_of::<Vec3>() == 4);
+const _: () = assert!(std::mem::size_of::<[u32; 3]>() == 12);
+
+/// An array that Embree reads in place (a shared geometry buffer): immutable (it derefs to a
+/// slice and offers no way to change it), followed by [`SHARED_PAD`] zeroed elements that Embree
+/// may read, and reference-counted, so that the [`Accel`] reading it keeps it alive. Cloning
+/// shares the array.
+pub struct SharedArray<T: Copy + Default>(Arc<Vec<T>>);
+
+impl<T: Copy + Default> SharedArray<T> {
+    /// Takes `v` over; its spare capacity is grown by the padding if needed (a reallocation that
+    /// moves pages rather than copying them, for large arrays), which is zeroed.
+    pub fn new(mut v: Vec<T>) -> Self {
+        v.shrink_to(v.len() + SHARED_PAD);
+        v.reserve_exact(SHARED_PAD);
+        for p in &mut v.spare_capacity_mut()[..SHARED_PAD] {
+            p.write(T::default());
+        }
+        SharedArray(Arc::new(v))
+    }
+
+    /// The elements and the padding after them, for Embree.
+    fn padded_ptr(&self) -> *const T {
+        self.0.as_ptr()
+    }
+}
+
+impl<T: Copy + Default> Clone for SharedArray<T> {
+    fn clone(&self) -> Self {
+        SharedArray(Arc::clone(&self.0))
+    }
+}
+
+impl<T: Copy + Default> std::ops::Deref for SharedArray<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.0
+    }
+}
+
+impl<T: Copy + Default + std::fmt::Debug> std::fmt::Debug for SharedArray<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.0.iter()).finish()
+    }
+}
+
+impl<T: Copy + Default> Default for SharedArray<T> {
+    fn default() -> Self {
+        SharedArray::new(Vec::new())
+    }
+}
 
 /// Errors reported by Embree, through its error callback or its error code.
 #[derive(Debug, thiserror::Error)]
@@ -128,61 +190,54 @@ fn check(dev: sys::RTCDevice, during: &'static str) -> Result<(), AccelError> {
     Ok(())
 }
 
-/// Gives `scene` a triangle geometry of `triangles` over `positions` with id `id`, the vertex
-/// and index data copied into buffers Embree allocates; with `filter_data`, the cut-out filters
-/// and that pointer as the geometry's user data (a live [`Cutouts`] the caller keeps alive).
+/// Gives `scene` a triangle geometry with id `id` that reads `triangles` over `positions` in
+/// place; with `filter_data`, the cut-out filters and that pointer as the geometry's user data (a
+/// live [`Cutouts`] the caller keeps alive).
 fn attach(
     dev: sys::RTCDevice,
     scene: sys::RTCScene,
     id: u32,
-    positions: &[Vec3],
-    triangles: &[[u32; 3]],
+    positions: &SharedArray<Vec3>,
+    triangles: &SharedArray<[u32; 3]>,
     filter_data: Option<*mut c_void>,
 ) -> Result<(), AccelError> {
     // SAFETY: dev is live; the geometry is released after being attached (the scene keeps a
     // reference), or below on error.
     let geom = unsafe { sys::rtcNewGeometry(dev, sys::RTCGeometryType_RTC_GEOMETRY_TYPE_TRIANGLE) };
     check(dev, "rtcNewGeometry")?;
-    // SAFETY: Embree allocates a buffer of positions.len() items of 12 bytes (plus its own
-    // padding) and returns a pointer to it, or null on failure (checked).
-    let vbuf = unsafe {
-        sys::rtcSetNewGeometryBuffer(
+    // SAFETY: geom is live. The arrays are Vec3 (three f32, 12 bytes, `glam`'s layout without
+    // SIMD alignment) and [u32; 3] (12 bytes), 4-byte aligned as Embree requires, of exactly the
+    // item counts given, followed by SHARED_PAD zeroed elements (24 bytes), so Embree's 16-byte
+    // loads of the last vertex stay inside the allocation. They are never changed (`SharedArray`
+    // has no mutable access) and outlive the Embree scene: the caller's `Accel` holds a reference
+    // to each (the index arrays of cut-out scenes through its `Cutouts`) and releases the scene
+    // before dropping them (on error too, since the `Accel` is dropped then).
+    unsafe {
+        sys::rtcSetSharedGeometryBuffer(
             geom,
             sys::RTCBufferType_RTC_BUFFER_TYPE_VERTEX,
             0,
             sys::RTCFormat_RTC_FORMAT_FLOAT3,
+            positions.padded_ptr() as *const c_void,
+            0,
             12,
             positions.len(),
-        )
-    } as *mut f32;
-    check(dev, "vertex buffer")?;
-    // SAFETY: as above, triangles.len() items of 3 u32.
-    let ibuf = unsafe {
-        sys::rtcSetNewGeometryBuffer(
+        );
+        sys::rtcSetSharedGeometryBuffer(
             geom,
             sys::RTCBufferType_RTC_BUFFER_TYPE_INDEX,
             0,
             sys::RTCFormat_RTC_FORMAT_UINT3,
+            triangles.padded_ptr() as *const c_void,
+            0,
             12,
             triangles.len(),
-        )
-    } as *mut u32;
-    check(dev, "index buffer")?;
-    if vbuf.is_null() || ibuf.is_null() {
+        );
+    }
+    if let Err(e) = check(dev, "shared geometry buffers") {
         // SAFETY: geom is live and not yet attached.
         unsafe { sys::rtcReleaseGeometry(geom) };
-        return Err(AccelError::Embree {
-            code: 0,
-            during: "buffer allocation",
-            message: "null buffer".into(),
-        });
-    }
-    // SAFETY: vbuf has room for positions.len()*3 f32 and ibuf for triangles.len()*3 u32
-    // (requested above); the sources are plain arrays of f32/u32 of exactly that length, and
-    // the regions cannot overlap (Embree's fresh allocations).
-    unsafe {
-        std::ptr::copy_nonoverlapping(positions.as_ptr() as *const f32, vbuf, positions.len() * 3);
-        std::ptr::copy_nonoverlapping(triangles.as_ptr() as *const u32, ibuf, triangles.len() * 3);
+        return Err(e);
     }
     if let Some(user) = filter_data {
         // SAFETY: geom is live; `user` points to a `Cutouts` that the caller keeps alive and
@@ -215,9 +270,13 @@ pub struct RawHit {
     pub v: f32,
 }
 
-/// A committed Embree scene of triangles; immutable and shareable across threads.
+/// A committed Embree scene of triangles; immutable and shareable across threads. It holds the
+/// vertex and index arrays Embree reads (shared buffers), so they live at least as long as the
+/// Embree scene: `Drop` releases the scene first, then the fields (the arrays) are dropped.
 pub struct Accel {
     scene: sys::RTCScene,
+    shared_positions: SharedArray<Vec3>,
+    shared_triangles: SharedArray<[u32; 3]>,
     /// With cut-outs: geometry 0 holds the opaque triangles, geometry 1 those that may be cut
     /// out, with the filter functions; `None` (one geometry of all triangles, no filter) otherwise.
     /// Boxed, so that the address Embree holds as the geometry's user data stays put; dropped after
@@ -230,8 +289,10 @@ pub struct Accel {
 /// hashed from the ray and the triangle for stochastic coverage. Must not panic.
 pub type CutTest = dyn Fn(u32, [f32; 2], f64) -> bool + Send + Sync;
 
-/// The two geometries' triangle numbers and the cut-out test.
+/// The two geometries' triangles and numbers, and the cut-out test.
 struct Cutouts {
+    /// The index arrays Embree reads for geometries 0 and 1 (kept alive here).
+    _indices: [SharedArray<[u32; 3]>; 2],
     /// Index (in the buffer given to [`Accel::with_cutouts`]) of geometry 0's triangle `primID`.
     opaque: Vec<u32>,
     /// Likewise for geometry 1, the cut-out triangles.
@@ -302,10 +363,13 @@ impl Drop for Accel {
 }
 
 impl Accel {
-    /// Builds and commits a scene of `triangles` over `positions`. Vertex and index data are copied
-    /// into buffers Embree allocates, so the inputs need not outlive the scene. Triangles must index
-    /// valid vertices (the scene loader guarantees it and drops degenerate ones).
-    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Accel, AccelError> {
+    /// Builds and commits a scene of `triangles` over `positions`. Embree reads both arrays in
+    /// place, for as long as the scene exists: the `Accel` keeps a reference to each. Triangles
+    /// must index valid vertices (the scene loader guarantees it and drops degenerate ones).
+    pub fn new(
+        positions: &SharedArray<Vec3>,
+        triangles: &SharedArray<[u32; 3]>,
+    ) -> Result<Accel, AccelError> {
         Accel::with_cutouts(positions, triangles, &[])
     }
 
@@ -313,10 +377,10 @@ impl Accel {
     /// in a geometry of their own that has Embree's intersection and occlusion filters, so that
     /// rays pass through them where [`Accel::set_cut_test`] says; the other triangles' geometry
     /// has no filter and costs what it did. Hits and point queries report indices into
-    /// `triangles` either way.
+    /// `triangles` either way. With cut-outs, each geometry reads an index array of its own.
     pub fn with_cutouts(
-        positions: &[Vec3],
-        triangles: &[[u32; 3]],
+        positions: &SharedArray<Vec3>,
+        triangles: &SharedArray<[u32; 3]>,
         cutout: &[u32],
     ) -> Result<Accel, AccelError> {
         if triangles.len() >= u32::MAX as usize || positions.len() >= u32::MAX as usize {
@@ -336,6 +400,8 @@ impl Accel {
         check(dev, "rtcNewScene")?;
         let mut accel = Accel {
             scene,
+            shared_positions: positions.clone(),
+            shared_triangles: triangles.clone(),
             cutouts: None,
         };
         // SAFETY: scene is live. Robust mode avoids optimisations that can let rays slip through
@@ -346,7 +412,14 @@ impl Accel {
         }
         if cutout.is_empty() {
             if !triangles.is_empty() {
-                attach(dev, scene, 0, positions, triangles, None)?;
+                attach(
+                    dev,
+                    scene,
+                    0,
+                    &accel.shared_positions,
+                    &accel.shared_triangles,
+                    None,
+                )?;
             }
         } else {
             let mut is_cut = vec![false; triangles.len()];
@@ -356,20 +429,29 @@ impl Accel {
             let opaque: Vec<u32> = (0..triangles.len() as u32)
                 .filter(|&i| !is_cut[i as usize])
                 .collect();
-            let pick = |ids: &[u32]| -> Vec<[u32; 3]> {
-                ids.iter().map(|&i| triangles[i as usize]).collect()
+            let pick = |ids: &[u32]| {
+                SharedArray::new(ids.iter().map(|&i| triangles[i as usize]).collect())
             };
             let cuts = Box::new(Cutouts {
-                opaque: opaque.clone(),
+                _indices: [pick(&opaque), pick(cutout)],
+                opaque,
                 cut: cutout.to_vec(),
                 test: None,
             });
-            if !opaque.is_empty() {
-                attach(dev, scene, 0, positions, &pick(&opaque), None)?;
-            }
             let user = &*cuts as *const Cutouts as *mut c_void;
+            let [opaque_tris, cut_tris] = cuts._indices.clone();
             accel.cutouts = Some(cuts);
-            attach(dev, scene, 1, positions, &pick(cutout), Some(user))?;
+            if !opaque_tris.is_empty() {
+                attach(dev, scene, 0, &accel.shared_positions, &opaque_tris, None)?;
+            }
+            attach(
+                dev,
+                scene,
+                1,
+                &accel.shared_positions,
+                &cut_tris,
+                Some(user),
+            )?;
         }
         // SAFETY: scene is live and fully described.
         unsafe { sys::rtcCommitScene(scene) };
@@ -657,7 +739,11 @@ mod tests {
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(0.0, 1.0, 0.0),
         ];
-        Accel::new(&p, &[[0, 1, 2]]).expect("scene builds")
+        Accel::new(
+            &SharedArray::new(p.to_vec()),
+            &SharedArray::new(vec![[0, 1, 2]]),
+        )
+        .expect("scene builds")
     }
 
     #[test]
@@ -725,7 +811,7 @@ mod tests {
             0.0,
             f32::INFINITY
         ));
-        let empty = Accel::new(&[], &[]).unwrap();
+        let empty = Accel::new(&SharedArray::default(), &SharedArray::default()).unwrap();
         assert_eq!(
             empty.intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY),
             None

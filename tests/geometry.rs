@@ -19,7 +19,7 @@ pub fn translated(scene: &Scene, offset: Vec3) -> Scene {
         &scene.source,
         scene.positions.iter().map(|p| *p + offset).collect(),
         scene.normals.clone(),
-        scene.triangles.clone(),
+        scene.triangles.to_vec(),
         scene.tri_material.clone(),
         scene.materials.clone(),
         Default::default(),
@@ -70,4 +70,55 @@ fn rays_from_triangles_never_rehit_their_own() {
     assert_eq!(self_hits(&scene, 20_000), 0);
     let far = translated(&scene, Vec3::splat(1e4));
     assert_eq!(self_hits(&far, 20_000), 0);
+}
+
+/// Per-corner texture coordinates (OBJ's `vt`) follow their triangles when degenerate ones are
+/// dropped, read (0, 0) where a corner has none, and are kept only when a material has a texture.
+#[test]
+fn geometry_per_corner_texture_coordinates_follow_their_triangles() {
+    use ftpd3d::math::Rgb;
+    use ftpd3d::scene::material::TextureRef;
+    use ftpd3d::scene::{Material, Shading, TexCoords};
+    use glam::Vec2;
+    let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)];
+    // The middle triangle is degenerate (two equal corners) and dropped.
+    let triangles = vec![[0, 1, 2], [0, 0, 1], [1, 3, 2]];
+    let table = vec![
+        Vec2::new(0.1, 0.2),
+        Vec2::new(0.3, 0.4),
+        Vec2::new(0.5, 0.6),
+    ];
+    let corners = vec![[0, 1, 2], [2, 2, 2], [1, u32::MAX, 0]];
+    let build = |m: Material| {
+        Scene::from_parts(
+            Path::new("uv.obj"),
+            positions.clone(),
+            triangles.clone(),
+            vec![0; 3],
+            Shading::None,
+            TexCoords::PerCorner {
+                table: table.clone(),
+                corners: corners.clone(),
+            },
+            vec![m],
+            Default::default(),
+        )
+        .unwrap()
+    };
+    let mut textured = Material::default_grey();
+    textured.maps.base_color = Some(TextureRef {
+        texture: 0,
+        factor: Rgb::ONE,
+        wrap: Default::default(),
+        transform: Default::default(),
+    });
+    let scene = build(textured);
+    assert_eq!(scene.triangles[..], [[0, 1, 2], [1, 3, 2]]);
+    assert_eq!(scene.report.degenerate_dropped, 1);
+    assert_eq!(scene.corner_uvs(0), [table[0], table[1], table[2]]);
+    assert_eq!(scene.corner_uvs(1), [table[1], Vec2::ZERO, table[0]]);
+    // No textured material: nothing kept, every corner reads (0, 0).
+    let plain = build(Material::default_grey());
+    assert!(plain.texcoords().is_none());
+    assert_eq!(plain.corner_uvs(1), [Vec2::ZERO; 3]);
 }

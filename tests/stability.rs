@@ -851,7 +851,7 @@ fn stability_degenerate_triangles_are_dropped_and_counted() {
     let scene = load_scene(&obj).unwrap();
     assert_eq!(scene.report.triangles_read, 8);
     assert_eq!(scene.report.degenerate_dropped, 7);
-    assert_eq!(scene.triangles, vec![[0, 1, 2]]);
+    assert_eq!(scene.triangles[..], [[0, 1, 2]]);
     assert_eq!(scene.bounds.min, DVec3::ZERO);
     assert_eq!(scene.bounds.max, DVec3::new(1.0, 1.0, 0.0));
     assert!(scene.extent().is_finite());

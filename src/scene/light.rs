@@ -317,13 +317,19 @@ impl LightSet {
         center: DVec3,
         radius: f64,
     ) -> LightSet {
+        use rayon::prelude::*;
         let mut lights = Vec::new();
-        let mut light_of_prim = vec![u32::MAX; triangles.len()];
-        for (i, tri) in triangles.iter().enumerate() {
+        let mut light_of_prim = Vec::with_capacity(triangles.len());
+        light_of_prim.par_extend(rayon::iter::repeat_n(u32::MAX, triangles.len()));
+        // The emitting triangles, in order (found in parallel: scenes have millions of triangles
+        // and few emitters).
+        let emitting: Vec<usize> = (0..triangles.len())
+            .into_par_iter()
+            .filter(|&i| luminance(materials[tri_material[i] as usize].emission) > 0.0)
+            .collect();
+        for i in emitting {
             let m = &materials[tri_material[i] as usize];
-            if luminance(m.emission) <= 0.0 {
-                continue;
-            }
+            let tri = &triangles[i];
             let v = tri.map(|k| positions[k as usize].as_dvec3());
             let area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
             if area <= 0.0 {

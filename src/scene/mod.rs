@@ -15,11 +15,11 @@ pub mod obj_parse;
 pub mod sidecar;
 pub mod texture;
 
-use crate::accel::{Accel, RawHit};
+use crate::accel::{Accel, RawHit, SharedArray};
 use crate::math::Rgb;
 use crate::scene::flat::{FlatScene, Flatland};
 use crate::scene::material::{Bsdf, TextureRef};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
 pub use features::Features;
@@ -118,14 +118,41 @@ pub enum Shading {
     PerCorner(Vec<[Vec3; 3]>),
 }
 
+/// Texture coordinates (v up), as a loader hands them to [`Scene::from_parts`] or
+/// [`Scene::set_textures`] and as the scene keeps them; read only through
+/// [`Scene::corner_uvs`].
+#[derive(Clone, Debug, Default)]
+pub enum TexCoords {
+    /// None: every corner reads (0, 0).
+    #[default]
+    None,
+    /// One per vertex, same indexing as the positions (glTF).
+    PerVertex(Vec<Vec2>),
+    /// A table and, per triangle, its corners' indices into it (OBJ's `vt` and the faces' vt
+    /// indices: a vertex may have other coordinates in each face); an index past the table
+    /// (a corner without `vt`) reads (0, 0).
+    PerCorner {
+        table: Vec<Vec2>,
+        corners: Vec<[u32; 3]>,
+    },
+}
+
+impl TexCoords {
+    pub fn is_none(&self) -> bool {
+        matches!(self, TexCoords::None)
+    }
+}
+
 /// A loaded scene.
 pub struct Scene {
     pub source: PathBuf,
-    pub positions: Vec<Vec3>,
+    /// The vertices, read in place by Embree (hence immutable).
+    pub positions: SharedArray<Vec3>,
     /// Per-vertex shading normals, same indexing as `positions`, when the loader gave them so
     /// (glTF); empty otherwise (see [`Scene::has_shading_normals`]).
     pub normals: Vec<Vec3>,
-    pub triangles: Vec<[u32; 3]>,
+    /// Each triangle's vertex indices, read in place by Embree (hence immutable).
+    pub triangles: SharedArray<[u32; 3]>,
     pub tri_material: Vec<u32>,
     pub materials: Vec<Material>,
     pub lights: LightSet,
@@ -145,9 +172,9 @@ pub struct Scene {
     /// that a hit reads one record instead of the index and three normal entries; empty when the
     /// scene has no shading normals.
     tri_shading: Vec<[Vec3; 3]>,
-    /// Texture coordinates per vertex (same indexing as `positions`; v up), empty when no material
-    /// has a texture: then hits never look.
-    uvs: Vec<glam::Vec2>,
+    /// Texture coordinates (v up), [`TexCoords::None`] when no material has a texture: then hits
+    /// never look.
+    uvs: TexCoords,
     /// Per material: its triangles are cut-outs (it has alpha and does not emit).
     cut_materials: Vec<bool>,
     /// The decoded textures that materials refer to ([`Material::maps`]).
@@ -241,6 +268,7 @@ impl Scene {
             triangles,
             tri_material,
             shading,
+            TexCoords::None,
             materials,
             report,
         )
@@ -249,22 +277,41 @@ impl Scene {
     /// Assembles a scene and builds its Embree acceleration structure. Degenerate triangles (zero
     /// area, non-finite coordinates, out-of-range indices) are dropped and counted in the report.
     ///
+    /// Texture coordinates are kept only when some material has a texture
+    /// ([`Material::maps`]); hits read them once the textures are attached
+    /// ([`Scene::attach_textures`]). Per-vertex ones of another length than `positions` are
+    /// dropped.
+    ///
     /// Memory: the triangle arrays are compacted in place, and the per-triangle records are made
-    /// before the BVH build, so that no loader buffer is alive while Embree builds; what stays per
-    /// triangle is its indices (12 bytes), material (4), the 64-byte hit record and, with shading
-    /// normals, their 36 bytes.
+    /// before the BVH build, so that no loader buffer is alive while Embree builds; Embree reads
+    /// the vertex and index arrays in place ([`SharedArray`]). What stays per triangle is its
+    /// indices (12 bytes), material (4), the 64-byte hit record and, with shading normals, their
+    /// 36 bytes, with per-corner texture coordinates their 12 bytes of indices.
+    #[allow(clippy::too_many_arguments)]
     pub fn from_parts(
         source: &Path,
         positions: Vec<Vec3>,
         mut triangles: Vec<[u32; 3]>,
         mut tri_material: Vec<u32>,
         shading: Shading,
+        texcoords: TexCoords,
         materials: Vec<Material>,
         mut report: LoadReport,
     ) -> anyhow::Result<Scene> {
         assert_eq!(triangles.len(), tri_material.len());
         let n = triangles.len();
         report.triangles_read += n;
+        let textured = materials.iter().any(|m| m.maps.reads_textures());
+        let mut texcoords = match texcoords {
+            TexCoords::PerVertex(v) if textured && v.len() == positions.len() => {
+                TexCoords::PerVertex(v)
+            }
+            TexCoords::PerCorner { table, corners } if textured => {
+                assert_eq!(corners.len(), n);
+                TexCoords::PerCorner { table, corners }
+            }
+            _ => TexCoords::None,
+        };
         let (normals, mut corners) = match shading {
             Shading::None => (Vec::new(), None),
             Shading::PerVertex(v) if v.len() == positions.len() => (v, None),
@@ -277,9 +324,9 @@ impl Scene {
         let max_material = materials.len().saturating_sub(1) as u32;
         // The hit records, in parallel; a degenerate triangle's gets a NaN normal and is dropped
         // below (all arrays compacted in place, in order).
+        use rayon::prelude::*;
         let mut tri_hit: Vec<TriHit> = crate::accel::vec_with_huge_pages(n);
         {
-            use rayon::prelude::*;
             tri_hit.par_extend(triangles.par_iter().zip(&tri_material).map(|(tri, &m)| {
                 let ng = triangle_normal(&positions, tri).unwrap_or(DVec3::NAN);
                 let m = m.min(max_material);
@@ -294,7 +341,7 @@ impl Scene {
                 }
             }));
         }
-        let dropped = tri_hit.iter().filter(|h| h.ng.x.is_nan()).count();
+        let dropped = tri_hit.par_iter().filter(|h| h.ng.x.is_nan()).count();
         report.degenerate_dropped += dropped;
         let mut kept = n;
         if dropped > 0 {
@@ -308,14 +355,21 @@ impl Scene {
                 if let Some(c) = corners.as_mut() {
                     c[kept] = c[k];
                 }
+                if let TexCoords::PerCorner { corners, .. } = &mut texcoords {
+                    corners[kept] = corners[k];
+                }
                 kept += 1;
+            }
+            if let TexCoords::PerCorner { corners, .. } = &mut texcoords {
+                corners.truncate(kept);
+                corners.shrink_to_fit();
             }
             tri_hit.truncate(kept);
             triangles.truncate(kept);
             triangles.shrink_to_fit();
         }
         tri_material.clear();
-        tri_material.extend(tri_hit.iter().map(|h| h.material));
+        tri_material.par_extend(tri_hit.par_iter().map(|h| h.material));
         tri_material.shrink_to_fit();
         // Bounds of the kept triangles' vertices, in their order (as a sequential loader would:
         // min and max of a signed zero depend on the order).
@@ -380,6 +434,8 @@ impl Scene {
             Vec::new()
         };
         features.cutouts = !cutout.is_empty();
+        // Embree reads these two in place: from here on they are immutable.
+        let (positions, triangles) = (SharedArray::new(positions), SharedArray::new(triangles));
         let t_bvh = std::time::Instant::now();
         let accel = Accel::with_cutouts(&positions, &triangles, &cutout)?;
         report.bvh_seconds = t_bvh.elapsed().as_secs_f64();
@@ -399,7 +455,7 @@ impl Scene {
             extent,
             tri_hit,
             tri_shading,
-            uvs: Vec::new(),
+            uvs: texcoords,
             textures: Default::default(),
             flat: None,
             cut_materials,
@@ -435,11 +491,7 @@ impl Scene {
         let table: Vec<(u32, [glam::Vec2; 3])> = cutout
             .iter()
             .map(|&t| {
-                let uv = if self.uvs.is_empty() {
-                    [glam::Vec2::ZERO; 3]
-                } else {
-                    self.corner_uvs(t)
-                };
+                let uv = self.corner_uvs(t);
                 (self.tri_material[t as usize], uv)
             })
             .collect();
@@ -465,11 +517,7 @@ impl Scene {
             self.triangles[prim as usize].map(|v| self.positions[v as usize].as_dvec3());
         let q = closest_point_on_triangle(p, a, b, c);
         let bary = barycentric(q, a, b, c).map(|x| x as f32);
-        let uv = if self.uvs.is_empty() {
-            [0.0; 2]
-        } else {
-            self.hit_uv(prim, bary)
-        };
+        let uv = self.hit_uv(prim, bary);
         let xi = crate::rng::hash_unit(&[
             (p.x as f32).to_bits(),
             (p.y as f32).to_bits(),
@@ -490,16 +538,22 @@ impl Scene {
         self.tri_hit.iter().map(|t| t.ng)
     }
 
-    /// Sets per-vertex texture coordinates (v up) and the textures materials refer to. Ignored
-    /// (left without) when `uvs` does not have one entry per vertex or no material has a texture.
-    pub fn set_textures(
-        &mut self,
-        uvs: Vec<glam::Vec2>,
-        textures: crate::scene::texture::TextureSet,
-    ) {
+    /// Sets per-vertex texture coordinates (v up) and the textures materials refer to (glTF).
+    /// Ignored (left without) when `uvs` does not have one entry per vertex or no material has a
+    /// texture.
+    pub fn set_textures(&mut self, uvs: Vec<Vec2>, textures: crate::scene::texture::TextureSet) {
         let used = self.materials.iter().any(|m| m.maps.reads_textures());
         if used && uvs.len() == self.positions.len() {
-            self.uvs = uvs;
+            self.uvs = TexCoords::PerVertex(uvs);
+            self.attach_textures(textures);
+        }
+    }
+
+    /// Sets the textures materials refer to, in a scene whose texture coordinates came with its
+    /// parts ([`Scene::from_parts`], e.g. OBJ's `vt`); from then on hits read them. Ignored when
+    /// the scene kept no texture coordinates (no material has a texture).
+    pub fn attach_textures(&mut self, textures: crate::scene::texture::TextureSet) {
+        if !self.uvs.is_none() {
             self.textures = textures;
             self.features.textures = true;
         }
@@ -517,7 +571,7 @@ impl Scene {
     /// Scenes without textures return at the first test.
     #[inline(always)]
     pub fn textured_bsdf(&self, hit: &Hit) -> Option<Bsdf> {
-        if self.uvs.is_empty() {
+        if !self.features.textures {
             return None;
         }
         self.texel_bsdf(hit)
@@ -546,11 +600,23 @@ impl Scene {
         interpolate_uv(self.corner_uvs(prim), bary)
     }
 
-    /// The texture coordinates (v up) of triangle `prim`'s three corners; only called in scenes
-    /// with textures.
+    /// The texture coordinates (v up) of triangle `prim`'s three corners: (0, 0) for a corner
+    /// the file gave none (an OBJ face without `vt`) and in a scene without texture coordinates.
     #[inline]
-    pub fn corner_uvs(&self, prim: u32) -> [glam::Vec2; 3] {
-        self.triangles[prim as usize].map(|v| self.uvs[v as usize])
+    pub fn corner_uvs(&self, prim: u32) -> [Vec2; 3] {
+        let i = prim as usize;
+        match &self.uvs {
+            TexCoords::PerVertex(uv) => self.triangles[i].map(|v| uv[v as usize]),
+            TexCoords::PerCorner { table, corners } => {
+                corners[i].map(|k| table.get(k as usize).copied().unwrap_or(Vec2::ZERO))
+            }
+            TexCoords::None => [Vec2::ZERO; 3],
+        }
+    }
+
+    /// The texture coordinates the scene keeps (see [`TexCoords`]).
+    pub fn texcoords(&self) -> &TexCoords {
+        &self.uvs
     }
 
     /// True when hits interpolate shading normals (the file gave normals).

@@ -6,7 +6,7 @@ use crate::math::Rgb;
 use crate::scene::material::Bsdf;
 use crate::scene::material::{Material, conserve_energy};
 use crate::scene::obj_parse::{self, Oddity, Statement, Tally};
-use crate::scene::{LoadReport, Scene, Shading};
+use crate::scene::{LoadReport, Scene, Shading, TexCoords};
 use anyhow::{Context, bail};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -29,6 +29,10 @@ use std::path::Path;
 /// same name wins); shading normals from `vn` for every face of an object or material run whose
 /// faces all give them, zero (the geometric normal) for the faces of a run where one does not, and
 /// none at all when no face has a non-zero one.
+///
+/// Texture coordinates (`vt`, v up as in the file) are kept per face corner, as an index into the
+/// `vt` table, when some material reads a texture ([`Material::maps`]); a corner whose face
+/// gives no `vt` index reads (0, 0), and so do faces of files without `vt`.
 pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
     let file = path.display().to_string();
     if !path.is_file() {
@@ -42,8 +46,11 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
         warnings: oddity_warnings(&file, &data),
         ..Default::default()
     };
-    if data.positions.len() >= u32::MAX as usize || data.normals.len() >= u32::MAX as usize {
-        bail!("{file}: more than 2^32 - 2 vertices or normals");
+    if data.positions.len() >= u32::MAX as usize
+        || data.normals.len() >= u32::MAX as usize
+        || data.texcoords.len() >= u32::MAX as usize
+    {
+        bail!("{file}: more than 2^32 - 2 vertices, normals or texture coordinates");
     }
     if data.triangles.is_empty() {
         bail!(
@@ -122,17 +129,35 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
         tri_material.extend(std::iter::repeat_n(id, end - start));
     }
     let shading = shading_normals(&data, &runs);
+    // What the scene does not keep is freed here, before its own buffers are made and Embree
+    // builds; texture coordinates are kept only for textured materials (`Scene::from_parts`
+    // checks it too).
     let obj_parse::ObjData {
         positions,
         triangles,
+        texcoords,
+        tri_texcoords,
+        normals,
+        tri_normals,
         ..
     } = data;
+    drop((normals, tri_normals));
+    let texcoords = if materials.iter().any(|m| m.maps.reads_textures()) && !texcoords.is_empty() {
+        TexCoords::PerCorner {
+            table: texcoords,
+            corners: tri_texcoords,
+        }
+    } else {
+        drop((texcoords, tri_texcoords));
+        TexCoords::None
+    };
     let mut scene = Scene::from_parts(
         path,
         positions,
         triangles,
         tri_material,
         shading,
+        texcoords,
         materials,
         report,
     )
@@ -143,8 +168,7 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
             scene.report.triangles_read
         );
     }
-    // Texture coordinates are not stored by the parser yet: no texture is kept.
-    scene.set_textures(Vec::new(), textures);
+    scene.attach_textures(textures);
     Ok(scene)
 }
 

@@ -7,19 +7,20 @@
 //! malformed line), it is parsed again with its base and first line known, which finds the first
 //! bad line exactly as a sequential parse would (`FILE:LINE: ...`).
 //!
-//! What is kept per face corner is only what the renderer uses: the position index and the normal
-//! index (texture coordinates are checked and counted, not stored). Polygons are fanned from their
-//! first vertex, (a, b, c), (a, c, d), ..., in file order.
+//! What is kept per face corner is the position index, and the normal and texture-coordinate
+//! indices ([`MISSING`] where the face gives none); the `vt` table is kept, the per-corner `vt`
+//! indices only when the file has `vt` statements. Polygons are fanned from their first vertex,
+//! (a, b, c), (a, c, d), ..., in file order.
 //!
 //! Recoverable oddities (faces of fewer than 3 vertices, `usemtl` or `mtllib` without a name,
 //! statements the loader does not use, lines that are not UTF-8, read as Latin-1) are tallied
 //! (count and first line) for one warning per kind; with `strict` they are errors at their line.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::io::Read;
 
-/// A face corner without a normal index.
+/// A face corner without a normal or texture-coordinate index.
 pub const MISSING: u32 = u32::MAX;
 
 /// Bytes read per block; a block is parsed in parallel while nothing else of the file is held.
@@ -99,11 +100,15 @@ pub struct Event {
 pub struct ObjData {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
-    pub texcoords: usize,
+    /// The `vt` table: (u, v), v up as the file has it (a third coordinate is dropped).
+    pub texcoords: Vec<Vec2>,
     /// Position indices (from 0) of each triangle.
     pub triangles: Vec<[u32; 3]>,
     /// Normal indices (from 0) of each triangle's corners, [`MISSING`] where the face gives none.
     pub tri_normals: Vec<[u32; 3]>,
+    /// Texture-coordinate indices (from 0) of each triangle's corners, [`MISSING`] where the face
+    /// gives none; empty when the file has no `vt` statement.
+    pub tri_texcoords: Vec<[u32; 3]>,
     pub events: Vec<Event>,
     pub oddities: [Tally; 4],
     /// Statements the loader does not use: keyword and tally, in order of first appearance.
@@ -125,8 +130,9 @@ struct Base {
 #[derive(Debug, Default)]
 struct Chunk {
     data: ObjData,
-    /// Triangle corners holding relative indices: (triangle, corner × 2 + 0 for the position or 1
-    /// for the normal); the chunk's base count is added to them when stitching.
+    /// Triangle corners holding relative indices: (triangle, corner × 4 + [`POSITION`],
+    /// [`TEXCOORD`] or [`NORMAL`]); the chunk's base count of that kind is added to them when
+    /// stitching.
     relative: Vec<(u32, u8)>,
     /// The largest count of positions, texture coordinates, normals that must precede the chunk
     /// for all its references to be valid.
@@ -142,9 +148,10 @@ impl Chunk {
         let d = &mut self.data;
         d.positions.clear();
         d.normals.clear();
-        d.texcoords = 0;
+        d.texcoords.clear();
         d.triangles.clear();
         d.tri_normals.clear();
+        d.tri_texcoords.clear();
         d.events.clear();
         d.oddities = Default::default();
         d.unused.clear();
@@ -187,8 +194,13 @@ pub fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData, LineE
     }
     out.positions.shrink_to_fit();
     out.normals.shrink_to_fit();
+    out.texcoords.shrink_to_fit();
     out.triangles.shrink_to_fit();
     out.tri_normals.shrink_to_fit();
+    if out.texcoords.is_empty() {
+        out.tri_texcoords = Vec::new();
+    }
+    out.tri_texcoords.shrink_to_fit();
     Ok(out)
 }
 
@@ -222,7 +234,7 @@ fn parse_block(
         .for_each(|(c, w)| parse_chunk(c, &block[w[0]..w[1]], strict, None));
     for (k, chunk) in chunks.iter().enumerate() {
         let base = Base {
-            counts: [out.positions.len(), out.texcoords, out.normals.len()],
+            counts: [out.positions.len(), out.texcoords.len(), out.normals.len()],
             line: out.lines,
         };
         let short = (0..3).any(|i| chunk.need[i] > base.counts[i] as i64);
@@ -251,19 +263,25 @@ fn append(out: &mut ObjData, chunk: &Chunk, base: Base) {
     let tri0 = out.triangles.len();
     out.positions.extend_from_slice(&data.positions);
     out.normals.extend_from_slice(&data.normals);
-    out.texcoords += data.texcoords;
+    out.texcoords.extend_from_slice(&data.texcoords);
     out.triangles.extend_from_slice(&data.triangles);
     out.tri_normals.extend_from_slice(&data.tri_normals);
+    if !data.texcoords.is_empty() && out.tri_texcoords.len() < tri0 {
+        // The file's first `vt`: the triangles before it have none.
+        out.tri_texcoords.resize(tri0, [MISSING; 3]);
+    }
+    if out.tri_texcoords.len() == tri0 && !out.texcoords.is_empty() {
+        out.tri_texcoords.extend_from_slice(&data.tri_texcoords);
+    }
     for &(t, which) in relative {
         let t = tri0 + t as usize;
-        let c = (which >> 1) as usize;
-        if which & 1 == 0 {
-            let v = &mut out.triangles[t][c];
-            *v = v.wrapping_add(base.counts[0] as u32);
-        } else {
-            let v = &mut out.tri_normals[t][c];
-            *v = v.wrapping_add(base.counts[2] as u32);
-        }
+        let (c, kind) = ((which >> 2) as usize, which & 3);
+        let v = match kind {
+            POSITION => &mut out.triangles[t][c],
+            NORMAL => &mut out.tri_normals[t][c],
+            _ => &mut out.tri_texcoords[t][c],
+        };
+        *v = v.wrapping_add(base.counts[kind as usize] as u32);
     }
     out.events.extend(data.events.iter().map(|e| Event {
         line: e.line + base.line,
@@ -340,7 +358,7 @@ fn parse_chunk(c: &mut Chunk, bytes: &[u8], strict: bool, known: Option<Base>) {
 fn numbers<'a>(words: impl Iterator<Item = &'a str>, out: &mut [f32; 8]) -> Option<usize> {
     let mut n = 0;
     for w in words {
-        let x = w.parse::<f32>().ok()?;
+        let x = real_number(w)?;
         if n < out.len() {
             out[n] = x;
         }
@@ -388,7 +406,7 @@ fn statement(
             }
         },
         "vt" => match numbers(words, &mut v) {
-            Some(2 | 3) => c.data.texcoords += 1,
+            Some(2 | 3) => c.data.texcoords.push(Vec2::new(v[0], v[1])),
             _ => {
                 return Err(format!(
                     "malformed texture coordinate: expected 'vt u v' (optionally w) with numbers, got '{}'",
@@ -460,12 +478,18 @@ fn statement(
     Ok(())
 }
 
-/// One face corner: position and normal index, each with "relative to the chunk" flags.
+/// Kinds of index, as in [`Base::counts`] (and the low two bits of [`Chunk::relative`]).
+const POSITION: u8 = 0;
+const TEXCOORD: u8 = 1;
+const NORMAL: u8 = 2;
+
+/// One face corner: position, texture-coordinate and normal index, with "relative to the chunk"
+/// flags.
 #[derive(Clone, Copy, Debug)]
 struct Corner {
-    v: u32,
-    vn: u32,
-    /// Bit 0: `v` is relative to the chunk; bit 1: `vn` is.
+    /// By kind ([`POSITION`], [`TEXCOORD`], [`NORMAL`]).
+    index: [u32; 3],
+    /// Bit k: `index[k]` is relative to the chunk.
     relative: u8,
 }
 
@@ -489,7 +513,7 @@ fn face<'a>(
     }
     let local = [
         c.data.positions.len(),
-        c.data.texcoords,
+        c.data.texcoords.len(),
         c.data.normals.len(),
     ];
     let mut corners = std::mem::take(&mut c.corners);
@@ -511,19 +535,64 @@ fn face<'a>(
             let tri = [a, corners[k], corners[k + 1]];
             let t = c.data.triangles.len() as u32;
             for (i, q) in tri.iter().enumerate() {
-                if q.relative & 1 != 0 {
-                    c.relative.push((t, (i as u8) << 1));
-                }
-                if q.relative & 2 != 0 {
-                    c.relative.push((t, ((i as u8) << 1) | 1));
+                if q.relative != 0 {
+                    for kind in [POSITION, TEXCOORD, NORMAL] {
+                        if q.relative & (1 << kind) != 0 {
+                            c.relative.push((t, ((i as u8) << 2) | kind));
+                        }
+                    }
                 }
             }
-            c.data.triangles.push(tri.map(|q| q.v));
-            c.data.tri_normals.push(tri.map(|q| q.vn));
+            c.data
+                .triangles
+                .push(tri.map(|q| q.index[POSITION as usize]));
+            c.data
+                .tri_normals
+                .push(tri.map(|q| q.index[NORMAL as usize]));
+            c.data
+                .tri_texcoords
+                .push(tri.map(|q| q.index[TEXCOORD as usize]));
         }
     }
     c.corners = corners;
     Ok(())
+}
+
+/// Powers of ten that are exact in f32.
+const POW10: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+
+/// `s` as an f32, bit for bit what `str::parse::<f32>` gives, with a fast path for the short
+/// decimals of real files (`-0.123456`): with at most 2^24 as the digits' integer and at most 10
+/// of them after the point, both that integer and the power of ten are exact in f32, so one
+/// correctly rounded division gives the correctly rounded value (Clinger's fast path, which the
+/// standard library's parser takes for them too). Everything else goes to the standard parser.
+#[inline]
+fn real_number(s: &str) -> Option<f32> {
+    let b = s.as_bytes();
+    let (neg, digits) = match b.first() {
+        Some(b'-') => (true, &b[1..]),
+        _ => (false, b),
+    };
+    let (mut m, mut count, mut after, mut point) = (0u32, 0u32, 0usize, false);
+    for &c in digits {
+        if c.is_ascii_digit() {
+            if count == 9 {
+                return s.parse().ok();
+            }
+            m = m * 10 + (c - b'0') as u32;
+            count += 1;
+            after += point as usize;
+        } else if c == b'.' && !point {
+            point = true;
+        } else {
+            return s.parse().ok();
+        }
+    }
+    if count == 0 || m > 1 << 24 || after >= POW10.len() {
+        return s.parse().ok();
+    }
+    let x = m as f32 / POW10[after];
+    Some(if neg { -x } else { x })
 }
 
 /// `s` as an i64, accepting exactly what `str::parse::<i64>` accepts (an optional sign and
@@ -573,8 +642,7 @@ fn face_vertex(
         ));
     }
     let mut corner = Corner {
-        v: 0,
-        vn: MISSING,
+        index: [0, MISSING, MISSING],
         relative: 0,
     };
     for (k, part) in parts[..n].iter().enumerate() {
@@ -610,17 +678,149 @@ fn face_vertex(
         } else {
             ((local[k] as i64 + i) as u32, 1)
         };
-        match k {
-            0 => {
-                corner.v = index;
-                corner.relative |= rel;
-            }
-            2 => {
-                corner.vn = index;
-                corner.relative |= rel << 1;
-            }
-            _ => {}
-        }
+        corner.index[k] = index;
+        corner.relative |= rel << k;
     }
     Ok(corner)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Parses `text` as an OBJ file (written to a temporary file).
+    fn parse(name: &str, text: &str) -> ObjData {
+        let path = std::env::temp_dir().join(format!(
+            "ftpd3d-obj-parse-{name}-{}.obj",
+            std::process::id()
+        ));
+        std::fs::write(&path, text).unwrap();
+        let data = parse_file(&path, false);
+        let _ = std::fs::remove_file(&path);
+        data.unwrap()
+    }
+
+    #[test]
+    fn real_numbers_are_the_standard_parsers_bit_for_bit() {
+        let fixed = [
+            "0",
+            "-0",
+            "0.0",
+            "-0.0",
+            "1",
+            "1.",
+            ".5",
+            "-.5",
+            "0.1",
+            "0.123456",
+            "-0.812345",
+            "16777216",
+            "16777217",
+            "16777215.5",
+            "1234567.8",
+            "0.0000001",
+            "0.00000000001",
+            "123456789",
+            "1234567890",
+            "99999999.9",
+            "3.4028235e38",
+            "1e-3",
+            "+1.5",
+            "inf",
+            "-nan",
+            "1.2.3",
+            "",
+            "-",
+            ".",
+            "1-2",
+            "0x10",
+            "00000000000001.5",
+        ];
+        for s in fixed {
+            assert_eq!(
+                real_number(s).map(f32::to_bits),
+                s.parse::<f32>().ok().map(f32::to_bits),
+                "'{s}'"
+            );
+        }
+        // Random decimals with 0-10 places and up to 10 digits, as exporters write them.
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let digits = 1 + (x % 10) as usize;
+            let m = (x >> 8) % 10u64.pow(digits as u32);
+            let places = ((x >> 40) % 11) as usize;
+            let mut s = format!("{m:0>width$}", width = places + 1);
+            if places > 0 {
+                s.insert(s.len() - places, '.');
+            }
+            if x & (1 << 60) != 0 {
+                s.insert(0, '-');
+            }
+            assert_eq!(
+                real_number(&s).map(f32::to_bits),
+                s.parse::<f32>().ok().map(f32::to_bits),
+                "'{s}'"
+            );
+        }
+    }
+
+    #[test]
+    fn texture_coordinates_are_kept_per_corner_with_missing_ones_marked() {
+        let d = parse(
+            "vt",
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nvt 0.25 0.5\nvt 1 0 7\nvt 0 1\n\
+             f 1/1 2/2 3/3 4/1\nf 1/1/ 2/-1 3/-2\nf -4/-3/ 2/2 3\n",
+        );
+        assert_eq!(
+            d.texcoords,
+            [
+                Vec2::new(0.25, 0.5),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(0.0, 1.0)
+            ]
+        );
+        assert_eq!(d.triangles.len(), 5);
+        assert_eq!(
+            d.tri_texcoords,
+            [
+                [MISSING; 3],
+                [0, 1, 2],
+                [0, 2, 0],
+                [0, 2, 1],
+                [0, 1, MISSING]
+            ]
+        );
+        let none = parse("no-vt", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
+        assert!(none.texcoords.is_empty() && none.tri_texcoords.is_empty());
+    }
+
+    #[test]
+    fn chunks_stitch_texture_coordinate_indices_relative_and_absolute() {
+        // Several 1 MB chunks: each quad's corners refer to its own vt by negative indices and to
+        // the file's first vt by a positive one; the vt first appear after some faces.
+        let mut text = String::from("v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
+        let quads = 60_000;
+        for q in 0..quads {
+            text.push_str(&format!(
+                "v {q} 0 0\nv {q} 1 0\nv {q} 1 1\nv {q} 0 1\nvt {q} 0\nvt {q} 1\nvt {q} 2\n\
+                 f -4/-3 -3/-2 -2/-1 -1/1\n"
+            ));
+        }
+        assert!(text.len() > 4 * CHUNK_BYTES);
+        let d = parse("chunks", &text);
+        assert_eq!(d.texcoords.len(), 3 * quads);
+        assert_eq!(d.triangles.len(), 1 + 2 * quads);
+        assert_eq!(d.tri_texcoords[0], [MISSING; 3]);
+        for q in 0..quads {
+            let (v, t) = (3 + 4 * q as u32, 3 * q as u32);
+            assert_eq!(d.triangles[1 + 2 * q], [v, v + 1, v + 2]);
+            assert_eq!(d.triangles[2 + 2 * q], [v, v + 2, v + 3]);
+            assert_eq!(d.tri_texcoords[1 + 2 * q], [t, t + 1, t + 2]);
+            assert_eq!(d.tri_texcoords[2 + 2 * q], [t, t + 2, 0]);
+            assert_eq!(d.texcoords[t as usize + 2], Vec2::new(q as f32, 2.0));
+        }
+    }
 }
