@@ -176,6 +176,7 @@ def parse_obj(path, errors):
                     obj = Obj('(default)')
                     objects.append(obj)
                 idx = []
+                without_vt = False
                 for t in tok[1:]:
                     parts = t.split('/')
                     if len(parts) > 1 and parts[1]:
@@ -184,15 +185,17 @@ def parse_obj(path, errors):
                         if not 0 <= k < n_vt:
                             errors.append('line %d: texture coordinate index %s out of range'
                                           % (lineno, t))
-                    elif textured(mats, mat):
-                        errors.append('line %d: a face of textured material %s without vt'
-                                      % (lineno, mat))
+                    else:
+                        without_vt = True
                     i = int(parts[0])
                     i = i - 1 if i > 0 else len(verts) + i
                     if not 0 <= i < len(verts):
                         errors.append('line %d: vertex index %s out of range' % (lineno, t))
                         i = None
                     idx.append(i)
+                if without_vt and textured(mats, mat):
+                    errors.append('line %d: a face of textured material %s without a vt on '
+                                  'every corner' % (lineno, mat))
                 if len(idx) < 3:
                     errors.append('line %d: face with %d vertices' % (lineno, len(idx)))
                     continue
