@@ -24,6 +24,15 @@ For every OBJ it verifies
     corners;
   * flatland scenes (flat_*): every triangle crossing z = 0 has its normal in
     that plane (the scene is extruded along z, as --flatland requires);
+  * texture coordinates and maps: every `vt` has two or three numbers, every face
+    of a material with a map gives a `vt` for each corner (indices in range),
+    every map file exists next to the MTL and is a PNG that decodes (chunk
+    CRCs, zlib stream, filters, size), a `map_d` image has an alpha channel
+    (or is grey), and (courtyard) the leaf mask's alpha is 0 or 255 only;
+  * sidecars (`.toml` listed in SIDECARS, read with tomllib): the mesh and the
+    environment map exist, the map is a Radiance RGBE image that decodes with
+    finite non-negative texels, every sun is above the horizon, and every
+    named slice and camera lies inside the scene's bounds;
 and prints bounds per scene and object. Exits non-zero on any failure.
 """
 
@@ -51,7 +60,18 @@ EXPECT = {
     'flat_stair_wall.obj': {'stairs': 'solid', 'light': 'open'},
     'flat_mirrors.obj': {'light': 'open', 'mirror_left': 'solid', 'mirror_right': 'solid',
                          'box_left': 'solid', 'box_right': 'solid'},
+    'courtyard/courtyard.obj': {
+        'ground': 'open',
+        'north_arcade_front': 'solid', 'north_back_wall': 'solid', 'north_roof': 'solid',
+        'south_arcade_front': 'solid', 'south_back_wall': 'solid', 'south_roof': 'solid',
+        'trunk': 'solid', 'leaves': 'open'},
 }
+
+# Sidecar scene files to check (relative to this directory).
+SIDECARS = ['courtyard/courtyard.toml']
+
+# Map images whose alpha must be binary (0 or 255): cut-out masks meant to be exact.
+BINARY_ALPHA = {'courtyard/leaf_mask.png'}
 
 EPS = 1e-9
 
@@ -114,14 +134,21 @@ def parse_mtl(path):
             if tok[0] == 'newmtl':
                 cur = tok[1]
                 mats[cur] = {}
+            elif cur is not None and (tok[0].startswith('map_') or tok[0] in ('bump', 'disp')):
+                mats[cur][tok[0]] = line.split(None, 1)[1].strip()      # options and a file name
             elif cur is not None:
                 mats[cur][tok[0]] = [float(t) for t in tok[1:]]
     return mats
 
 
+def textured(mats, m):
+    return any(k.startswith('map_') for k in mats.get(m, {}))
+
+
 def parse_obj(path, errors):
     verts, objects, mats = [], [], {}
     obj, mat = None, None
+    n_vt = 0
     with open(path) as f:
         for lineno, line in enumerate(f, 1):
             tok = line.split()
@@ -130,6 +157,11 @@ def parse_obj(path, errors):
             kind = tok[0]
             if kind == 'v':
                 verts.append(tuple(float(t) for t in tok[1:4]))
+            elif kind == 'vt':
+                if len(tok) not in (3, 4):
+                    errors.append('line %d: vt needs 2 or 3 numbers' % lineno)
+                [float(t) for t in tok[1:]]
+                n_vt += 1
             elif kind == 'mtllib':
                 mats.update(parse_mtl(os.path.join(os.path.dirname(path), tok[1])))
             elif kind in ('o', 'g'):
@@ -144,13 +176,26 @@ def parse_obj(path, errors):
                     obj = Obj('(default)')
                     objects.append(obj)
                 idx = []
+                without_vt = False
                 for t in tok[1:]:
-                    i = int(t.split('/')[0])
+                    parts = t.split('/')
+                    if len(parts) > 1 and parts[1]:
+                        k = int(parts[1])
+                        k = k - 1 if k > 0 else n_vt + k
+                        if not 0 <= k < n_vt:
+                            errors.append('line %d: texture coordinate index %s out of range'
+                                          % (lineno, t))
+                    else:
+                        without_vt = True
+                    i = int(parts[0])
                     i = i - 1 if i > 0 else len(verts) + i
                     if not 0 <= i < len(verts):
                         errors.append('line %d: vertex index %s out of range' % (lineno, t))
                         i = None
                     idx.append(i)
+                if without_vt and textured(mats, mat):
+                    errors.append('line %d: a face of textured material %s without a vt on '
+                                  'every corner' % (lineno, mat))
                 if len(idx) < 3:
                     errors.append('line %d: face with %d vertices' % (lineno, len(idx)))
                     continue
@@ -267,9 +312,10 @@ def is_emissive(mats, m):
 
 def check_file(path):
     name = os.path.basename(path)
+    rel = os.path.relpath(os.path.abspath(path), HERE).replace(os.sep, '/')
     errors = []
     verts, objects, mats = parse_obj(path, errors)
-    expect = EXPECT.get(name)
+    expect = EXPECT.get(rel)
     print('== %s: %d vertices, %d objects, %d triangles'
           % (name, len(verts), len(objects), sum(len(o.tris) for o in objects)))
 
@@ -330,12 +376,18 @@ def check_file(path):
         for missing in set(expect) - {o.name for o in objects}:
             errors.append('%s: expected object missing' % missing)
 
-    # no object intersects another (edges crossing triangles, coplanar overlap)
+    # no object intersects another (edges crossing triangles, coplanar overlap); objects whose
+    # bounding boxes are apart (by more than the tolerance) cannot
+    boxes = [bounds([verts[v] for t in o.tris for v in t]) for o in objects]
+
+    def apart(i, j, eps=1e-6):
+        (alo, ahi), (blo, bhi) = boxes[i], boxes[j]
+        return any(alo[k] > bhi[k] + eps or blo[k] > ahi[k] + eps for k in range(3))
     for i, a in enumerate(objects):
         a_edges = {(min(t[k], t[(k + 1) % 3]), max(t[k], t[(k + 1) % 3]))
                    for t in a.tris for k in range(3)}
         for j, b in enumerate(objects):
-            if i == j:
+            if i == j or apart(i, j):
                 continue
             b_tris = [tri_pts(verts, t) for t in b.tris]
             crossing = next(((e, tb) for e in a_edges for tb in b_tris
@@ -400,6 +452,7 @@ def check_file(path):
             check_treads_lit(verts, objects, o, errors)
     if name.startswith('flat_'):
         check_extruded(verts, objects, errors)
+    check_maps(path, mats, errors)
 
     for e in errors:
         print('   ERROR: ' + e)
@@ -457,10 +510,221 @@ def check_treads_lit(verts, objects, lamp, errors):
         if visible != len(lamp_pts):
             errors.append('tread at y=%g is (partly) shadowed at its centre' % y)
 
+# ----------------------------------------------------------------------------
+# Texture maps (PNG) and sidecars (TOML, Radiance RGBE)
+# ----------------------------------------------------------------------------
+
+def read_png(path):
+    """Decodes an 8-bit, non-interlaced PNG: (width, height, channels, rows of bytes). Raises
+    ValueError on anything else or on a corrupt file."""
+    import struct
+    import zlib
+    with open(path, 'rb') as f:
+        data = f.read()
+    if data[:8] != b'\x89PNG\r\n\x1a\n':
+        raise ValueError('not a PNG file')
+    pos, idat, ihdr = 8, b'', None
+    while pos < len(data):
+        n, kind = struct.unpack('>I4s', data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        (crc,) = struct.unpack('>I', data[pos + 8 + n:pos + 12 + n])
+        if zlib.crc32(kind + body) & 0xFFFFFFFF != crc:
+            raise ValueError('bad CRC in chunk %s' % kind.decode('latin-1'))
+        if kind == b'IHDR':
+            ihdr = struct.unpack('>IIBBBBB', body)
+        elif kind == b'IDAT':
+            idat += body
+        elif kind == b'IEND':
+            break
+        pos += 12 + n
+    if ihdr is None:
+        raise ValueError('no IHDR chunk')
+    w, h, depth, ctype, _, _, interlace = ihdr
+    channels = {0: 1, 2: 3, 4: 2, 6: 4}.get(ctype)
+    if depth != 8 or channels is None or interlace:
+        raise ValueError('only 8-bit grey, grey+alpha, RGB, RGBA, not interlaced, are checked')
+    raw = zlib.decompress(idat)
+    stride = w * channels
+    if len(raw) != h * (stride + 1):
+        raise ValueError('image data of %d bytes, expected %d' % (len(raw), h * (stride + 1)))
+    rows, prev = [], bytearray(stride)
+    for y in range(h):
+        ftype = raw[y * (stride + 1)]
+        line = bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - channels] if i >= channels else 0
+            b = prev[i]
+            c = prev[i - channels] if i >= channels else 0
+            if ftype == 0:
+                pred = 0
+            elif ftype == 1:
+                pred = a
+            elif ftype == 2:
+                pred = b
+            elif ftype == 3:
+                pred = (a + b) // 2
+            elif ftype == 4:
+                pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
+                pred = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+            else:
+                raise ValueError('unknown filter type %d' % ftype)
+            line[i] = (line[i] + pred) & 0xFF
+        rows.append(bytes(line))
+        prev = line
+    return w, h, channels, rows
+
+
+def check_maps(path, mats, errors):
+    """Every map statement names a PNG next to the MTL that decodes; map_d images have alpha."""
+    seen = {}
+    for m, stmts in sorted(mats.items()):
+        for key, value in sorted(stmts.items()):
+            if not key.startswith('map_'):
+                continue
+            f = os.path.join(os.path.dirname(path), value.split()[-1].replace('\\', '/'))
+            rel = os.path.relpath(os.path.abspath(f), HERE).replace(os.sep, '/')
+            if not os.path.isfile(f):
+                errors.append('%s %s: no file %s' % (m, key, rel))
+                continue
+            if f not in seen:
+                try:
+                    seen[f] = read_png(f)
+                except (ValueError, OSError, Exception) as e:
+                    errors.append('%s %s: %s: %s' % (m, key, rel, e))
+                    seen[f] = None
+            img = seen[f]
+            if img is None:
+                continue
+            w, h, ch, rows = img
+            note = ''
+            if key == 'map_d':
+                if ch not in (1, 2, 4):
+                    errors.append('%s map_d: %s has neither alpha nor grey' % (m, rel))
+                elif ch in (2, 4):
+                    alpha = {r[i] for r in rows for i in range(ch - 1, len(r), ch)}
+                    cover = sum(r[i] == 255 for r in rows for i in range(ch - 1, len(r), ch))
+                    note = ', alpha values %s, %.0f %% opaque' % (
+                        'binary' if alpha <= {0, 255} else '%d distinct' % len(alpha),
+                        100.0 * cover / (w * h))
+                    if rel in BINARY_ALPHA and not alpha <= {0, 255}:
+                        errors.append('%s map_d: %s has alpha other than 0 and 255' % (m, rel))
+            print('   map %-10s %-7s %s  %dx%d, %d channel(s)%s' % (m, key, rel, w, h, ch, note))
+
+
+def read_rgbe(path):
+    """Decodes a Radiance RGBE image (flat or new-style run-length scanlines, -Y h +X w):
+    (width, height, list of (r, g, b) rows from the top)."""
+    import math
+    with open(path, 'rb') as f:
+        data = f.read()
+    if not data.startswith(b'#?'):
+        raise ValueError('not a Radiance file')
+    end = data.index(b'\n\n')
+    header = data[:end].decode('latin-1').split('\n')
+    if 'FORMAT=32-bit_rle_rgbe' not in header:
+        raise ValueError('not 32-bit_rle_rgbe')
+    nl = data.index(b'\n', end + 2)
+    res = data[end + 2:nl].decode('latin-1').split()
+    if len(res) != 4 or res[0] != '-Y' or res[2] != '+X':
+        raise ValueError('resolution line %r: only -Y h +X w is checked' % ' '.join(res))
+    h, w = int(res[1]), int(res[3])
+    pos, rows = nl + 1, []
+    for _ in range(h):
+        if data[pos] == 2 and data[pos + 1] == 2 and (data[pos + 2] << 8 | data[pos + 3]) == w:
+            pos += 4
+            comps = []
+            for _ in range(4):
+                c = bytearray()
+                while len(c) < w:
+                    n = data[pos]
+                    if n > 128:
+                        c.extend(bytes([data[pos + 1]]) * (n - 128))
+                        pos += 2
+                    else:
+                        c.extend(data[pos + 1:pos + 1 + n])
+                        pos += 1 + n
+                if len(c) != w:
+                    raise ValueError('a run crosses the end of a scanline')
+                comps.append(c)
+            px = list(zip(*comps))
+        else:
+            px = [tuple(data[pos + 4 * i:pos + 4 * i + 4]) for i in range(w)]
+            pos += 4 * w
+        rows.append([(0.0, 0.0, 0.0) if e == 0 else
+                     tuple(math.ldexp(c + 0.5, e - 136) for c in (r, g, b))
+                     for r, g, b, e in px])
+    if pos != len(data):
+        raise ValueError('%d bytes after the last scanline' % (len(data) - pos))
+    return w, h, rows
+
+
+def check_sidecar(path):
+    """The sidecar names files that exist and decode, suns above the horizon, and slices and
+    cameras inside the scene's bounds."""
+    rel = os.path.relpath(path, HERE)
+    print('== %s' % rel)
+    errors = []
+    try:
+        import tomllib
+    except ImportError:                                 # Python < 3.11
+        print('   (tomllib not available: sidecar not checked)')
+        return True
+    with open(path, 'rb') as f:
+        sc = tomllib.load(f)
+    base = os.path.dirname(path)
+    mesh = os.path.join(base, sc.get('mesh', ''))
+    lo = hi = None
+    if not os.path.isfile(mesh):
+        errors.append('mesh %s does not exist' % sc.get('mesh'))
+    else:
+        verts, _, _ = parse_obj(mesh, [])
+        lo, hi = bounds(verts)
+    env = sc.get('environment')
+    if env:
+        f = os.path.join(base, env['file'])
+        try:
+            w, h, rows = read_rgbe(f)
+            px = [c for r in rows for c in r]
+            if not all(math.isfinite(c) and c >= 0 for p in px for c in p):
+                errors.append('environment %s: a texel is negative or not finite' % env['file'])
+            top = [sum(p) / 3 for p in rows[0]]
+            mid = [sum(p) / 3 for p in rows[h // 2 - 1]]
+            print('   environment %s: %dx%d, mean radiance at the zenith %.3g, just above the '
+                  'horizon %.3g, max %.3g' % (env['file'], w, h, sum(top) / w, sum(mid) / w,
+                                             max(max(p) for p in px)))
+        except (OSError, ValueError, IndexError) as e:
+            errors.append('environment %s: %s' % (env['file'], e))
+    for k, sun in enumerate(sc.get('sun', [])):
+        d = sun['direction']
+        elev = math.degrees(math.asin(d[1] / norm(d)))
+        print('   sun #%d: direction %s, %.1f degrees above the horizon, irradiance %s'
+              % (k + 1, fmtv(d), elev, sun['irradiance']))
+        if not elev > 0:
+            errors.append('sun #%d is below the horizon' % (k + 1))
+    if lo is not None:
+        inside = lambda p: all(lo[k] <= p[k] <= hi[k] for k in range(3))
+        for cam in sc.get('camera', []):
+            print('   camera %s: eye %s target %s' % (cam.get('name'), fmtv(cam['eye']),
+                                                     fmtv(cam['target'])))
+            if not inside(cam['eye']):
+                errors.append('camera %s: eye outside the scene bounds' % cam.get('name'))
+        for sl in sc.get('slice', []):
+            axis, _, value = sl['plane'].partition('=')
+            k = 'xyz'.index(axis.strip())
+            print('   slice %-8s %s' % (sl['name'], sl['plane']))
+            if not lo[k] < float(value) < hi[k]:
+                errors.append('slice %s: %s outside the bounds' % (sl['name'], sl['plane']))
+    for e in errors:
+        print('   ERROR: ' + e)
+    print('   %s' % ('OK' if not errors else '%d error(s)' % len(errors)))
+    return not errors
+
 
 def main(argv):
     paths = argv[1:] or [os.path.join(HERE, n) for n in EXPECT]
     ok = all([check_file(p) for p in paths])
+    if not argv[1:]:
+        ok = all([check_sidecar(os.path.join(HERE, n)) for n in SIDECARS]) and ok
     print('ALL OK' if ok else 'FAILED')
     return 0 if ok else 1
 

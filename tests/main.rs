@@ -3,6 +3,7 @@ mod bad_input;
 mod bsdf;
 mod cli;
 mod converge;
+mod courtyard;
 mod cutout;
 mod driver;
 mod flat;
