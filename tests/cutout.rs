@@ -346,3 +346,57 @@ fn cutout_mtl_dissolve_passes_one_minus_d_of_the_rays() {
     let scene = ftpd3d::scene::load::load_scene(&glass).unwrap();
     assert!(!scene.features.cutouts);
 }
+
+/// OBJ maps through `vt`: `map_Kd` of a 2 × 1 texture (sRGB 255 and 128) gives each half of the
+/// quad its texel's albedo under a delta sun (ρ/π E, to rounding at the texel centres), and
+/// `map_d` of a 2 × 1 RGBA mask (α 255 and 0) lets rays through the right half only.
+#[test]
+fn cutout_obj_map_kd_and_map_d_read_their_texels_at_the_vt_coordinates() {
+    use ftpd3d::kernel::Radiance3D;
+    use ftpd3d::scene::Light;
+    use ftpd3d::transport::walk::{RadianceStats, radiance};
+    let dir = crate::support::temp_dir("cutout", "obj_maps");
+    image::RgbImage::from_raw(2, 1, vec![255, 255, 255, 128, 128, 128])
+        .unwrap()
+        .save(dir.join("kd.png"))
+        .unwrap();
+    image::RgbaImage::from_raw(2, 1, vec![255, 255, 255, 255, 255, 255, 255, 0])
+        .unwrap()
+        .save(dir.join("mask.png"))
+        .unwrap();
+    let mut scene = ftpd3d::scene::load::load_scene(&write_obj(
+        &dir,
+        "maps",
+        "map_Kd -clamp on kd.png\nmap_d -clamp on mask.png",
+    ))
+    .unwrap();
+    assert!(
+        scene.report.warnings.is_empty(),
+        "{:?}",
+        scene.report.warnings
+    );
+    assert!(scene.features.textures && scene.features.cutouts);
+    // The mask: the left half (u < ½) is there, the right half is not.
+    for (x, present) in [(0.1, true), (0.25, true), (0.75, false), (0.9, false)] {
+        let o = DVec3::new(x, 0.5, 2.0);
+        let hit = scene.intersect(o, -DVec3::Z, f64::INFINITY).unwrap();
+        assert_eq!((hit.p.z - H as f64).abs() < 1e-6, present, "x = {x}");
+    }
+    // The colour: at the left texel's centre and at the left edge (clamped) the albedo is 1.
+    let e = 2.0;
+    scene.add_light(Light::distant(DVec3::Z, Rgb::splat(e), 0.0));
+    let mut s = Sampler::new(5, 0, 0);
+    for x in [0.05, 0.25] {
+        let q = DVec3::new(x, 0.5, H as f64);
+        let eye = DVec3::new(0.25, 0.5, 2.0);
+        let mut st = RadianceStats::default();
+        let l =
+            radiance::<Radiance3D>(&scene, eye, (q - eye).normalize(), 1, &mut s, &mut st).total();
+        let expected = e / std::f64::consts::PI;
+        assert!(
+            (l.x - expected).abs() <= 1e-6 * expected,
+            "x = {x}: {} vs {expected}",
+            l.x
+        );
+    }
+}
