@@ -118,8 +118,8 @@ pub enum Shading {
     PerCorner(Vec<[Vec3; 3]>),
 }
 
-/// Texture coordinates (v up), as a loader hands them to [`Scene::from_parts`] or
-/// [`Scene::set_textures`] and as the scene keeps them; read only through
+/// Texture coordinates (v up), as a loader hands them to [`Scene::from_parts`] (glTF's per-vertex
+/// ones come through [`Scene::set_textures`]) and as the scene keeps them; read only through
 /// [`Scene::corner_uvs`].
 #[derive(Clone, Debug, Default)]
 pub enum TexCoords {
