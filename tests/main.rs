@@ -14,6 +14,7 @@ mod mis;
 mod outdoor;
 mod pinned;
 mod run_info;
+mod separatrix;
 mod stability;
 mod support;
 mod valid;
