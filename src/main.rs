@@ -73,7 +73,12 @@ struct SepFlags {
     sep_scale: Option<f64>,
     /// Significance Z: mark cells whose largest |∇²_ω σ| is Z standard errors from 0 (a test over
     /// all directions at once).
-    #[arg(long, value_name = "Z", default_value_t = 3.0, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "Z",
+        default_value_t = 3.0,
+        allow_negative_numbers = true
+    )]
     sep_threshold: f64,
     /// Strength threshold τ in units of σ (the scale-normalised |∇²_ω σ|; for lines, the height of
     /// a step of σ) [default: 0.1 × the median σ].
@@ -593,7 +598,8 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     )?;
     if let Some(sp) = &job.separatrices {
         use std::io::Write as _;
-        let or_default = |v: Option<f64>, d: &str| v.map_or_else(|| d.to_string(), |x| x.to_string());
+        let or_default =
+            |v: Option<f64>, d: &str| v.map_or_else(|| d.to_string(), |x| x.to_string());
         writeln!(
             std::io::stdout().lock(),
             "separatrices  after the run: eq. 13 by derivative-of-Gaussian filters, scale {} \

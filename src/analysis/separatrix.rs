@@ -12,8 +12,10 @@
 //! - the Hessian H of σ; the largest |ωᵀHω| over unit ω is the eigenvalue of largest magnitude,
 //!   its direction the eigenvector: `separatrix.strength` is that value scale-normalised (× (scale
 //!   in scene units)²), so it is in units of σ and does not change with the resolution;
-//! - the gradient ∇σ; its magnitude × scale × √(2π) is the height of a step of σ across a line
-//!   (a blurred unit step has the slope 1/(s√(2π)) at its centre): the *jump strength*.
+//! - in 2D, the third derivative σ_nnn along the gradient direction n: a step Δ of σ blurred at
+//!   scale s has σ_nnn = −Δ/(s³√(2π)) at its centre, and a ramp or any smooth field almost none,
+//!   so −σ_nnn × s³ × √(2π) is the *jump strength* (the step's height, in units of σ). The
+//!   gradient's magnitude itself would not do: a steep smooth ramp has it everywhere.
 //!
 //! # Standard errors, and the maximum over directions
 //!
@@ -29,8 +31,8 @@
 //! largest squared z of any linear combination of h, so it bounds the squared z of ωᵀHω for every
 //! ω at once; under noise alone (H = 0) it is χ²_k. `separatrix.z` is the normal deviate with the
 //! same two-sided tail probability as d², so "z ≥ 3" means the same false-alarm rate (0.27 %) as
-//! for one normal variable, whatever the direction. The jump's z is the same test for the gradient
-//! (k = 2 or 3).
+//! for one normal variable, whatever the direction. The jump's z is the same test for the four
+//! third derivatives (k = 4), since n too is chosen from the data.
 //!
 //! A cell is marked (`separatrix` = 1) where strength ≥ τ and z ≥ Z. τ (`--sep-tau`) is in units of
 //! σ; its default is a tenth of the median σ of the valid cells, so that smooth but significant
@@ -47,14 +49,17 @@
 //! of |∇²_ω σ| lies beside a jump, not on it; on a kink it lies on the line. So lines are drawn by
 //! two detectors, and the choice is made per place:
 //!
-//! - **jump**: maxima of the gradient magnitude along the gradient (Canny's non-maximum
-//!   suppression), where the jump strength is ≥ τ at z ≥ Z (hysteresis down to τ/2 and Z − 1);
+//! - **jump**: maxima of the jump strength along the gradient (Canny's non-maximum
+//!   suppression), where it is ≥ τ at z ≥ Z (hysteresis down to τ/2 and Z − 1, along
+//!   neighbours whose normal turns by less than 45°);
 //! - **ridge** (height ridges of |∇²_ω σ|, eq. 13 itself): maxima of the strength along its
 //!   direction, same thresholds, except within 2·scale + 1.5 cells of a jump line (where the
 //!   Hessian only shows the flanks of that jump).
 //!
 //! Chains of fewer than [`MIN_LINE_CELLS`] cells are dropped. Lines are located to a fraction of a
-//! cell by a parabola through the maximum and its two neighbours across the line.
+//! cell: a jump line where the second derivative across it vanishes (one Newton step from the
+//! cell centre, −σ_nn/σ_nnn along the gradient), a ridge by a parabola through the maximum and its
+//! two neighbours across the line.
 //!
 //! Cells whose filter support (± ⌈3·scale⌉ cells) holds an invalid cell are left out (strength and
 //! z 0, never marked). At the grid's borders σ is continued by point reflection (σ(−k) = 2σ(0) −
@@ -205,7 +210,7 @@ pub struct Separatrices {
     pub z: Vec<f64>,
     /// Unit direction ω of the largest |∇²_ω σ|, in the grid's axes (x, y, z).
     pub dir: Vec<[f64; 3]>,
-    /// Step height across a jump (|∇σ| · scale · √(2π)) and its Scheffé z.
+    /// Step height across a jump (−σ_nnn · scale³ · √(2π), 2D) and its Scheffé z; 0 in 3D.
     pub jump: Vec<f64>,
     pub jump_z: Vec<f64>,
     /// Cells whose filter support holds only valid cells.
@@ -237,9 +242,9 @@ impl Separatrices {
         if self.dims[2] > 1 {
             out.push(("separatrix.dir.z", self.dir.iter().map(|d| d[2]).collect()));
         }
-        out.push(("separatrix.jump", self.jump.clone()));
-        out.push(("separatrix.jump.z", self.jump_z.clone()));
         if self.dims[2] == 1 {
+            out.push(("separatrix.jump", self.jump.clone()));
+            out.push(("separatrix.jump.z", self.jump_z.clone()));
             out.push((
                 "separatrix.line",
                 self.line.iter().map(|&l| l as f64).collect(),
@@ -280,7 +285,7 @@ impl Separatrices {
 
 /// Sampled Gaussian (order 0) and its first and second derivatives on offsets −r..=r, each
 /// normalised to be exact on polynomials of its order (see the module docs).
-fn kernels(scale: f64) -> (usize, [Vec<f64>; 3]) {
+fn kernels(scale: f64) -> (usize, [Vec<f64>; 4]) {
     let r = (3.0 * scale).ceil().max(1.0) as usize;
     let ks: Vec<f64> = (0..=2 * r).map(|i| i as f64 - r as f64).collect();
     let g: Vec<f64> = ks
@@ -303,7 +308,20 @@ fn kernels(scale: f64) -> (usize, [Vec<f64>; 3]) {
         .zip(&g)
         .map(|(k, g)| (k * k - mean_k2) * g / c)
         .collect();
-    (r, [g0, g1, g2])
+    let m4: f64 = ks.iter().zip(&g).map(|(k, g)| k.powi(4) * g).sum();
+    let ratio = m4 / m1;
+    let c3: f64 = ks
+        .iter()
+        .zip(&g)
+        .map(|(k, g)| (k.powi(3) - ratio * k) * k.powi(3) * g)
+        .sum::<f64>()
+        / 6.0;
+    let g3: Vec<f64> = ks
+        .iter()
+        .zip(&g)
+        .map(|(k, g)| (k.powi(3) - ratio * k) * g / c3)
+        .collect();
+    (r, [g0, g1, g2, g3])
 }
 
 /// One axis' filter: for each output position x, the weights of the source cells lo[x]..
@@ -397,6 +415,9 @@ fn hessian_orders(ndim: usize) -> Vec<[usize; 3]> {
     }
 }
 
+/// The third derivatives of a 2D field: xxx, xxy, xyy, yyy.
+const THIRD_ORDERS: [[usize; 3]; 4] = [[3, 0, 0], [2, 1, 0], [1, 2, 0], [0, 3, 0]];
+
 fn gradient_orders(ndim: usize) -> Vec<[usize; 3]> {
     (0..ndim)
         .map(|a| {
@@ -412,7 +433,7 @@ struct Bank {
     dims: [usize; 3],
     ndim: usize,
     r: usize,
-    axes: Vec<[AxisFilter; 3]>,
+    axes: Vec<[AxisFilter; 4]>,
 }
 
 impl Bank {
@@ -424,6 +445,7 @@ impl Bank {
                     AxisFilter::new(dims[a], r, &k[0]),
                     AxisFilter::new(dims[a], r, &k[1]),
                     AxisFilter::new(dims[a], r, &k[2]),
+                    AxisFilter::new(dims[a], r, &k[3]),
                 ]
             })
             .collect();
@@ -481,15 +503,16 @@ impl Bank {
 fn erfc(x: f64) -> f64 {
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t * (-z * z - 1.26551223
-        + t * (1.00002368
-            + t * (0.37409196
-                + t * (0.09678418
-                    + t * (-0.18628806
-                        + t * (0.27886807
-                            + t * (-1.13520398
-                                + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-        .exp();
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
     if x >= 0.0 { r } else { 2.0 - r }
 }
 
@@ -498,7 +521,7 @@ pub fn normal_two_sided_tail(z: f64) -> f64 {
     erfc(z.abs() / std::f64::consts::SQRT_2)
 }
 
-/// P(χ²_k ≥ x) for k = 1, 2, 3, 6.
+/// P(χ²_k ≥ x) for k = 1, 2, 3, 4, 6.
 fn chi2_tail(k: usize, x: f64) -> f64 {
     let x = x.max(0.0);
     let h = x / 2.0;
@@ -506,6 +529,7 @@ fn chi2_tail(k: usize, x: f64) -> f64 {
         1 => erfc(h.sqrt()),
         2 => (-h).exp(),
         3 => erfc(h.sqrt()) + (2.0 * x / std::f64::consts::PI).sqrt() * (-h).exp(),
+        4 => (-h).exp() * (1.0 + h),
         6 => (-h).exp() * (1.0 + h + h * h / 2.0),
         _ => unreachable!("χ² tail of {k} degrees of freedom"),
     }
@@ -548,7 +572,10 @@ pub fn scheffe_z(k: usize, d2: f64) -> f64 {
         z.min(Z_CAP)
     } else {
         // Beyond the tail's f64 range: the square root is a lower bound of the same order.
-        (d2 - (k as f64 - 1.0) * d2.ln()).max(0.0).sqrt().clamp(37.0, Z_CAP)
+        (d2 - (k as f64 - 1.0) * d2.ln())
+            .max(0.0)
+            .sqrt()
+            .clamp(37.0, Z_CAP)
     }
 }
 
@@ -682,12 +709,12 @@ fn defined_cells(grid: &Grid, r: usize) -> Vec<bool> {
             for i in 0..nx {
                 let bad = !grid.valid[i + nx * (j + ny * k)] as u32;
                 let at = |i: usize, j: usize, k: usize| i + sx * j + sy * k;
-                s[at(i + 1, j + 1, k + 1)] = bad + s[at(i, j + 1, k + 1)] + s[at(i + 1, j, k + 1)]
-                    + s[at(i + 1, j + 1, k)]
-                    - s[at(i, j, k + 1)]
-                    - s[at(i, j + 1, k)]
-                    - s[at(i + 1, j, k)]
-                    + s[at(i, j, k)];
+                s[at(i + 1, j + 1, k + 1)] =
+                    bad + s[at(i, j + 1, k + 1)] + s[at(i + 1, j, k + 1)] + s[at(i + 1, j + 1, k)]
+                        - s[at(i, j, k + 1)]
+                        - s[at(i, j + 1, k)]
+                        - s[at(i + 1, j, k)]
+                        + s[at(i, j, k)];
             }
         }
     }
@@ -732,8 +759,9 @@ fn z_map(vals: &[Vec<f64>], cov: &[Vec<f64>], defined: &[bool]) -> Vec<f64> {
         .collect()
 }
 
-/// The default scale: the smallest of [`SCALES`] at which a step of height τ is significant at Z
-/// in the median valid cell (the largest that fits the grid otherwise).
+/// The default scale: the smallest of [`SCALES`] at which the noise of the line measure (2D: the
+/// jump's step height; 3D: the strength) in the median valid cell is at most τ, so that a step of
+/// Z·τ is significant at Z (the largest that fits the grid otherwise).
 fn default_scale(grid: &Grid, tau: f64, z: f64) -> f64 {
     let ndim = grid.ndim();
     let min_dim = grid.dims[..ndim].iter().copied().min().unwrap_or(1);
@@ -748,14 +776,20 @@ fn default_scale(grid: &Grid, tau: f64, z: f64) -> f64 {
     let var: Vec<f64> = grid.stderr.iter().map(|s| s * s).collect();
     for &s in &fits {
         let bank = Bank::new(grid.dims, ndim, s);
-        let v = bank.covariance(&var, [1, 0, 0], [1, 0, 0]);
-        let se_jump: Vec<f64> = v
+        // 2D: the jump's measure (third derivative, × s³√(2π)); 3D: the Hessian's (× s²).
+        let (o, norm) = if ndim == 2 {
+            ([3, 0, 0], s.powi(3) * (2.0 * std::f64::consts::PI).sqrt())
+        } else {
+            ([2, 0, 0], s * s)
+        };
+        let v = bank.covariance(&var, o, o);
+        let se: Vec<f64> = v
             .iter()
             .zip(&grid.valid)
             .filter(|(_, ok)| **ok)
-            .map(|(v, _)| v.max(0.0).sqrt() * s * (2.0 * std::f64::consts::PI).sqrt())
+            .map(|(v, _)| v.max(0.0).sqrt() * norm)
             .collect();
-        if median(se_jump) * z <= tau {
+        if median(se) <= tau {
             return s;
         }
     }
@@ -787,10 +821,19 @@ pub fn extract(grid: &Grid, params: &SepParams) -> anyhow::Result<Separatrices> 
 
     let h_orders = hessian_orders(ndim);
     let (hv, hc) = bank.components(grid, &var, &h_orders);
-    let g_orders = gradient_orders(ndim);
-    let (gv, gc) = bank.components(grid, &var, &g_orders);
+    let gv: Vec<Vec<f64>> = gradient_orders(ndim)
+        .into_iter()
+        .map(|o| bank.apply(&grid.sigma, o))
+        .collect();
     let z = z_map(&hv, &hc, &defined);
-    let jump_z = z_map(&gv, &gc, &defined);
+    // Jumps (2D): the third derivative across the line, tested over all directions at once.
+    let (tv, jump_z) = if ndim == 2 {
+        let (tv, tc) = bank.components(grid, &var, &THIRD_ORDERS);
+        let jz = z_map(&tv, &tc, &defined);
+        (tv, jz)
+    } else {
+        (Vec::new(), vec![0.0; n])
+    };
 
     let h = grid.cell;
     let h_geo = h[..ndim].iter().product::<f64>().powf(1.0 / ndim as f64);
@@ -798,6 +841,8 @@ pub fn extract(grid: &Grid, params: &SepParams) -> anyhow::Result<Separatrices> 
     let mut strength = vec![0.0; n];
     let mut dir = vec![[0.0; 3]; n];
     let mut jump = vec![0.0; n];
+    // Where σ_nn = 0 along n, from the cell centre, in cells (2D jump lines are drawn through it).
+    let mut jump_offset = vec![[0.0; 2]; n];
     for i in 0..n {
         if !defined[i] {
             continue;
@@ -815,8 +860,31 @@ pub fn extract(grid: &Grid, params: &SepParams) -> anyhow::Result<Separatrices> 
         strength[i] = (lambda.abs() * norm2).min(f64::MAX);
         // The eigenvector is in physical axes; report it so (unit length).
         dir[i] = d;
-        let g2: f64 = (0..ndim).map(|a| (gv[a][i] / h[a]).powi(2)).sum();
-        jump[i] = g2.sqrt() * scale * h_geo * (2.0 * std::f64::consts::PI).sqrt();
+        if ndim == 2 {
+            let (gx, gy) = (gv[0][i] / h[0], gv[1][i] / h[1]);
+            let g = gx.hypot(gy);
+            if g > 0.0 {
+                let (nx, ny) = (gx / g, gy / g);
+                let d3 = |c: usize, a: i32| tv[c][i] / (h[0].powi(3 - a) * h[1].powi(a));
+                let nnn = nx.powi(3) * d3(0, 0)
+                    + 3.0 * nx * nx * ny * d3(1, 1)
+                    + 3.0 * nx * ny * ny * d3(2, 2)
+                    + ny.powi(3) * d3(3, 3);
+                // A blurred step D Phi(x/s) has the third derivative -D/(s^3 sqrt(2 pi)) at its
+                // centre.
+                jump[i] =
+                    (-nnn).max(0.0) * (scale * h_geo).powi(3) * (2.0 * std::f64::consts::PI).sqrt();
+                // One Newton step to the zero of σ_nn (the step's centre): −σ_nn / σ_nnn.
+                let nn = nx * nx * m[0][0] + 2.0 * nx * ny * m[0][1] + ny * ny * m[1][1];
+                if nnn < 0.0 {
+                    let d = -nn / nnn;
+                    let (dx, dy) = (d * nx / h[0], d * ny / h[1]);
+                    if dx.is_finite() && dy.is_finite() && dx.hypot(dy) <= 1.0 {
+                        jump_offset[i] = [dx, dy];
+                    }
+                }
+            }
+        }
     }
     let clean = |v: &mut Vec<f64>| {
         for x in v.iter_mut() {
@@ -847,10 +915,8 @@ pub fn extract(grid: &Grid, params: &SepParams) -> anyhow::Result<Separatrices> 
         lines: Vec::new(),
     };
     if ndim == 2 {
-        let grads: Vec<[f64; 2]> = (0..n)
-            .map(|i| [gv[0][i] / h[0], gv[1][i] / h[1]])
-            .collect();
-        trace_lines(&mut sep, &grads);
+        let grads: Vec<[f64; 2]> = (0..n).map(|i| [gv[0][i] / h[0], gv[1][i] / h[1]]).collect();
+        trace_lines(&mut sep, &grads, &jump_offset);
     }
     Ok(sep)
 }
@@ -906,7 +972,16 @@ fn thin(
             offset[c] = [t * di as f64, t * dj as f64];
         }
     }
-    // Hysteresis: weak cells 8-connected to strong ones.
+    // Hysteresis: weak cells 8-connected to kept ones, with a normal within 45° of theirs (so that
+    // a line does not wander off where its contrast fades and the normals turn).
+    let unit = |c: usize| {
+        let l = normal[c][0].hypot(normal[c][1]);
+        if l > 0.0 {
+            [normal[c][0] / l, normal[c][1] / l]
+        } else {
+            [0.0, 0.0]
+        }
+    };
     let mut keep = strong.clone();
     let mut stack: Vec<usize> = (0..n).filter(|&c| strong[c]).collect();
     while let Some(c) = stack.pop() {
@@ -916,6 +991,10 @@ fn thin(
                 if let Some(k) = at(i + di, j + dj)
                     && weak[k]
                     && !keep[k]
+                    && {
+                        let (a, b) = (unit(c), unit(k));
+                        (a[0] * b[0] + a[1] * b[1]).abs() >= std::f64::consts::FRAC_1_SQRT_2
+                    }
                 {
                     keep[k] = true;
                     stack.push(k);
@@ -995,17 +1074,22 @@ fn walk_back(nb: &dyn Fn(usize) -> Vec<usize>, used: &mut [bool], start: usize) 
     out
 }
 
-fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]]) {
+fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]], jump_offset: &[[f64; 2]]) {
     let dims = sep.dims;
     let n = grads.len();
     let (tau, zt) = (sep.tau, sep.z_threshold);
     let z_low = (zt - 1.0).max(0.5 * zt);
     let (jump, jz, def) = (&sep.jump, &sep.jump_z, &sep.defined);
     let jump_ok = |c: usize, strong: bool| {
-        let (t, z) = if strong { (tau, zt) } else { (0.5 * tau, z_low) };
+        let (t, z) = if strong {
+            (tau, zt)
+        } else {
+            (0.5 * tau, z_low)
+        };
         def[c] && jump[c] > 0.0 && jump[c] >= t && jz[c] >= z
     };
-    let (jkeep, joff) = thin(dims, jump, grads, &jump_ok);
+    let (jkeep, _) = thin(dims, jump, grads, &jump_ok);
+    let joff = jump_offset;
     let jchains: Vec<Vec<usize>> = link(dims, &jkeep)
         .into_iter()
         .filter(|c| c.len() >= MIN_LINE_CELLS)
@@ -1038,7 +1122,11 @@ fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]]) {
     };
     let (st, z, dir) = (&sep.strength, &sep.z, &sep.dir);
     let ridge_ok = |c: usize, strong: bool| {
-        let (t, zz) = if strong { (tau, zt) } else { (0.5 * tau, z_low) };
+        let (t, zz) = if strong {
+            (tau, zt)
+        } else {
+            (0.5 * tau, z_low)
+        };
         def[c] && st[c] > 0.0 && st[c] >= t && z[c] >= zz && !near_jump(c)
     };
     let normals: Vec<[f64; 2]> = dir.iter().map(|d| [d[0], d[1]]).collect();
@@ -1050,8 +1138,8 @@ fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]]) {
     let mut lines = Vec::new();
     let mut line = vec![0u8; n];
     for (kind, chains, off, val, zv) in [
-        (LineKind::Jump, &jchains, &joff, jump, jz),
-        (LineKind::Ridge, &rchains, &roff, st, z),
+        (LineKind::Jump, &jchains, joff, jump, jz),
+        (LineKind::Ridge, &rchains, &roff[..], st, z),
     ] {
         for chain in chains {
             let mut p = Polyline {
@@ -1063,10 +1151,8 @@ fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]]) {
             for &c in chain {
                 line[c] = if kind == LineKind::Jump { 1 } else { 2 };
                 let (i, j) = (c % dims[0], c / dims[0]);
-                p.points.push([
-                    i as f64 + 0.5 + off[c][0],
-                    j as f64 + 0.5 + off[c][1],
-                ]);
+                p.points
+                    .push([i as f64 + 0.5 + off[c][0], j as f64 + 0.5 + off[c][1]]);
                 p.strength.push(val[c]);
                 p.z.push(zv[c]);
             }
@@ -1378,7 +1464,10 @@ pub fn write_overlay_png(
         }
     }
     let mut dot = |x: f64, y: f64, c: [u8; 3]| {
-        let (px, py) = ((x * f as f64).floor() as isize, (y * f as f64).floor() as isize);
+        let (px, py) = (
+            (x * f as f64).floor() as isize,
+            (y * f as f64).floor() as isize,
+        );
         let r = (f as isize / 4).max(0);
         for dy in -r..=r {
             for dx in -r..=r {
@@ -1493,7 +1582,10 @@ pub fn of_field(
     params: &SepParams,
 ) -> anyhow::Result<(Separatrices, Placement)> {
     let placement = Placement::of_field(field, file)?;
-    let grid = Grid::of_field(field, placement.cell([field.width, field.height, field.depth]));
+    let grid = Grid::of_field(
+        field,
+        placement.cell([field.width, field.height, field.depth]),
+    );
     let sep = extract(&grid, params).with_context(|| format!("{file}: separatrices"))?;
     Ok((sep, placement))
 }

@@ -612,8 +612,7 @@ fn run_domain_job(
     // Separatrices of the field as written (a partial field's too: they say what it shows so far).
     let separatrices = match &job.separatrices {
         Some(sp) => {
-            let (sep, placement) =
-                separatrix::of_field(&field, &output.display().to_string(), sp)?;
+            let (sep, placement) = separatrix::of_field(&field, &output.display().to_string(), sp)?;
             say(job, sep.summary());
             Some((sep, placement))
         }
