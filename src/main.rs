@@ -81,7 +81,7 @@ struct SepFlags {
     )]
     sep_threshold: f64,
     /// Strength threshold τ in units of σ (the scale-normalised |∇²_ω σ|; for lines, the height of
-    /// a step of σ) [default: 0.1 × the median σ].
+    /// a step of σ) [default: 0.1 × the median σ of the cells with σ > 0].
     #[arg(long, value_name = "TAU", allow_negative_numbers = true)]
     sep_tau: Option<f64>,
 }
@@ -605,7 +605,7 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
             "separatrices  after the run: eq. 13 by derivative-of-Gaussian filters, scale {} \
              cells, τ {}, Z {} (Scheffé over directions); jump and ridge lines",
             or_default(sp.scale, "from the noise"),
-            or_default(sp.tau, "0.1 × median σ"),
+            or_default(sp.tau, "0.1 × median σ > 0"),
             sp.z
         )?;
     }

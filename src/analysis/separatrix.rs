@@ -35,7 +35,7 @@
 //! third derivatives (k = 4), since n too is chosen from the data.
 //!
 //! A cell is marked (`separatrix` = 1) where strength ≥ τ and z ≥ Z. τ (`--sep-tau`) is in units of
-//! σ; its default is a tenth of the median σ of the valid cells, so that smooth but significant
+//! σ; its default is a tenth of the median σ of the valid cells with σ > 0, so that smooth but significant
 //! curvature (which a field with many samples shows everywhere) is not called a separatrix. The
 //! default scale is the smallest of 1, 1.25, 1.5, 2, 2.5, 3, 4, 5, 6 cells at which a step of height
 //! τ would be significant at Z in the median cell (the noise of a derivative falls with the scale).
@@ -653,16 +653,18 @@ fn dominant_eigen(mut m: [[f64; 3]; 3], ndim: usize) -> (f64, [f64; 3]) {
                 let t = if theta == 0.0 { 1.0 } else { t };
                 let c = 1.0 / (t * t + 1.0).sqrt();
                 let s = t * c;
-                for r in 0..ndim {
-                    let (mrp, mrq) = (m[r][p], m[r][q]);
-                    m[r][p] = c * mrp - s * mrq;
-                    m[r][q] = s * mrp + c * mrq;
+                for row in m.iter_mut().take(ndim) {
+                    let (mrp, mrq) = (row[p], row[q]);
+                    row[p] = c * mrp - s * mrq;
+                    row[q] = s * mrp + c * mrq;
                 }
-                for r in 0..ndim {
-                    let (mpr, mqr) = (m[p][r], m[q][r]);
-                    m[p][r] = c * mpr - s * mqr;
-                    m[q][r] = s * mpr + c * mqr;
+                let (mut row_p, mut row_q) = (m[p], m[q]);
+                for (a, b) in row_p.iter_mut().zip(row_q.iter_mut()).take(ndim) {
+                    let (mpr, mqr) = (*a, *b);
+                    *a = c * mpr - s * mqr;
+                    *b = s * mpr + c * mqr;
                 }
+                (m[p], m[q]) = (row_p, row_q);
                 for row in v.iter_mut().take(ndim) {
                     let (vp, vq) = (row[p], row[q]);
                     row[p] = c * vp - s * vq;
@@ -768,7 +770,7 @@ fn default_scale(grid: &Grid, tau: f64, z: f64) -> f64 {
     let fits: Vec<f64> = SCALES
         .iter()
         .copied()
-        .filter(|&s| 2 * (3.0 * s).ceil() as usize + 1 <= min_dim.max(3) || s == SCALES[0])
+        .filter(|&s| 2 * ((3.0 * s).ceil() as usize) < min_dim.max(3) || s == SCALES[0])
         .collect();
     if tau <= 0.0 || z <= 0.0 {
         return fits[0];
@@ -808,7 +810,7 @@ pub fn extract(grid: &Grid, params: &SepParams) -> anyhow::Result<Separatrices> 
         .sigma
         .iter()
         .zip(&grid.valid)
-        .filter(|(_, ok)| **ok)
+        .filter(|(s, ok)| **ok && **s > 0.0)
         .map(|(s, _)| *s)
         .collect();
     let tau = params.tau.unwrap_or(0.1 * median(sigmas));
@@ -1285,12 +1287,15 @@ pub fn surface(sep: &Separatrices) -> Mesh {
 // ------------------------------------------------------------------------------------------------
 // Writers: VTK PolyData (.vtp), SVG
 
+/// A polyline in scene coordinates: kind, points, and per point strength and z.
+pub type SceneLine = (LineKind, Vec<DVec3>, Vec<f64>, Vec<f64>);
+
 /// Writes polylines (points already in scene coordinates) and/or triangles as VTK XML PolyData,
 /// ASCII, with the point arrays `strength` and `z` and the cell array `kind` (0 jump, 1 ridge, 2
 /// surface). Written to a temporary name, then renamed.
 pub fn write_vtp(
     path: &Path,
-    lines: &[(LineKind, Vec<DVec3>, Vec<f64>, Vec<f64>)],
+    lines: &[SceneLine],
     mesh: Option<(&[DVec3], &[[usize; 3]])>,
 ) -> anyhow::Result<()> {
     let mut pts: Vec<DVec3> = Vec::new();
