@@ -602,9 +602,10 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
             |v: Option<f64>, d: &str| v.map_or_else(|| d.to_string(), |x| x.to_string());
         writeln!(
             std::io::stdout().lock(),
-            "separatrices  after the run: eq. 13 by derivative-of-Gaussian filters, scale {} \
-             cells, τ {}, Z {} (Scheffé over directions); jump and ridge lines",
-            or_default(sp.scale, "from the noise"),
+            "separatrices  after the run: eq. 13 by derivative-of-Gaussian filters, scale {}, \
+             τ {}, Z {} (Scheffé over directions); jump and ridge lines",
+            sp.scale
+                .map_or_else(|| "from the noise".to_string(), |s| format!("{s} cells")),
             or_default(sp.tau, "0.1 × median σ > 0"),
             sp.z
         )?;
