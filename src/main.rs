@@ -2,6 +2,7 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use ftpd3d::analysis::converge::{self, ConvergeJob};
+use ftpd3d::analysis::separatrix::SepParams;
 use ftpd3d::app::{self, CameraArg, DomainArg, Job};
 use ftpd3d::cli::parse::{
     parse_duration, parse_env, parse_point_light, parse_size, parse_sky, parse_sun, parse_vec3,
@@ -54,6 +55,69 @@ enum Command {
     ///
     /// Example: ftpd3d converge --scene scenes/cornell_mirror.obj --slice z=0 --out-dir out/conv
     Converge(ConvergeArgs),
+    /// Extract separatrices (eq. 13 of the paper, with a significance threshold) from a finished or
+    /// merged field, without recomputing it: the field again with the `separatrix*` channels, and
+    /// beside it `<name>.sep.vtp` (lines in scene coordinates, or a volume's surface) and, for 2D
+    /// fields, `<name>.sep.svg` and `<name>.sep.png`.
+    ///
+    /// Example: ftpd3d separatrices out/cornell_mirror_z0.exr --sep-scale 2 -o out/sep.exr
+    Separatrices(SeparatricesArgs),
+}
+
+/// The separatrix extraction's settings, shared by runs (`--separatrices`) and `separatrices`.
+#[derive(Args, Debug, Clone)]
+struct SepFlags {
+    /// Scale of the derivative-of-Gaussian filters, in cells (≥ 0.7) [default: the smallest at
+    /// which a step of height τ is significant at Z in the median cell].
+    #[arg(long, value_name = "CELLS", allow_negative_numbers = true)]
+    sep_scale: Option<f64>,
+    /// Significance Z: mark cells whose largest |∇²_ω σ| is Z standard errors from 0 (a test over
+    /// all directions at once).
+    #[arg(
+        long,
+        value_name = "Z",
+        default_value_t = 3.0,
+        allow_negative_numbers = true
+    )]
+    sep_threshold: f64,
+    /// Strength threshold τ in units of σ (the scale-normalised |∇²_ω σ|; for lines, the height of
+    /// a step of σ) [default: 0.1 × the median σ of the cells with σ > 0].
+    #[arg(long, value_name = "TAU", allow_negative_numbers = true)]
+    sep_tau: Option<f64>,
+}
+
+impl SepFlags {
+    fn params(&self) -> anyhow::Result<SepParams> {
+        let p = SepParams {
+            scale: self.sep_scale,
+            z: self.sep_threshold,
+            tau: self.sep_tau,
+        };
+        p.check()?;
+        Ok(p)
+    }
+
+    fn given(&self) -> bool {
+        self.sep_scale.is_some() || self.sep_tau.is_some() || self.sep_threshold != 3.0
+    }
+}
+
+#[derive(Args, Debug, Clone)]
+struct SeparatricesArgs {
+    /// A field (.exr) or volume (.vti) written by ftpd3d or by merge.
+    #[arg(value_name = "FIELD.exr|FIELD.vti")]
+    input: PathBuf,
+    /// Output, .exr or .vti as the input [default: <input name>_sep.<ext> beside it].
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    sep: SepFlags,
+    /// Skip the PNG previews of the field (the separatrix overlay is still written).
+    #[arg(long)]
+    no_png: bool,
+    /// No summary (errors and warnings still go to stderr).
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -297,6 +361,12 @@ struct RunArgs {
     /// per radian.
     #[arg(long)]
     flatland: bool,
+    /// Extract separatrices from the finished field: `separatrix*` channels in the output and the
+    /// files `<name>.sep.vtp`, `.sep.svg`, `.sep.png` beside it (see `ftpd3d separatrices`).
+    #[arg(long)]
+    separatrices: bool,
+    #[command(flatten)]
+    sep: SepFlags,
     /// Print the scene's feature set and the kernel a run would use, then stop.
     #[arg(long)]
     explain: bool,
@@ -439,7 +509,18 @@ impl RunArgs {
             checkpoint_every: self.checkpoint_every,
             resume: self.resume.clone(),
             command: Some(command_without_resume()),
+            separatrices: self.separatrices()?,
         })
+    }
+
+    fn separatrices(&self) -> anyhow::Result<Option<SepParams>> {
+        if !self.separatrices {
+            if self.sep.given() {
+                anyhow::bail!("--sep-scale, --sep-threshold and --sep-tau need --separatrices");
+            }
+            return Ok(None);
+        }
+        self.sep.params().map(Some)
     }
 
     fn render(&self) -> RenderOptions {
@@ -514,7 +595,22 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         &job.lights,
         &job.estimator,
         flatland,
-    )
+    )?;
+    if let Some(sp) = &job.separatrices {
+        use std::io::Write as _;
+        let or_default =
+            |v: Option<f64>, d: &str| v.map_or_else(|| d.to_string(), |x| x.to_string());
+        writeln!(
+            std::io::stdout().lock(),
+            "separatrices  after the run: eq. 13 by derivative-of-Gaussian filters, scale {}, \
+             τ {}, Z {} (Scheffé over directions); jump and ridge lines",
+            sp.scale
+                .map_or_else(|| "from the noise".to_string(), |s| format!("{s} cells")),
+            or_default(sp.tau, "0.1 × median σ > 0"),
+            sp.z
+        )?;
+    }
+    Ok(())
 }
 
 fn merge(args: &MergeArgs) -> anyhow::Result<()> {
@@ -562,6 +658,22 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
             "wrote {}/converge.csv, converge_fit.csv, converge.png",
             args.out_dir.display()
         );
+    }
+    Ok(())
+}
+
+fn separatrices(args: &SeparatricesArgs) -> anyhow::Result<()> {
+    let params = args.sep.params()?;
+    let out = ftpd3d::analysis::separatrix::rerun(
+        &args.input,
+        args.output.as_deref(),
+        &params,
+        !args.no_png,
+    )?;
+    if !args.quiet {
+        eprintln!("{}", out.summary);
+        let files: Vec<String> = out.files.iter().map(|p| p.display().to_string()).collect();
+        eprintln!("wrote {}", files.join(", "));
     }
     Ok(())
 }
@@ -620,6 +732,7 @@ fn main() -> ExitCode {
         Some(Command::Bench(args)) => bench(args).map(|()| None),
         Some(Command::Merge(args)) => merge(args).map(|()| None),
         Some(Command::Converge(args)) => converge(args).map(|()| None),
+        Some(Command::Separatrices(args)) => separatrices(args).map(|()| None),
         None if cli.run.explain => explain(&cli.run).map(|()| None),
         None => cli.run.job().and_then(|job| {
             install_signal_handler();

@@ -16,6 +16,7 @@ mod mis;
 mod outdoor;
 mod pinned;
 mod run_info;
+mod separatrix;
 mod stability;
 mod support;
 mod valid;

@@ -24,6 +24,7 @@ fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> J
         checkpoint_every: None,
         resume: None,
         command: None,
+        separatrices: None,
         estimator: EstimatorArgs {
             weighting: Weighting::Radiance,
             t0: None,
@@ -282,6 +283,7 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
         checkpoint_every: None,
         resume: None,
         command: None,
+        separatrices: None,
         estimator: vjob.estimator.clone(),
         // Another seed: independent estimates, so their difference is pure noise.
         render: RenderOptions {

@@ -8,9 +8,11 @@ mod progress;
 pub use memory::{FALLBACK_MEMORY_BYTES, available_memory, check_volume_memory, volume_bytes};
 use progress::grid_text;
 pub use progress::{
-    RESUME_KEYS, check_resume, mark_progress, read_progress, write_progress, write_volume_progress,
+    RESUME_KEYS, check_resume, mark_progress, read_progress, write_progress, write_progress_with,
+    write_volume_progress, write_volume_progress_with,
 };
 
+use crate::analysis::separatrix::{self, SepParams};
 use crate::cli::report::{fmt_duration, human_bytes, scene_line, shell_quote, summary};
 use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::domain::volume::Volume;
@@ -103,6 +105,9 @@ pub struct Job {
     pub resume: Option<PathBuf>,
     /// The command line that started the job, without any `--resume`, for the resume hint.
     pub command: Option<String>,
+    /// Extract separatrices from the finished field (`--separatrices`): extra channels in the
+    /// output and the side files of [`crate::analysis::separatrix::side_paths`].
+    pub separatrices: Option<SepParams>,
 }
 
 /// Resolves the camera of a job against the scene.
@@ -408,10 +413,11 @@ fn run_domain_job(
     let (w, h, d) = dom.dims();
     // What a tile splits: a 2D grid's rows, a volume's z layers (see `Tile::cells`).
     let (rows, row_name) = if d > 1 { (d, "z layers") } else { (h, "rows") };
-    let write = |f: &Field, p: &Progress, png: bool| match domain {
-        JobDomain::Volume(v) => write_volume_progress(f, p, v, output, png),
-        _ => write_progress(f, p, output, png),
+    let write_with = |f: &Field, p: &Progress, png: bool, more| match domain {
+        JobDomain::Volume(v) => write_volume_progress_with(f, p, v, output, png, more),
+        _ => write_progress_with(f, p, output, png, more),
     };
+    let write = |f: &Field, p: &Progress, png: bool| write_with(f, p, png, Vec::new());
     if let JobDomain::Plane(p) = domain {
         check_flatland(scene, p, params)?;
     }
@@ -603,7 +609,31 @@ fn run_domain_job(
         Some(stats.stop),
     );
     say(job, summary(&field, &stats, &error, params));
-    write(&field, &progress, job.png)?;
+    // Separatrices of the field as written (a partial field's too: they say what it shows so far).
+    let separatrices = match &job.separatrices {
+        Some(sp) => {
+            let (sep, placement) = separatrix::of_field(&field, &output.display().to_string(), sp)?;
+            say(job, sep.summary());
+            Some((sep, placement))
+        }
+        None => None,
+    };
+    write_with(
+        &field,
+        &progress,
+        job.png,
+        separatrices
+            .as_ref()
+            .map_or_else(Vec::new, |(s, _)| s.arrays()),
+    )?;
+    if let Some((sep, placement)) = &separatrices {
+        separatrix::write_side_files(output, &field, sep, placement)?;
+        let files: Vec<String> = separatrix::side_paths(output, sep.dims[2] > 1)
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        say(job, format!("wrote {}", files.join(", ")));
+    }
     say(
         job,
         format!(

@@ -111,7 +111,20 @@ pub fn write_progress(
     path: &Path,
     png: bool,
 ) -> anyhow::Result<()> {
-    write_outputs_with(field, path, png, progress_arrays(progress))
+    write_progress_with(field, progress, path, png, Vec::new())
+}
+
+/// [`write_progress`] with more per-cell channels (the separatrices' arrays).
+pub fn write_progress_with(
+    field: &Field,
+    progress: &Progress,
+    path: &Path,
+    png: bool,
+    more: Vec<(&'static str, Vec<f64>)>,
+) -> anyhow::Result<()> {
+    let mut extra = progress_arrays(progress);
+    extra.extend(more);
+    write_outputs_with(field, path, png, extra)
 }
 
 /// [`write_progress`] for a volume: the `.vti`, whose `pass.done` and `pass.units` arrays are
@@ -123,13 +136,27 @@ pub fn write_volume_progress(
     path: &Path,
     png: bool,
 ) -> anyhow::Result<()> {
+    write_volume_progress_with(field, progress, volume, path, png, Vec::new())
+}
+
+/// [`write_volume_progress`] with more per-voxel arrays (the separatrices' arrays).
+pub fn write_volume_progress_with(
+    field: &Field,
+    progress: &Progress,
+    volume: &Volume,
+    path: &Path,
+    png: bool,
+    more: Vec<(&'static str, Vec<f64>)>,
+) -> anyhow::Result<()> {
+    let mut extra = progress_arrays(progress);
+    extra.extend(more);
     output::write_volume_outputs_with(
         field,
         volume.vtk_origin(),
         volume.spacing,
         path,
         png,
-        &progress_arrays(progress),
+        &extra,
     )
 }
 

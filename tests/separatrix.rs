@@ -1,0 +1,692 @@
+//! Separatrices (eq. 13, `analysis::separatrix`): the significance against the normal tail on
+//! synthetic fields, lines against shadow boundaries known exactly (3D slice at two resolutions,
+//! flatland past a corner), false marks in a lit box against the sample count,
+//! and the files as an independent VTK reader sees them.
+//!
+//! How tolerances are set: rates are compared with the normal tail within 4 binomial standard
+//! errors over cells whose filter supports do not overlap (so they are independent); distances to
+//! the known lines are in cells (the issue's 1.5), computed from the grid; scene runs use fixed
+//! seeds and tiny grids.
+
+use crate::support::{ftpd3d, temp_dir};
+use ftpd3d::analysis::separatrix::{
+    self, Grid, LineKind, SepParams, Separatrices, extract, normal_two_sided_tail,
+};
+use ftpd3d::domain::Plane;
+use ftpd3d::field::Field;
+use ftpd3d::ftpd::{Params, Weighting};
+use ftpd3d::math::Rgb;
+use ftpd3d::render::RenderOptions;
+use ftpd3d::run::run_plane;
+use ftpd3d::scene::flat::Flatland;
+use ftpd3d::scene::{Material, Scene};
+use ftpd3d::transport::bsdf::Bsdf;
+use glam::{DVec3, Vec3};
+use std::path::Path;
+
+// ------------------------------------------------------------------------------------------------
+// Synthetic fields
+
+/// A small deterministic generator (SplitMix64) and Box–Muller normals, independent of the code
+/// under test.
+struct Normal(u64);
+
+impl Normal {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn next(&mut self) -> f64 {
+        let u1 = self.uniform().max(1e-300);
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+/// σ = a linear ramp (no curvature, no step) plus Gaussian noise of a known standard error that
+/// varies over the grid.
+fn noisy_ramp(w: usize, h: usize, seed: u64) -> Grid {
+    noisy_plane(w, h, seed, [0.003, -0.002])
+}
+
+fn noisy_plane(w: usize, h: usize, seed: u64, slope: [f64; 2]) -> Grid {
+    let mut rng = Normal(seed);
+    let mut sigma = Vec::with_capacity(w * h);
+    let mut stderr = Vec::with_capacity(w * h);
+    for j in 0..h {
+        for i in 0..w {
+            let (x, y) = (i as f64, j as f64);
+            let se = 0.02 * (1.0 + 0.5 * (x / 37.0).sin() * (y / 23.0).cos());
+            sigma.push(1.0 + slope[0] * x + slope[1] * y + se * rng.next());
+            stderr.push(se);
+        }
+    }
+    Grid {
+        dims: [w, h, 1],
+        sigma,
+        stderr,
+        valid: vec![true; w * h],
+        cell: [1.0; 3],
+    }
+}
+
+/// With no curvature (a ramp), the Hessian's z (a test over all directions at once) exceeds Z as
+/// often as a normal deviate does, within the binomial error; with no gradient (a constant), so
+/// does the jump's. Cells are taken on a
+/// lattice wider than the filters' support, so that they are independent. Also: the z of the
+/// largest |∇²_ω σ| taken in its own direction (what the Scheffé test corrects) would exceed Z
+/// far more often.
+#[test]
+fn false_alarm_rate_matches_the_normal_tail() {
+    let (w, h) = (420, 420);
+    let scale = 1.0;
+    let step = 7; // 2·⌈3·scale⌉ + 1: supports do not overlap
+    let params = SepParams {
+        scale: Some(scale),
+        z: 3.0,
+        tau: Some(0.0),
+    };
+    let mut z = Vec::new();
+    let mut jz = Vec::new();
+    for seed in 0..4 {
+        let ramp = extract(&noisy_ramp(w, h, 1000 + seed), &params).unwrap();
+        let flat = extract(&noisy_plane(w, h, 2000 + seed, [0.0; 2]), &params).unwrap();
+        assert_eq!(ramp.scale, scale);
+        for j in (3..h - 3).step_by(step) {
+            for i in (3..w - 3).step_by(step) {
+                let c = i + w * j;
+                assert!(ramp.defined[c] && flat.defined[c]);
+                z.push(ramp.z[c]);
+                jz.push(flat.jump_z[c]);
+            }
+        }
+    }
+    let n = z.len() as f64;
+    for (name, values) in [("hessian", &z), ("jump", &jz)] {
+        for zt in [1.0, 2.0, 3.0] {
+            let p = normal_two_sided_tail(zt);
+            let k = values.iter().filter(|&&v| v >= zt).count() as f64;
+            let se = (p * (1.0 - p) / n).sqrt();
+            let rate = k / n;
+            eprintln!(
+                "{name}: Z = {zt}: {k} of {n} cells ({rate:.5}), normal tail {p:.5} ± {se:.5}"
+            );
+            assert!(
+                (rate - p).abs() <= 4.0 * se,
+                "{name} z ≥ {zt}: rate {rate} against the normal tail {p} ± {se}"
+            );
+        }
+    }
+}
+
+/// A step of σ across a tilted line, plus noise: the jump line lies within a cell of it, and no
+/// other line is drawn.
+#[test]
+fn a_synthetic_step_gives_one_jump_line_on_the_step() {
+    let (w, h) = (80, 60);
+    let mut grid = noisy_ramp(w, h, 7);
+    // The line through (10, 5) and (70, 50); σ steps by 0.3 across it.
+    let (a, b) = ([10.0, 5.0], [70.0, 50.0]);
+    let dist = |p: [f64; 2]| line_distance(a, b, p);
+    let side = |p: [f64; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+    for j in 0..h {
+        for i in 0..w {
+            if side([i as f64 + 0.5, j as f64 + 0.5]) > 0.0 {
+                grid.sigma[i + w * j] += 0.3;
+            }
+        }
+    }
+    let sep = extract(&grid, &SepParams::default()).unwrap();
+    eprintln!("{}", sep.summary());
+    let jumps: Vec<_> = sep
+        .lines
+        .iter()
+        .filter(|l| l.kind == LineKind::Jump)
+        .collect();
+    assert!(!jumps.is_empty());
+    let far = sep
+        .lines
+        .iter()
+        .flat_map(|l| &l.points)
+        .filter(|p| dist(**p) > 1.0)
+        .count();
+    assert_eq!(far, 0, "every line point within 1 cell of the step");
+    let covered = coverage(&sep, a, b, 1.0, &|p| p[0] > 4.0 && p[0] < 76.0);
+    assert!(covered > 0.9, "the jump line covers {covered} of the step");
+}
+
+/// Parameters out of range are refused, naming the flag; no NaN in any array for a field with
+/// invalid cells, zero errors and infinities.
+#[test]
+fn bad_settings_are_refused_and_degenerate_fields_give_no_nan() {
+    let grid = noisy_ramp(20, 20, 3);
+    for (p, flag) in [
+        (
+            SepParams {
+                scale: Some(0.1),
+                ..Default::default()
+            },
+            "--sep-scale",
+        ),
+        (
+            SepParams {
+                z: f64::NAN,
+                ..Default::default()
+            },
+            "--sep-threshold",
+        ),
+        (
+            SepParams {
+                tau: Some(-1.0),
+                ..Default::default()
+            },
+            "--sep-tau",
+        ),
+    ] {
+        let e = extract(&grid, &p).unwrap_err().to_string();
+        assert!(e.contains(flag), "{e}");
+    }
+    let mut g = grid.clone();
+    g.stderr.iter_mut().for_each(|s| *s = 0.0);
+    g.valid[45] = false;
+    g.sigma[46] = 1e300;
+    for p in [
+        SepParams::default(),
+        SepParams {
+            tau: Some(0.0),
+            z: 0.0,
+            scale: Some(2.0),
+        },
+    ] {
+        let sep = extract(&g, &p).unwrap();
+        for (name, a) in sep.arrays() {
+            assert!(a.iter().all(|v| v.is_finite()), "{name}");
+        }
+        assert!(!sep.defined[45]);
+    }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Scenes with known separatrices
+
+fn line_distance(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    ((p[0] - a[0]) * dy - (p[1] - a[1]) * dx).abs() / dx.hypot(dy)
+}
+
+/// Fraction of the line a→b (cell coordinates), inside `roi`, that has a line point within `tol`
+/// cells, in steps of half a cell.
+fn coverage(
+    sep: &Separatrices,
+    a: [f64; 2],
+    b: [f64; 2],
+    tol: f64,
+    roi: &dyn Fn([f64; 2]) -> bool,
+) -> f64 {
+    let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+    let steps = (len * 2.0).ceil() as usize;
+    let (mut inside, mut hit) = (0, 0);
+    for s in 0..=steps {
+        let t = s as f64 / steps as f64;
+        let q = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+        if !roi(q) {
+            continue;
+        }
+        inside += 1;
+        let near = sep.lines.iter().flat_map(|l| &l.points).any(|p| {
+            let d = (p[0] - q[0]).hypot(p[1] - q[1]);
+            d <= tol + 0.75
+        });
+        hit += near as usize;
+    }
+    if inside == 0 {
+        0.0
+    } else {
+        hit as f64 / inside as f64
+    }
+}
+
+fn mat(name: &str, bsdf: Bsdf) -> Material {
+    Material {
+        name: name.into(),
+        bsdf,
+        emission: Rgb::ZERO,
+        base_color: None,
+    }
+}
+
+/// Axis-aligned boxes (x0, y0, z0, x1, y1, z1) with materials, as a scene of 12 triangles each.
+fn boxes(list: &[([f32; 6], u32)], materials: Vec<Material>) -> Scene {
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    let mut tri_material = Vec::new();
+    for (b, m) in list {
+        let base = positions.len() as u32;
+        for k in 0..8 {
+            positions.push(Vec3::new(
+                if k & 1 == 0 { b[0] } else { b[3] },
+                if k & 2 == 0 { b[1] } else { b[4] },
+                if k & 4 == 0 { b[2] } else { b[5] },
+            ));
+        }
+        for q in [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ] {
+            triangles.push([base + q[0], base + q[1], base + q[2]]);
+            triangles.push([base + q[0], base + q[2], base + q[3]]);
+            tri_material.extend([*m, *m]);
+        }
+    }
+    Scene::build(
+        Path::new("test-separatrix"),
+        positions,
+        Vec::new(),
+        triangles,
+        tri_material,
+        materials,
+        Default::default(),
+    )
+    .unwrap()
+}
+
+/// A floor (y ≤ 0) and a slab (1 ≤ y ≤ 1.05, x ≤ −0.5) over z ∈ [−3, 3], lit by a point light at
+/// (0.5, 2, 0): light passing the slab's lower right corner (−0.5, 1) draws the shadow boundary
+/// y = x + 1.5 in the slice z = 0.
+fn shadow_scene(floor: Bsdf) -> Scene {
+    let mut s = boxes(
+        &[
+            ([-4.0, -0.2, -3.0, 4.0, 0.0, 3.0], 0),
+            ([-4.0, 1.0, -3.0, -0.5, 1.05, 3.0], 1),
+        ],
+        vec![
+            mat("floor", floor),
+            mat(
+                "slab",
+                Bsdf::Diffuse {
+                    kd: Rgb::splat(0.5),
+                },
+            ),
+        ],
+    );
+    s.add_point_light(DVec3::new(0.5, 2.0, 0.0), Rgb::splat(5.0));
+    s
+}
+
+fn opts(spp: u32, seed: u64) -> RenderOptions {
+    RenderOptions {
+        spp,
+        batches: 8,
+        seed,
+        threads: 0,
+        progress: false,
+        ..Default::default()
+    }
+}
+
+fn params(flat: Option<Flatland>) -> Params {
+    Params {
+        t0: 0.1,
+        t1: 3.0,
+        theta_max: 0.05,
+        weighting: Weighting::Radiance,
+        max_bounces: 8,
+        flat,
+    }
+}
+
+/// The window x ∈ [−2.6, 0], y ∈ [0, 1] of the slice z = 0 at `res` cells along x.
+fn window(res: usize) -> Plane {
+    Plane::new(
+        DVec3::new(-2.6, 0.0, 0.0),
+        DVec3::X,
+        DVec3::Y,
+        (2.6, 1.0),
+        res,
+        "z=0".into(),
+    )
+    .unwrap()
+}
+
+/// Scene (x, y) to cell coordinates of `plane`.
+fn to_cells(plane: &Plane, p: [f64; 2]) -> [f64; 2] {
+    [
+        (p[0] - plane.origin.x) / plane.size.0 * plane.width as f64,
+        (p[1] - plane.origin.y) / plane.size.1 * plane.height as f64,
+    ]
+}
+
+/// Checks that the expected lines (scene coordinates, each a → b) are drawn inside the band
+/// 0.25 ≤ y ≤ 0.75 (away from floor and slab by more than the filters reach): the polylines that
+/// following one stay within 1.5 cells of it over their whole length, and they cover at least 90 %
+/// of it, both where the field has a step across the line (σ 2-4 cells to either side differs by
+/// at least 4 standard errors). The step of σ across a shadow boundary changes sign along it (σ
+/// is larger on the lit side near the occluder, smaller farther down); where it passes through
+/// zero σ is continuous and there is nothing to extract.
+fn check_lines(label: &str, field: &Field, plane: &Plane, expected: &[([f64; 2], [f64; 2])]) {
+    let (sep, placement) = separatrix::of_field(field, label, &SepParams::default()).unwrap();
+    if let Ok(dir) = std::env::var("SEPARATRIX_DEBUG_DIR") {
+        // Look at what the test sees: the field, its lines and the overlay.
+        let path = Path::new(&dir).join(format!("{}.exr", label.replace(' ', "_")));
+        ftpd3d::output::write_outputs_with(field, &path, true, sep.arrays()).unwrap();
+        separatrix::write_side_files(&path, field, &sep, &placement).unwrap();
+    }
+    eprintln!("{label}: {}", sep.summary());
+    let band = |p: [f64; 2]| {
+        let y = plane.origin.y + p[1] / plane.height as f64 * plane.size.1;
+        let x = plane.origin.x + p[0] / plane.width as f64 * plane.size.0;
+        (0.25..=0.75).contains(&y) && x > -2.45 && x < -0.15
+    };
+    let lines: Vec<([f64; 2], [f64; 2])> = expected
+        .iter()
+        .map(|(a, b)| (to_cells(plane, *a), to_cells(plane, *b)))
+        .collect();
+    // Where σ has a step across the known line, measured on the field: the mean σ of the cells 2
+    // to 4 cells to either side, against its standard error from the cells' own.
+    let vals = field.values();
+    let (w, h) = (field.width as isize, field.height as isize);
+    let stepped = |q: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let l = dx.hypot(dy);
+        let n = [-dy / l, dx / l];
+        let mut side = [(0.0, 0.0, 0usize); 2];
+        for (k, sgn) in [(0, -1.0), (1, 1.0)] {
+            for d in [2.0, 3.0, 4.0] {
+                let p = [q[0] + sgn * d * n[0], q[1] + sgn * d * n[1]];
+                let (i, j) = (p[0].floor() as isize, p[1].floor() as isize);
+                if i >= 0 && j >= 0 && i < w && j < h {
+                    let v = &vals[(i + w * j) as usize];
+                    side[k].0 += v.sigma;
+                    side[k].1 += v.stderr * v.stderr;
+                    side[k].2 += 1;
+                }
+            }
+        }
+        if side.iter().any(|s| s.2 == 0) {
+            return false;
+        }
+        let m = |s: (f64, f64, usize)| (s.0 / s.2 as f64, s.1 / (s.2 * s.2) as f64);
+        let ((m0, v0), (m1, v1)) = (m(side[0]), m(side[1]));
+        (m1 - m0).abs() >= 4.0 * (v0 + v1).sqrt()
+    };
+    for (k, (a, b)) in lines.iter().enumerate() {
+        let c = coverage(&sep, *a, *b, 1.5, &|q| band(q) && stepped(q, *a, *b));
+        eprintln!("{label}: line {k} covered {c:.3}");
+        assert!(c >= 0.9, "{label}: expected line {k} covered only {c}");
+    }
+    // The polylines that draw a known line (most of their points in the band within 1.5 cells of
+    // it) stay within 1.5 cells of it over their whole length in the band.
+    let (mut worst, mut others): (f64, usize) = (0.0, 0);
+    for l in &sep.lines {
+        // Points off the stretches where the field has no step are not judged.
+        let d: Vec<f64> = l
+            .points
+            .iter()
+            .filter(|p| band(**p))
+            .filter_map(|p| {
+                let (a, b) = lines.iter().min_by(|x, y| {
+                    line_distance(x.0, x.1, *p).total_cmp(&line_distance(y.0, y.1, *p))
+                })?;
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let t = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / (dx * dx + dy * dy);
+                let foot = [a[0] + t * dx, a[1] + t * dy];
+                stepped(foot, *a, *b).then(|| line_distance(*a, *b, *p))
+            })
+            .collect();
+        if d.is_empty() {
+            continue;
+        }
+        if d.iter().filter(|&&x| x <= 1.5).count() * 2 > d.len() {
+            worst = d.iter().copied().fold(worst, f64::max);
+        } else {
+            others += 1;
+        }
+    }
+    eprintln!(
+        "{label}: the lines on the known ones stay within {worst:.3} cells; {others} other lines \
+         in the band"
+    );
+    assert!(worst <= 1.5, "{label}: a line point {worst} cells off");
+    // Scene coordinates: the polyline points map onto the plane.
+    let first = sep.lines.iter().flat_map(|l| &l.points).next().unwrap();
+    let p = placement.position(sep.dims, [first[0], first[1], 0.0]);
+    assert!(p.z.abs() < 1e-12 && p.x >= -2.6 && p.x <= 0.0);
+}
+
+/// A point light and a straight edge in 3D: the shadow boundary in the slice, at two resolutions.
+#[test]
+fn shadow_boundary_of_a_point_light_in_a_slice_at_two_resolutions() {
+    let scene = shadow_scene(Bsdf::Diffuse {
+        kd: Rgb::splat(0.5),
+    });
+    for (res, spp) in [(72, 512), (104, 512)] {
+        let plane = window(res);
+        let (field, _) = run_plane(&scene, &plane, &params(None), &opts(spp, 11)).unwrap();
+        check_lines(
+            &format!("3D res {res}"),
+            &field,
+            &plane,
+            &[([-0.5, 1.0], [-1.5, 0.0])],
+        );
+    }
+}
+
+/// Flatland: the light separatrix (the ray from the light past the slab's corner). (A mirror floor
+/// would add its image, y = −x − 1.5; with a point light, radiance weighting finds no light by
+/// way of the mirror there, so those cells are invalid and the image cannot be checked this way.)
+#[test]
+fn light_separatrix_past_a_corner_in_flatland() {
+    let fl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
+    let mut scene = shadow_scene(Bsdf::Diffuse {
+        kd: Rgb::splat(0.5),
+    });
+    scene.prepare_flatland(fl, "z=0").unwrap();
+    let plane = window(104);
+    let (field, _) = run_plane(&scene, &plane, &params(Some(fl)), &opts(512, 5)).unwrap();
+    check_lines("flatland", &field, &plane, &[([-0.5, 1.0], [-1.5, 0.0])]);
+}
+
+/// An empty lit box (a point light inside a closed diffuse box): in the middle, away from the
+/// walls and the light, σ has no separatrix; fewer than 1 % of the cells are marked at Z = 3, at
+/// 64 and at 4096 samples per cell, and the marks do not grow with the samples.
+#[test]
+fn few_false_marks_in_an_empty_lit_box_at_64_and_4096_spp() {
+    let mut scene = boxes(
+        &[
+            ([-2.4, -2.4, -2.4, 2.4, -2.0, 2.4], 0),
+            ([-2.4, 2.0, -2.4, 2.4, 2.4, 2.4], 0),
+            ([-2.4, -2.0, -2.4, -2.0, 2.0, 2.4], 0),
+            ([2.0, -2.0, -2.4, 2.4, 2.0, 2.4], 0),
+            ([-2.0, -2.0, -2.4, 2.0, 2.0, -2.0], 0),
+            ([-2.0, -2.0, 2.0, 2.0, 2.0, 2.4], 0),
+        ],
+        vec![mat(
+            "wall",
+            Bsdf::Diffuse {
+                kd: Rgb::splat(0.6),
+            },
+        )],
+    );
+    scene.add_point_light(DVec3::new(0.0, 1.6, 1.2), Rgb::splat(4.0));
+    let plane = Plane::new(
+        DVec3::new(-0.45, -0.6, 0.0),
+        DVec3::X,
+        DVec3::Y,
+        (0.9, 0.9),
+        14,
+        "z=0".into(),
+    )
+    .unwrap();
+    let p = Params {
+        t0: 0.5,
+        t1: 4.0,
+        ..params(None)
+    };
+    let mut counts = Vec::new();
+    for spp in [64, 4096] {
+        let (field, _) = run_plane(&scene, &plane, &p, &opts(spp, 21)).unwrap();
+        let (sep, _) = separatrix::of_field(&field, "box", &SepParams::default()).unwrap();
+        let defined = sep.defined.iter().filter(|&&d| d).count();
+        let marked = sep.marked_count();
+        let line_cells = sep.line.iter().filter(|&&l| l > 0).count();
+        eprintln!(
+            "box {spp} spp: {} | {marked} marked, {line_cells} line cells of {} ({defined} defined)",
+            sep.summary(),
+            sep.marked.len()
+        );
+        assert!(defined == sep.marked.len());
+        assert!(
+            (marked as f64) < 0.01 * sep.marked.len() as f64,
+            "{spp} spp: {marked} cells marked"
+        );
+        counts.push(marked + line_cells);
+    }
+    assert!(counts[1] <= counts[0], "false marks grew: {counts:?}");
+}
+
+// ------------------------------------------------------------------------------------------------
+// Files
+
+/// `ftpd3d separatrices` on a finished field: the EXR gets the channels, the `.vtp` reads back with
+/// vtkio (an independent parser) with as many lines as the SVG, in scene coordinates on the
+/// plane; a volume's `.vti` gets the arrays and a `.vtp` surface. Bad input names the file.
+#[test]
+fn separatrices_subcommand_writes_files_an_independent_reader_opens() {
+    let dir = temp_dir("separatrix", "subcommand");
+    let field_path = dir.join("f.exr");
+    let scene = shadow_scene(Bsdf::Diffuse {
+        kd: Rgb::splat(0.5),
+    });
+    let plane = window(52);
+    let (field, _) = run_plane(&scene, &plane, &params(None), &opts(64, 11)).unwrap();
+    ftpd3d::output::write_outputs(&field, &field_path, false).unwrap();
+    let out = dir.join("s.exr");
+    let run = ftpd3d(
+        None,
+        &[
+            "separatrices",
+            field_path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--sep-threshold",
+            "3",
+        ],
+    );
+    assert!(run.ok, "{}", run.err);
+    for f in ["s.exr", "s.sep.vtp", "s.sep.svg", "s.sep.png"] {
+        assert!(dir.join(f).is_file(), "{f}");
+    }
+    let parts = crate::support::exr_parts(&out);
+    let names: Vec<String> = parts[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    for c in [
+        "separatrix",
+        "separatrix.strength",
+        "separatrix.z",
+        "separatrix.dir.x",
+        "separatrix.dir.y",
+    ] {
+        assert!(names.iter().any(|n| n == c), "{c} in {names:?}");
+    }
+    // The field itself is unchanged: it reads back to the same sums.
+    assert_eq!(
+        ftpd3d::output::exr::read_exr(&out).unwrap().cells,
+        ftpd3d::output::exr::read_exr(&field_path).unwrap().cells
+    );
+    let vtk = vtkio::Vtk::import(dir.join("s.sep.vtp")).expect("vtkio reads the .vtp");
+    let svg = std::fs::read_to_string(dir.join("s.sep.svg")).unwrap();
+    let svg_lines = svg.matches("<polyline").count();
+    let vtkio::model::DataSet::PolyData { pieces, .. } = vtk.data else {
+        panic!("not PolyData")
+    };
+    let vtkio::model::Piece::Inline(piece) = &pieces[0] else {
+        panic!("not inline")
+    };
+    let lines = piece.lines.as_ref().expect("lines");
+    assert_eq!(lines.num_cells(), svg_lines);
+    assert!(svg_lines > 0);
+    let pts: Vec<f64> = piece.points.clone().cast_into::<f64>().unwrap();
+    for p in pts.chunks_exact(3) {
+        assert!((-2.6..=0.0).contains(&p[0]) && (0.0..=1.0).contains(&p[1]) && p[2] == 0.0);
+    }
+
+    // A volume: arrays in the .vti, a surface in the .vtp.
+    let vdir = dir.join("vol");
+    std::fs::create_dir_all(&vdir).unwrap();
+    let vol = vdir.join("v.vti");
+    let scene_file = crate::geometry::scene_path("cornell_mirror.obj");
+    let run = ftpd3d(
+        None,
+        &[
+            "--scene",
+            scene_file.to_str().unwrap(),
+            "--volume",
+            "10",
+            "--spp",
+            "16",
+            "--weight",
+            "unweighted",
+            "-o",
+            vol.to_str().unwrap(),
+            "--no-png",
+            "-q",
+            "--separatrices",
+        ],
+    );
+    assert!(run.ok, "{}", run.err);
+    let v = vtkio::Vtk::import(&vol).expect("vtkio reads the .vti");
+    let vtkio::model::DataSet::ImageData { pieces, .. } = v.data else {
+        panic!("not ImageData")
+    };
+    let vtkio::model::Piece::Inline(piece) = &pieces[0] else {
+        panic!("not inline")
+    };
+    let arrays: Vec<String> = piece
+        .data
+        .point
+        .iter()
+        .map(|a| match a {
+            vtkio::model::Attribute::DataArray(d) => d.name.clone(),
+            vtkio::model::Attribute::Field { name, .. } => name.clone(),
+        })
+        .collect();
+    for a in [
+        "separatrix",
+        "separatrix.strength",
+        "separatrix.z",
+        "separatrix.dir.z",
+    ] {
+        assert!(arrays.iter().any(|n| n == a), "{a} in {arrays:?}");
+    }
+    vtkio::Vtk::import(vdir.join("v.sep.vtp")).expect("vtkio reads the surface");
+
+    // Bad input: named, nothing written.
+    let bad = dir.join("bad.exr");
+    std::fs::write(&bad, b"not an exr").unwrap();
+    let run = ftpd3d(None, &["separatrices", bad.to_str().unwrap()]);
+    assert!(!run.ok && run.err.contains("bad.exr"), "{}", run.err);
+    assert!(!dir.join("bad_sep.exr").exists());
+    let run = ftpd3d(
+        None,
+        &[
+            "separatrices",
+            field_path.to_str().unwrap(),
+            "--sep-scale",
+            "0",
+        ],
+    );
+    assert!(!run.ok && run.err.contains("--sep-scale"), "{}", run.err);
+    let _ = std::fs::remove_dir_all(&dir);
+}
