@@ -255,7 +255,7 @@ fn mat(name: &str, bsdf: Bsdf) -> Material {
         name: name.into(),
         bsdf,
         emission: Rgb::ZERO,
-        base_color: None,
+        maps: Default::default(),
     }
 }
 
