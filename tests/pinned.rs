@@ -3,6 +3,8 @@
 //! same command lines. A change that alters any sum of these runs by one bit fails here: refactors
 //! of the kernel, the transport and the driver must keep results bit-identical, or say in their
 //! commit why an operation order had to change (and update the values with that reason).
+//! Deliberate changes of the estimator re-pinned since: Russian roulette from the fifth scattering
+//! event on β·η² (radiance runs). On a mismatch the test prints every actual pin and checksum.
 //!
 //! The runs cover each kernel (3D and flatland, with and without radiance estimates), the domains
 //! (slice, camera, volume), every material kind the shipped scenes have (diffuse, mirror,
@@ -61,6 +63,21 @@ fn check(name: &str, args: &[&str], pins: &[Pin], sum: u64) {
     let r = ftpd3d(None, &a);
     assert!(r.ok, "{name}: {}", r.err);
     let f = read(&out);
+    let actual: Vec<Pin> = pins
+        .iter()
+        .map(|&(k, ..)| {
+            let c = &f.cells[k];
+            (k, c.n, c.s0.to_bits(), c.s1.to_bits(), c.s2.to_bits())
+        })
+        .collect();
+    if actual != pins || checksum(&f) != sum {
+        // Everything a deliberate change of the estimator needs to re-pin, in one run.
+        eprintln!("{name}: actual pins");
+        for (k, n, s0, s1, s2) in &actual {
+            eprintln!("            ({k}, {n}, {s0:#x}, {s1:#x}, {s2:#x}),");
+        }
+        eprintln!("{name}: actual checksum {:#x}", checksum(&f));
+    }
     for &(k, n, s0, s1, s2) in pins {
         let c = &f.cells[k];
         assert_eq!(
@@ -94,19 +111,19 @@ fn slice_radiance_cornell_box_with_mirror() {
             (
                 48,
                 16,
-                0x4014ca805e95abbb,
-                0x40555ed465f84e83,
-                0x40a3965c25ccd64e,
+                0x402001938dd47a69,
+                0x404e2bb559c93d61,
+                0x40944d45edc43fe4,
             ),
             (
                 35,
                 16,
-                0x40481b03ae6e6061,
-                0x40936d31f2e21c47,
-                0x40e03bb03060bab4,
+                0x40486454f5e278e5,
+                0x4093b16e0da3a802,
+                0x40e08706591e7413,
             ),
         ],
-        0x53bea5c89d5e190b,
+        0x7fde24c7563ae517,
     );
 }
 
@@ -162,7 +179,7 @@ fn flatland_radiance_two_mirrors() {
             "16",
         ],
         &[
-            (32, 16, 0x401ba6e843fc4b06, 0, 0),
+            (32, 16, 0x401ba6e843fc4b06, 0x0, 0x0),
             (
                 47,
                 16,
@@ -171,7 +188,7 @@ fn flatland_radiance_two_mirrors() {
                 0x40ddcda098103f49,
             ),
         ],
-        0x0cefd4325fc7fe55,
+        0x67407e2b405f2776,
     );
 }
 
@@ -208,7 +225,7 @@ fn camera_importance_with_point_light() {
                 0x40692a1bf54e1bf8,
             ),
         ],
-        0x81db151ca83c5468,
+        0x36007b0c424bea29,
     );
 }
 
@@ -228,19 +245,19 @@ fn volume_radiance_cornell_box() {
             (
                 41,
                 8,
-                0x403aa00bab754349,
-                0x405a1177fd297398,
-                0x4092b8220424b8aa,
+                0x403c01bf300a826f,
+                0x4052f95c8109cfd4,
+                0x408a8e800d3db956,
             ),
             (
                 106,
                 8,
-                0x4030c2423db6e373,
-                0x406c7d65b12ab1b6,
-                0x40bc29e32c3167f4,
+                0x402f75a99954d296,
+                0x40684ee80a560dc4,
+                0x40b6deebc0c968af,
             ),
         ],
-        0xf3f723aec3bbc244,
+        0xfda4a5b7834ad209,
     );
 }
 

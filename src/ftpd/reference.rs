@@ -158,7 +158,9 @@ pub fn radiance_plain(
             break;
         };
         beta *= bs.weight;
-        if !crate::transport::walk::survives(&mut beta, depth + 1, s) {
+        // Roulette on β as it is (no η scale): unbiased all the same, and one thing fewer that
+        // this estimator shares with the one it checks.
+        if !crate::transport::walk::survives(&mut beta, 1.0, depth + 1, s) {
             break;
         }
         d = bs.wi;
