@@ -343,13 +343,13 @@ pub fn table(rows: &[Row]) -> String {
         for (name, sp) in [("RMSE σ", &r.rmse), ("p95 rel", &r.p95)] {
             let _ = writeln!(
                 s,
-                "| {} | {} | {name} | {:.3e} | {} | {} | {}x | {} | {} | {} | {} |",
+                "| {} | {} | {name} | {:.3e} | {} | {} | {} | {} | {} | {} | {} |",
                 r.scene,
                 r.weighting,
                 sp.target,
                 f(sp.base_seconds, 2),
                 f(sp.new_seconds, 2),
-                f(sp.ratio(), 2),
+                sp.ratio().map_or("n/a".to_string(), |r| format!("{r:.2}x")),
                 f(sp.base_slope, 2),
                 f(sp.new_slope, 2),
                 f(zmean(&r.base), 2),
