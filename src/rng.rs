@@ -87,7 +87,7 @@ impl Sampler {
         if self.dim < QMC_DIMS {
             let d = self.dim;
             self.dim += 1;
-            if d % 4 == 0 {
+            if d.is_multiple_of(4) {
                 self.four = sobol_burley::sample_4d(self.index, d / 4, self.scramble);
             }
             // 24 bits from the sequence, the bits below them from the random stream: the point
