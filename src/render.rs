@@ -598,9 +598,10 @@ where
                         continue;
                     }
                     let mut s = Sampler::new(seed, pass as u64, idx as u64);
-                    for _ in 0..batches {
+                    for batch in 0..batches {
                         let mut b = Moments::default();
-                        for _ in 0..spp {
+                        for i in 0..spp {
+                            s.begin_sample(batch, i);
                             let smp = kernel(idx, &mut s);
                             r += smp.rays as u64;
                             cap += smp.capped as u64;

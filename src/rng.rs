@@ -1,5 +1,13 @@
 //! Deterministic random streams. Every sample stream is keyed by (seed, pass, cell) so that a result
 //! does not depend on the thread count or the tile order, and merged runs never reuse numbers.
+//!
+//! The first [`QMC_DIMS`] numbers of a sample may come from an Owen-scrambled Sobol' sequence
+//! (Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020, through `sobol_burley`)
+//! instead of the random stream ([`Sampler::begin_sample`]); the numbers after them are the random
+//! stream's (padding). Each batch of a cell's pass is its own scrambled sequence, scrambled by a
+//! hash of (seed, pass, cell, batch): batches stay independent randomised QMC estimates, so the
+//! batch-based standard error stays honest, every point is uniform on its own (unbiased), and two
+//! runs of other seeds, passes or cells share no sequence.
 
 use rand_core::Rng;
 use rand_pcg::Pcg64Mcg;
@@ -24,9 +32,27 @@ pub fn hash_unit(words: &[u32]) -> f64 {
     (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
+/// Numbers per sample drawn from the scrambled Sobol' sequence: the run length, the start
+/// direction's strategy and its two or three numbers, and the first numbers of the paths after
+/// them (see [`crate::ftpd::sample_at`] for their order).
+pub const QMC_DIMS: u32 = 8;
+
+/// Points of one scrambled sequence `sobol_burley` can give; a batch with more samples takes
+/// the rest from the random stream.
+const QMC_MAX_POINTS: u32 = 1 << 16;
+
 /// A uniform random number source for one sample stream.
 pub struct Sampler {
     rng: Pcg64Mcg,
+    /// Hash of the stream's key, for the scramble seeds of its batches.
+    key: u64,
+    /// The current sample's point in its batch's sequence, its scramble seed and the next
+    /// dimension; `dim == QMC_DIMS` when every number comes from `rng`.
+    index: u32,
+    scramble: u32,
+    dim: u32,
+    /// Dimensions `dim & !3 ..` of the current point (`sobol_burley` computes four at once).
+    four: [f32; 4],
 }
 
 impl Sampler {
@@ -37,13 +63,50 @@ impl Sampler {
         // MCG state must be odd; the generator forces that itself.
         Sampler {
             rng: Pcg64Mcg::new(((hi as u128) << 64) | lo as u128),
+            key: mix64(lo ^ 0x5851_F42D_4C95_7F2D),
+            index: 0,
+            scramble: 0,
+            dim: QMC_DIMS,
+            four: [0.0; 4],
         }
     }
 
-    /// Uniform in [0, 1), 53 random bits.
+    /// Starts sample `index` of batch `batch` of this stream: its first [`QMC_DIMS`] numbers are
+    /// point `index` of the batch's scrambled Sobol' sequence. Without this call (tests, single
+    /// points, the reference estimator) every number is the random stream's.
+    #[inline]
+    pub fn begin_sample(&mut self, batch: u32, index: u32) {
+        if index >= QMC_MAX_POINTS {
+            self.dim = QMC_DIMS;
+            return;
+        }
+        self.scramble = mix64(self.key ^ u64::from(batch)) as u32;
+        self.index = index;
+        self.dim = 0;
+    }
+
+    /// The rest of the current sample draws from the random stream only.
+    #[inline]
+    pub fn random_only(&mut self) {
+        self.dim = QMC_DIMS;
+    }
+
+    /// Uniform in [0, 1): the next dimension of the current QMC point, or 53 random bits.
     #[inline]
     pub fn next_f64(&mut self) -> f64 {
-        (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        let r = (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+        if self.dim < QMC_DIMS {
+            let d = self.dim;
+            self.dim += 1;
+            if d.is_multiple_of(4) {
+                self.four = sobol_burley::sample_4d(self.index, d / 4, self.scramble);
+            }
+            // 24 bits from the sequence, the bits below them from the random stream: the point
+            // keeps its strata, and every number keeps 53 bits.
+            let q = f64::from(self.four[(d % 4) as usize]);
+            return (q + r * (1.0 / (1u64 << 24) as f64)).min(1.0 - f64::EPSILON / 2.0);
+        }
+        r
     }
 
     #[inline]
@@ -96,5 +159,48 @@ mod tests {
         let se = (1.0f64 / 12.0 / n as f64).sqrt();
         assert!((m - 0.5).abs() < 4.0 * se, "mean {m}");
         assert!((m2 - m * m - 1.0 / 12.0).abs() < 0.002);
+    }
+
+    #[test]
+    fn qmc_points_are_distinct_across_seeds_passes_cells_and_batches() {
+        // The first two dimensions of the first 16 points of each stream: no point of one stream
+        // equals a point of another (they would if two keys shared a scramble).
+        let mut seen = std::collections::HashSet::new();
+        for seed in 0..3u64 {
+            for pass in 0..3u64 {
+                for cell in 0..4u64 {
+                    let mut s = Sampler::new(seed, pass, cell);
+                    for batch in 0..2 {
+                        for i in 0..16 {
+                            s.begin_sample(batch, i);
+                            let p = (s.next_f64().to_bits(), s.next_f64().to_bits());
+                            assert!(
+                                seen.insert(p),
+                                "point shared: {seed} {pass} {cell} {batch} {i}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn qmc_batch_is_stratified() {
+        // 16 points of one batch: each of the first dimensions has exactly one point in each
+        // sixteenth of [0, 1) (a (0, m, s)-net property of Sobol' points kept by Owen scrambling).
+        let mut s = Sampler::new(7, 1, 3);
+        let mut strata = vec![[0u32; 16]; QMC_DIMS as usize];
+        for i in 0..16 {
+            s.begin_sample(0, i);
+            for st in strata.iter_mut() {
+                let u = s.next_f64();
+                assert!((0.0..1.0).contains(&u));
+                st[(u * 16.0) as usize] += 1;
+            }
+        }
+        for st in &strata {
+            assert!(st.iter().all(|&c| c == 1), "{st:?}");
+        }
     }
 }

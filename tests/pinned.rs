@@ -3,6 +3,9 @@
 //! same command lines. A change that alters any sum of these runs by one bit fails here: refactors
 //! of the kernel, the transport and the driver must keep results bit-identical, or say in their
 //! commit why an operation order had to change (and update the values with that reason).
+//! Deliberate changes of the estimator re-pinned since: Russian roulette from the fifth scattering
+//! event on β·η² (radiance runs); Owen-scrambled Sobol' points for the first numbers of each
+//! sample and the cone offset drawn before the start direction (every run). On a mismatch the test prints every actual pin and checksum.
 //!
 //! The runs cover each kernel (3D and flatland, with and without radiance estimates), the domains
 //! (slice, camera, volume), every material kind the shipped scenes have (diffuse, mirror,
@@ -61,6 +64,21 @@ fn check(name: &str, args: &[&str], pins: &[Pin], sum: u64) {
     let r = ftpd3d(None, &a);
     assert!(r.ok, "{name}: {}", r.err);
     let f = read(&out);
+    let actual: Vec<Pin> = pins
+        .iter()
+        .map(|&(k, ..)| {
+            let c = &f.cells[k];
+            (k, c.n, c.s0.to_bits(), c.s1.to_bits(), c.s2.to_bits())
+        })
+        .collect();
+    if actual != pins || checksum(&f) != sum {
+        // Everything a deliberate change of the estimator needs to re-pin, in one run.
+        eprintln!("{name}: actual pins");
+        for (k, n, s0, s1, s2) in &actual {
+            eprintln!("            ({k}, {n}, {s0:#x}, {s1:#x}, {s2:#x}),");
+        }
+        eprintln!("{name}: actual checksum {:#x}", checksum(&f));
+    }
     for &(k, n, s0, s1, s2) in pins {
         let c = &f.cells[k];
         assert_eq!(
@@ -94,19 +112,19 @@ fn slice_radiance_cornell_box_with_mirror() {
             (
                 48,
                 16,
-                0x4014ca805e95abbb,
-                0x40555ed465f84e83,
-                0x40a3965c25ccd64e,
+                0x4023e7a5ffc13514,
+                0x4059225d867f67b7,
+                0x40a48eef51d2f2e1,
             ),
             (
                 35,
                 16,
-                0x40481b03ae6e6061,
-                0x40936d31f2e21c47,
-                0x40e03bb03060bab4,
+                0x402c873d8b806dfa,
+                0x405b824949339b22,
+                0x40a4019fde8db54c,
             ),
         ],
-        0x53bea5c89d5e190b,
+        0xf7faa91d07303561,
     );
 }
 
@@ -130,19 +148,19 @@ fn slice_unweighted_glass_sphere() {
             (
                 20,
                 16,
-                0x4028dc28f5c28f5b,
-                0x40445d91cde0381b,
-                0x40844645f26d5799,
+                0x402cf0a3d70a3d71,
+                0x4008abcc45856400,
+                0x401dde614f3ad49d,
             ),
             (
                 5,
                 16,
-                0x4025ed0e56041893,
-                0x40612af458dc085b,
-                0x40ab5b0c85119d82,
+                0x402a9b22d0e56041,
+                0x4045a51e0bc4e3cf,
+                0x4089e900ab2263d6,
             ),
         ],
-        0x8aa785babae5e61d,
+        0x93d2cf1fecc62e0c,
     );
 }
 
@@ -162,16 +180,10 @@ fn flatland_radiance_two_mirrors() {
             "16",
         ],
         &[
-            (32, 16, 0x401ba6e843fc4b06, 0, 0),
-            (
-                47,
-                16,
-                0x404d53160e43603a,
-                0x409346ffec82e297,
-                0x40ddcda098103f49,
-            ),
+            (32, 16, 0x4024e6d40296b034, 0x0, 0x0),
+            (47, 16, 0x401a6285d35d97d2, 0x0, 0x0),
         ],
-        0x0cefd4325fc7fe55,
+        0xa8528d29d0f314ac,
     );
 }
 
@@ -196,19 +208,19 @@ fn camera_importance_with_point_light() {
             (
                 48,
                 8,
-                0x3ff4e7d4116ef495,
-                0x40051cd0d3cc9146,
-                0x403775cf5eb748f7,
+                0x4011dd3239546b72,
+                0x401da63ee998a027,
+                0x404a7102a6189fde,
             ),
             (
                 87,
                 8,
-                0x400a7757b1236f49,
-                0x4032cd0a61ae9566,
-                0x40692a1bf54e1bf8,
+                0x4012d8864561f61c,
+                0x402733abee8dea77,
+                0x4056945dc065e5b1,
             ),
         ],
-        0x81db151ca83c5468,
+        0x33ee7d2056f70c3b,
     );
 }
 
@@ -228,19 +240,19 @@ fn volume_radiance_cornell_box() {
             (
                 41,
                 8,
-                0x403aa00bab754349,
-                0x405a1177fd297398,
-                0x4092b8220424b8aa,
+                0x403da688beefefe6,
+                0x407e2c07f48cd290,
+                0x40d000d1d085c69e,
             ),
             (
                 106,
                 8,
-                0x4030c2423db6e373,
-                0x406c7d65b12ab1b6,
-                0x40bc29e32c3167f4,
+                0x402d7476caddbedb,
+                0x405ca0dbbb4f2523,
+                0x409dc228c3482ac4,
             ),
         ],
-        0xf3f723aec3bbc244,
+        0xf6bdd8ccc62002f,
     );
 }
 
@@ -259,15 +271,15 @@ fn slice_radiance_point_light() {
             "16",
         ],
         &[
-            (48, 16, 0, 0, 0),
+            (48, 16, 0x0, 0x0, 0x0),
             (
                 77,
                 16,
-                0x40714379021e6d6d,
-                0x409433c9b24548d3,
-                0x40dc3d566e219b3e,
+                0x408b7cda19889d3d,
+                0x40df1b51e4b5bc9f,
+                0x4135a04a6a94be07,
             ),
         ],
-        0xc885d610bb52f603,
+        0x525a8a75d0ffb834,
     );
 }

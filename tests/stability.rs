@@ -408,7 +408,8 @@ fn stability_grazing_pairs_match_their_neighbours() {
             let mut s = Sampler::new(seed, batch, 0);
             let mut b = Moments::default();
             for _ in 0..3000 {
-                let smp = pair_from::<Plain3D>(&scene, x, omega, 1.5, Rgb::ONE, &p, &mut s);
+                let smp =
+                    pair_from::<Plain3D>(&scene, x, omega, 1.5, s.next_2d(), Rgb::ONE, &p, &mut s);
                 assert!(smp.c.is_finite() && smp.delta.is_finite(), "{smp:?}");
                 b.add_sample(smp.c, smp.delta, smp.weight);
             }

@@ -1,3 +1,5 @@
-//! Reports computed from fields and runs: convergence of error against time.
+//! Reports computed from fields and runs: convergence of error against time, efficiency against a
+//! baseline build.
 pub mod converge;
+pub mod efficiency;
 pub mod separatrix;

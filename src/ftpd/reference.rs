@@ -28,11 +28,20 @@ pub fn sample_reference(
     let omega = sample_uniform_sphere(s.next_2d());
     let l = radiance_plain(scene, x, -omega, p.max_bounces, s);
     let mut out = Vec::new();
-    let smp = pair_from::<Plain3D>(scene, x, omega, t, l * (4.0 * std::f64::consts::PI), p, s);
+    let smp = pair_from::<Plain3D>(
+        scene,
+        x,
+        omega,
+        t,
+        s.next_2d(),
+        l * (4.0 * std::f64::consts::PI),
+        p,
+        s,
+    );
     out.push((smp.c, smp.delta, smp.weight));
     for light in &scene.lights.lights {
         if let Some((wi, w)) = delta_light(scene, light, x, x) {
-            let smp = pair_from::<Plain3D>(scene, x, -wi, t, w, p, s);
+            let smp = pair_from::<Plain3D>(scene, x, -wi, t, s.next_2d(), w, p, s);
             out.push((smp.c, smp.delta, smp.weight));
         }
     }
@@ -158,7 +167,9 @@ pub fn radiance_plain(
             break;
         };
         beta *= bs.weight;
-        if !crate::transport::walk::survives(&mut beta, depth + 1, s) {
+        // Roulette on β as it is (no η scale): unbiased all the same, and one thing fewer that
+        // this estimator shares with the one it checks.
+        if !crate::transport::walk::survives(&mut beta, 1.0, depth + 1, s) {
             break;
         }
         d = bs.wi;

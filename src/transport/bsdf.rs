@@ -33,6 +33,10 @@ pub struct BsdfSample {
     pub pdf: f64,
     /// The direction came from a Dirac lobe (mirror, refraction): no light sampling can reach it.
     pub delta: bool,
+    /// Relative index of refraction η_t/η_i crossed by a refraction, 1 for every other event:
+    /// in radiance mode `weight` holds the factor 1/etap^(d−1), which Russian roulette takes
+    /// out again ([`crate::transport::walk::survives`]).
+    pub etap: f64,
 }
 
 impl Bsdf {
@@ -115,6 +119,7 @@ impl Bsdf {
                     weight: *kd,
                     pdf: D::pdf_cosine(wi.dot(nso)),
                     delta: false,
+                    etap: 1.0,
                 })
             }
             Bsdf::Glossy { kd, ks, exponent } => {
@@ -136,6 +141,7 @@ impl Bsdf {
                     weight: self.eval_in::<D>(lobe, wo, wi, ng, ns, mode) / pdf,
                     pdf,
                     delta: false,
+                    etap: 1.0,
                 })
             }
             Bsdf::Mirror { kd, ks } => {
@@ -277,6 +283,7 @@ pub(crate) fn sample_mirror_mixture(
             weight: kd / pd,
             pdf: pd * pdf,
             delta: false,
+            etap: 1.0,
         }
     } else {
         BsdfSample {
@@ -284,6 +291,7 @@ pub(crate) fn sample_mirror_mixture(
             weight: ks / (1.0 - pd),
             pdf: 0.0,
             delta: true,
+            etap: 1.0,
         }
     };
     (sample.wi.dot(ngo) > 0.0).then_some(sample)
@@ -320,6 +328,7 @@ pub(crate) fn sample_dielectric(
             weight: Rgb::ONE,
             pdf: 0.0,
             delta: true,
+            etap: 1.0,
         });
     }
     let wi = refract(wo, nso, eta)?;
@@ -336,6 +345,7 @@ pub(crate) fn sample_dielectric(
         weight: tint * scale,
         pdf: 0.0,
         delta: true,
+        etap: eta,
     })
 }
 

@@ -123,14 +123,22 @@ pub fn walk_counted<K: Kernel>(
     }
 }
 
-/// Russian roulette after three scattering events: continues with probability
-/// min(max component of β, 0.95), dividing β by it (unbiased); false when the path ends, or carries
-/// nothing.
+/// Scattering events a radiance path makes before Russian roulette may end it (Mitsuba's
+/// `rr_depth`): earlier roulette ended paths that still carried much of the estimate.
+pub const ROULETTE_DEPTH: u32 = 5;
+
+/// Russian roulette from the [`ROULETTE_DEPTH`]th scattering event on: continues with probability
+/// q = min(max component of β·`eta_scale`, 0.95), dividing β by q (unbiased for any q > 0); false
+/// when the path ends, or carries nothing. `eta_scale` is the product of etap^(d−1) over the
+/// refractions so far ([`crate::transport::bsdf::BsdfSample::etap`]): it cancels the radiance
+/// factors 1/η^(d−1) that β holds, which are undone when the path leaves the dielectric again,
+/// so that paths inside glass are not ended for a factor they will get back (pbrt-v4's
+/// `etaScale`).
 #[inline]
-pub fn survives(beta: &mut Rgb, depth: u32, s: &mut Sampler) -> bool {
-    if depth > 3 {
-        let q = beta.max_element().min(0.95);
-        if q <= 0.0 || s.next_f64() >= q {
+pub fn survives(beta: &mut Rgb, eta_scale: f64, depth: u32, s: &mut Sampler) -> bool {
+    if depth >= ROULETTE_DEPTH {
+        let q = (beta.max_element() * eta_scale).min(0.95);
+        if !(q > 0.0) || s.next_f64() >= q {
             return false;
         }
         *beta /= q;
@@ -179,7 +187,8 @@ impl Radiance {
 
 /// Estimates the radiance arriving at `x` from the direction `look` (unit), i.e. the radiance of the
 /// light that passes `x` travelling along `-look`.
-/// Paths have at most `max_bounces` scattering events; Russian roulette after three.
+/// Paths have at most `max_bounces` scattering events; Russian roulette from the
+/// [`ROULETTE_DEPTH`]th on ([`survives`]).
 #[inline]
 pub fn radiance<K: Kernel>(
     scene: &Scene,
@@ -200,6 +209,7 @@ pub fn radiance<K: Kernel>(
     let mut prev_p = x;
     let mut prev_pdf = 0.0;
     let mut prev_delta = true; // the start direction is given, like a camera ray
+    let mut eta_scale = 1.0;
     let mut depth = 0;
     loop {
         st.rays += 1;
@@ -283,8 +293,11 @@ pub fn radiance<K: Kernel>(
             break;
         };
         beta *= bs.weight;
+        if bs.etap != 1.0 {
+            eta_scale *= bs.etap.powi(K::Space::DIMS - 1);
+        }
         depth += 1;
-        if !survives(&mut beta, depth, s) {
+        if !survives(&mut beta, eta_scale, depth, s) {
             break;
         }
         origin = scene.spawn_origin_from(&hit, bs.wi, origin);
