@@ -69,16 +69,7 @@ fn extruded(pl: &Flatland, paths: &[Path2], materials: Vec<Material>) -> Scene {
             tri_material.extend([*m, *m]);
         }
     }
-    Scene::build(
-        Path::new("test-flat"),
-        positions,
-        Vec::new(),
-        triangles,
-        tri_material,
-        materials,
-        Default::default(),
-    )
-    .unwrap()
+    crate::support::scene_of("test-flat", positions, triangles, tri_material, materials)
 }
 
 fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<(f64, f64)> {

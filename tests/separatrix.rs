@@ -286,16 +286,13 @@ fn boxes(list: &[([f32; 6], u32)], materials: Vec<Material>) -> Scene {
             tri_material.extend([*m, *m]);
         }
     }
-    Scene::build(
-        Path::new("test-separatrix"),
+    crate::support::scene_of(
+        "test-separatrix",
         positions,
-        Vec::new(),
         triangles,
         tri_material,
         materials,
-        Default::default(),
     )
-    .unwrap()
 }
 
 /// A floor (y ≤ 0) and a slab (1 ≤ y ≤ 1.05, x ≤ −0.5) over z ∈ [−3, 3], lit by a point light at

@@ -50,3 +50,25 @@ pub fn exr_parts(
         .layer_data
         .into_vec()
 }
+
+/// A scene of `triangles` over `positions` (no shading normals, an empty load report), its
+/// triangles of `materials[tri_material[i]]`, built with its Embree structure; `name` stands for
+/// the file it would have come from.
+pub fn scene_of(
+    name: &str,
+    positions: Vec<glam::Vec3>,
+    triangles: Vec<[u32; 3]>,
+    tri_material: Vec<u32>,
+    materials: Vec<ftpd3d::scene::Material>,
+) -> ftpd3d::scene::Scene {
+    ftpd3d::scene::Scene::build(
+        Path::new(name),
+        positions,
+        Vec::new(),
+        triangles,
+        tri_material,
+        materials,
+        Default::default(),
+    )
+    .unwrap()
+}
