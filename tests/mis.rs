@@ -159,3 +159,49 @@ fn agrees_with_reference(
         }
     }
 }
+
+/// An emitter whose radiance comes from a texture (`map_Ke`, a 2 × 1 map of sRGB 255 and 64, times
+/// `Ke` 3) over a floor: light sampling draws points by the constant `Ke` and reads the texel
+/// there, hits read it too, and the reference estimator (emission only where paths hit it)
+/// agrees.
+#[test]
+fn mis_emission_texture_agrees_with_the_reference() {
+    let dir = crate::support::temp_dir("mis", "emission_texture");
+    image::RgbImage::from_raw(2, 1, vec![255, 255, 255, 64, 64, 64])
+        .unwrap()
+        .save(dir.join("glow.png"))
+        .unwrap();
+    let obj = "mtllib e.mtl\n\
+               v -2 -2 0\nv 2 -2 0\nv 2 2 0\nv -2 2 0\n\
+               v 0 0 1\nv 0 1 1\nv 1 1 1\nv 1 0 1\n\
+               vt 0 0\nvt 0 1\nvt 1 1\nvt 1 0\n\
+               usemtl floor\nf 1 2 3\nf 1 3 4\n\
+               usemtl glow\nf 5/1 6/2 7/3\nf 5/1 7/3 8/4\n";
+    std::fs::write(dir.join("e.obj"), obj).unwrap();
+    std::fs::write(
+        dir.join("e.mtl"),
+        "newmtl floor\nKd 0.6 0.6 0.6\n\nnewmtl glow\nKd 0 0 0\nKe 3 3 3\nmap_Ke -clamp on glow.png\n",
+    )
+    .unwrap();
+    let scene = ftpd3d::scene::load::load_scene(&dir.join("e.obj")).unwrap();
+    assert!(
+        scene.report.warnings.is_empty(),
+        "{:?}",
+        scene.report.warnings
+    );
+    assert!(scene.features.emission_textures);
+    let p = Params {
+        t0: 0.2,
+        t1: 0.6,
+        theta_max: 0.1,
+        weighting: Weighting::Radiance,
+        max_bounces: 4,
+        flat: None,
+    };
+    let points = [
+        DVec3::new(0.25, 0.5, 0.5),
+        DVec3::new(0.75, 0.5, 0.5),
+        DVec3::new(1.5, 0.5, 0.3),
+    ];
+    agrees_with_reference(&scene, &points, &p, 8000, (700, 800), "emission texture");
+}

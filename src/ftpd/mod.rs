@@ -179,10 +179,11 @@ pub fn radiance_direction<K: Kernel>(
         };
         return (omega, direct + r.rest / p_uniform);
     }
-    let Some(ls) = lights.sample(sp, x, u_l, u) else {
+    let Some(mut ls) = lights.sample(sp, x, u_l, u) else {
         // A light that faces away: this strategy contributes nothing here.
         return (sp.uniform(s.next_2d()), Rgb::ZERO);
     };
+    scene.texture_light_sample(&mut ls, x);
     let omega = -ls.wi;
     *rays += 1;
     if !trace::visible::<K>(scene, x, x + ls.wi * ls.dist) {

@@ -21,6 +21,8 @@ pub struct Features {
     pub sky: bool,
     /// Albedos read from textures at each hit.
     pub textures: bool,
+    /// Emitters whose radiance is read from a texture (light samples and hits look it up).
+    pub emission_textures: bool,
     /// Cut-out (alpha-masked) triangles, which rays pass through where their coverage says.
     pub cutouts: bool,
 }

@@ -556,6 +556,10 @@ impl Scene {
         if !self.uvs.is_none() {
             self.textures = textures;
             self.features.textures = true;
+            self.features.emission_textures = self
+                .materials
+                .iter()
+                .any(|m| m.maps.emission.is_some() && m.emission != Rgb::ZERO);
         }
         if self.accel.has_cutouts() {
             let cutout: Vec<u32> = (0..self.triangles.len() as u32)
@@ -916,15 +920,49 @@ impl Scene {
         &self.materials[hit.material as usize]
     }
 
-    /// Emitted radiance leaving a hit towards `wo` (front side only).
+    /// Emitted radiance leaving a hit towards `wo` (front side only): the material's emission, or
+    /// its emission texture's texel times it.
     #[inline]
     pub fn emitted(&self, hit: &Hit, wo: DVec3) -> Rgb {
         let m = self.material(hit);
         if m.emission != Rgb::ZERO && wo.dot(hit.ng) > 0.0 {
+            if self.features.emission_textures {
+                return self
+                    .emission_texel(hit.prim, hit.bary)
+                    .unwrap_or(m.emission);
+            }
             m.emission
         } else {
             Rgb::ZERO
         }
+    }
+
+    /// A light sample taken from `x` on an emitter with an emission texture gets the texel's
+    /// radiance at its point; other samples, and scenes without emission textures, are left as
+    /// they are. The light was chosen and its point drawn in proportion to the material's
+    /// constant emission, which stays a valid density: only the radiance changes.
+    #[inline(always)]
+    pub fn texture_light_sample(&self, ls: &mut crate::transport::light::LightSample, x: DVec3) {
+        if self.features.emission_textures && ls.emitter != crate::transport::light::NO_EMITTER {
+            let prim = ls.emitter;
+            let [a, b, c] =
+                self.triangles[prim as usize].map(|v| self.positions[v as usize].as_dvec3());
+            let bary = barycentric(x + ls.wi * ls.dist, a, b, c).map(|u| u as f32);
+            if let Some(l) = self.emission_texel(prim, bary) {
+                ls.li = l;
+            }
+        }
+    }
+
+    /// The emission texture's radiance (texel × the material's emission) at barycentric `bary` of
+    /// triangle `prim`; `None` when its material has no emission texture.
+    #[inline(never)]
+    fn emission_texel(&self, prim: u32, bary: [f32; 2]) -> Option<Rgb> {
+        let m = &self.materials[self.tri_material[prim as usize] as usize];
+        let t = m.maps.emission.as_ref()?;
+        let texture = self.textures.textures.get(t.texture as usize)?;
+        let [r, g, b, _] = t.texel(texture, self.hit_uv(prim, bary));
+        Some(m.emission * Rgb::new(r, g, b))
     }
 }
 

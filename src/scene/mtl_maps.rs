@@ -1,5 +1,6 @@
 //! The texture maps and cut-outs of MTL materials: `map_Kd` (replaces `Kd`), `map_Ks` (replaces
-//! `Ks`), `map_d` and `d` (coverage), read after the materials are converted
+//! `Ks`), `map_Ke` (times `Ke`, or alone where there is none), `map_d` and `d` (coverage), read
+//! after the materials are converted
 //! ([`crate::scene::obj`]).
 //!
 //! - A map statement's file is its last word (the options before it, `-o`, `-s`, `-bm`, …, are
@@ -15,8 +16,11 @@
 //!   their transparency is the refraction itself. `Tr` is not read (its sense differs between
 //!   exporters).
 //! - A map whose file is missing or cannot be decoded leaves a warning (the count and the first
-//!   file), and its material keeps its constant values. `map_Ke` and other maps are not read: one
-//!   warning with their count.
+//!   file), and its material keeps its constant values. Bump, normal and other maps are not read:
+//!   one warning with their count.
+//! - An emitter with `map_Ke` is still chosen for light sampling, and its points drawn, by its
+//!   constant `Ke`; the radiance at the drawn point and at every hit is the texel's
+//!   ([`crate::scene::Scene::texture_light_sample`]).
 
 use crate::math::Rgb;
 use crate::scene::LoadReport;
@@ -32,6 +36,7 @@ use std::sync::Arc;
 enum Slot {
     Base,
     Specular,
+    Emission,
     Alpha,
 }
 
@@ -87,12 +92,21 @@ pub fn apply(
     for (k, m) in list.iter().enumerate() {
         let dir = dirs.get(k).map_or(Path::new(""), |d| d.as_path());
         let maps = [
-            (&m.diffuse_texture, Slot::Base, Encoding::Colour),
-            (&m.specular_texture, Slot::Specular, Encoding::Colour),
-            (&m.dissolve_texture, Slot::Alpha, Encoding::Linear),
+            (m.diffuse_texture.as_deref(), Slot::Base, Encoding::Colour),
+            (
+                m.specular_texture.as_deref(),
+                Slot::Specular,
+                Encoding::Colour,
+            ),
+            (
+                m.unknown_param.get("map_Ke").map(String::as_str),
+                Slot::Emission,
+                Encoding::Colour,
+            ),
+            (m.dissolve_texture.as_deref(), Slot::Alpha, Encoding::Linear),
         ];
         for (value, slot, encoding) in maps {
-            let Some(spec) = value.as_deref().and_then(parse_map) else {
+            let Some(spec) = value.and_then(parse_map) else {
                 continue;
             };
             let key = (dir.join(&spec.file), encoding);
@@ -103,7 +117,8 @@ pub fn apply(
             uses.push((k, slot, r, spec));
         }
         for key in m.unknown_param.keys() {
-            if key.starts_with("map_") || key == "bump" || key == "disp" || key == "norm" {
+            let map = key.starts_with("map_") && key != "map_Ke";
+            if map || key == "bump" || key == "disp" || key == "norm" {
                 if unread.0 == 0 {
                     unread.1 = format!("'{key}' of material '{}'", m.name);
                 }
@@ -122,7 +137,7 @@ pub fn apply(
     }
     if unread.0 > 0 {
         report.warnings.push(format!(
-            "{file}: {} texture maps other than map_Kd, map_Ks and map_d are not read (the first: \
+            "{file}: {} texture maps other than map_Kd, map_Ks, map_Ke and map_d are not read (the first: \
              {}); their materials use their constant values",
             unread.0, unread.1
         ));
@@ -173,6 +188,13 @@ pub fn apply(
                 m.maps.base_color = Some(tref);
             }
             Slot::Specular => m.maps.specular = Some(tref),
+            Slot::Emission => {
+                // The texel times `Ke` (1 where the map comes without one).
+                if m.emission == Rgb::ZERO {
+                    m.emission = Rgb::ONE;
+                }
+                m.maps.emission = Some(tref);
+            }
             Slot::Alpha => {
                 let t = &set.textures[texture as usize];
                 let channel = spec

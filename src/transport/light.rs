@@ -20,7 +20,13 @@ pub struct LightSample {
     pub pdf: f64,
     /// Point lights can only be reached by light sampling.
     pub delta: bool,
+    /// The scene triangle of an area light's point ([`NO_EMITTER`] for other lights), so that an
+    /// emission texture can be read there ([`crate::scene::Scene::texture_light_sample`]).
+    pub emitter: u32,
 }
+
+/// [`LightSample::emitter`] of a light that is not a triangle.
+pub const NO_EMITTER: u32 = u32::MAX;
 
 /// `dist^(dims−1)`: how densities per unit of an emitter's measure (area in 3D, length in
 /// flatland) turn into densities per solid angle (per angle), and how a point light's intensity
@@ -62,6 +68,7 @@ pub(crate) fn connect_emitter(
         li: emission,
         pdf,
         delta: false,
+        emitter: NO_EMITTER,
     })
 }
 
@@ -119,6 +126,7 @@ pub(crate) fn connect_point(
         li: intensity / falloff(d2, dist, dims),
         pdf: p_choice,
         delta: true,
+        emitter: NO_EMITTER,
     })
 }
 
@@ -138,11 +146,11 @@ impl<S: Shape> Lights<S> {
         let (i, p_choice) = self.choice.pick(u_light)?;
         match &self.lights[i] {
             Light::Area {
+                prim,
                 shape,
                 normal,
                 measure,
                 emission,
-                ..
             } => connect_emitter(
                 x,
                 D::point_on(shape, u),
@@ -151,7 +159,11 @@ impl<S: Shape> Lights<S> {
                 *measure,
                 *emission,
                 D::DIMS,
-            ),
+            )
+            .map(|ls| LightSample {
+                emitter: *prim,
+                ..ls
+            }),
             Light::Point {
                 position,
                 intensity,
@@ -183,6 +195,7 @@ impl<S: Shape> Lights<S> {
                         li: *radiance,
                         pdf: p_choice / measure,
                         delta: false,
+                        emitter: NO_EMITTER,
                     })
                 } else {
                     Some(LightSample {
@@ -191,6 +204,7 @@ impl<S: Shape> Lights<S> {
                         li: *irradiance,
                         pdf: p_choice,
                         delta: true,
+                        emitter: NO_EMITTER,
                     })
                 }
             }
@@ -200,6 +214,7 @@ impl<S: Shape> Lights<S> {
                 li: *radiance,
                 pdf: p_choice * D::PDF_UNIFORM,
                 delta: false,
+                emitter: NO_EMITTER,
             }),
             Light::Env(env) => {
                 let (wi, pdf) = D::env_sample(env, u)?;
@@ -209,6 +224,7 @@ impl<S: Shape> Lights<S> {
                     li: env.map.radiance(wi),
                     pdf: p_choice * pdf,
                     delta: false,
+                    emitter: NO_EMITTER,
                 })
             }
         }
