@@ -902,3 +902,57 @@ fn gltf_base_colour_texture_gives_each_texel_its_albedo() {
         }
     }
 }
+
+/// An emissive quad whose emissiveTexture is 2 × 1 (sRGB 255 and 128), emissiveFactor 2: a hit at
+/// each texel's centre sees 2 × the texel, decoded to linear.
+#[test]
+fn gltf_emissive_texture_scales_the_emission_per_texel() {
+    let mut png = Vec::new();
+    image::RgbImage::from_raw(2, 1, vec![255, 255, 255, 128, 128, 128])
+        .unwrap()
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let png_uri = format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&png)
+    );
+    let dir = temp_dir("emissive_texture");
+    let mut bin = Bin::default();
+    let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
+    let uv_bytes: Vec<u8> = [[0f32, 1.], [1., 1.], [1., 0.], [0., 0.]]
+        .iter()
+        .flatten()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    let uv_view = bin.view(&uv_bytes);
+    bin.accessors
+        .push(json!({"bufferView": uv_view, "componentType": 5126, "count": 4, "type": "VEC2"}));
+    let uv = bin.accessors.len() - 1;
+    let idx = bin.indices(&[0, 1, 2, 0, 2, 3]);
+    let extra = json!({
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{
+            "attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "indices": idx, "material": 0}]}],
+        "materials": [{"emissiveFactor": [2.0, 2.0, 2.0], "emissiveTexture": {"index": 0},
+            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}}],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33071}],
+        "images": [{"uri": png_uri}],
+    });
+    let path = bin.write_embedded(&dir, "emissive.gltf", extra);
+    let scene = load_scene(&path).unwrap();
+    assert!(scene.features.emission_textures);
+    let srgb_128 = ((128.0 / 255.0 + 0.055) / 1.055f64).powf(2.4);
+    for (x, texel) in [(0.25, 1.0), (0.75, srgb_128)] {
+        let o = DVec3::new(x, 0.5, 1.0);
+        let hit = scene.intersect(o, -DVec3::Z, f64::INFINITY).unwrap();
+        let l = scene.emitted(&hit, DVec3::Z);
+        assert!(
+            (l.x - 2.0 * texel).abs() < 1e-5,
+            "x = {x}: {} vs {}",
+            l.x,
+            2.0 * texel
+        );
+    }
+}

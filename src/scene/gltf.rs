@@ -23,9 +23,10 @@
 //! model has no Fresnel weighting, so this is part of the mapping and not reported. A Lambertian of
 //! albedo 0 becomes black. The base-colour texture (TEXCOORD_0, the sampler's wrap modes,
 //! `KHR_texture_transform`) multiplies the Lambertian albedo at each hit (the material's own `kd`,
-//! which holds `baseColorFactor`, times the sRGB-decoded texel). Other textures (metallic-roughness,
-//! emissive, normal, occlusion, transmission) are ignored with one warning per file, their factors
-//! are used; `doubleSided` (opaque surfaces are two-sided anyway) and other extensions are ignored.
+//! which holds `baseColorFactor`, times the sRGB-decoded texel). The emissive texture likewise
+//! multiplies the emitted radiance (`emissiveFactor` × strength) at each hit and at each light
+//! sample's point. Other textures (metallic-roughness, normal, occlusion, transmission) are ignored
+//! with one warning per file, their factors are used; `doubleSided` (opaque surfaces are two-sided anyway) and other extensions are ignored.
 //! `alphaMode` `MASK` makes a cut-out where the base colour's alpha (factor × texel) is below
 //! `alphaCutoff` (default 0.5); `BLEND` makes a stochastic cut-out, present with probability α
 //! (exact where α is 0 or 1, and unbiased between); both are seen by every ray.
@@ -143,13 +144,18 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
             .par_iter()
             .map(|&i| decode_image(&doc, i, &buffers, path))
             .collect::<anyhow::Result<Vec<_>>>()?;
-        for (m, image, wrap, transform) in texture_requests {
+        for (m, image, wrap, transform, slot) in texture_requests {
             let texture = TextureRef {
                 texture: images.binary_search(&image).unwrap_or(0) as u32,
                 factor: Rgb::ONE,
                 wrap,
                 transform,
             };
+            if slot == Slot::Emissive {
+                // The texel times `emissiveFactor` (the material's emission, which lights use).
+                materials[m].maps.emission = Some(texture);
+                continue;
+            }
             // The base colour's alpha channel is the coverage of a cut-out.
             if let Some(alpha) = materials[m].maps.alpha.as_mut() {
                 alpha.map = Some(texture.clone());
@@ -201,6 +207,13 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         scene.add_light(light);
     }
     Ok(scene)
+}
+
+/// Which map a texture request fills.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Slot {
+    BaseColour,
+    Emissive,
 }
 
 /// Decodes image `index` of the document: a data URI, a file next to the glTF, or a buffer view
@@ -424,7 +437,7 @@ struct Loader {
     /// Texture coordinates per vertex (zero where a primitive has none).
     uvs: Vec<Vec2>,
     /// Base-colour textures: (material, image index, sampler wrap, transform).
-    texture_requests: Vec<(usize, usize, (Wrap, Wrap), UvTransform)>,
+    texture_requests: Vec<(usize, usize, (Wrap, Wrap), UvTransform, Slot)>,
     triangles: Vec<[u32; 3]>,
     tri_material: Vec<u32>,
     /// Point lights: world position and intensity.
@@ -448,7 +461,14 @@ impl Loader {
                 self.warn(format!("{label}: {w}"));
             }
             let base = m.pbr_metallic_roughness().base_color_texture();
-            if let Some(info) = &base {
+            let emissive = m.emissive_texture();
+            for (info, slot, what) in [
+                (&base, Slot::BaseColour, "base colour"),
+                (&emissive, Slot::Emissive, "emissive"),
+            ] {
+                let Some(info) = info else {
+                    continue;
+                };
                 let sampler = info.texture().sampler();
                 let wrap = |w: ::gltf::texture::WrappingMode| match w {
                     ::gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
@@ -464,7 +484,7 @@ impl Loader {
                     });
                 if info.tex_coord() != 0 {
                     self.warn(format!(
-                        "{label}: base colour texture on TEXCOORD_{}; only TEXCOORD_0 is read",
+                        "{label}: {what} texture on TEXCOORD_{}; only TEXCOORD_0 is read",
                         info.tex_coord()
                     ));
                 } else {
@@ -473,18 +493,19 @@ impl Loader {
                         info.texture().source().index(),
                         (wrap(sampler.wrap_s()), wrap(sampler.wrap_t())),
                         transform,
+                        slot,
                     ));
                 }
             }
-            // Textures other than the base colour are not read yet.
-            if has_texture && (base.is_none() || other_textures(&m)) {
+            // Textures other than the base colour and emission are not read yet.
+            if has_texture && (base.is_none() && emissive.is_none() || other_textures(&m)) {
                 textured.push(label);
             }
             self.materials.push(material);
         }
         if let Some(first) = textured.first() {
             let w = format!(
-                "textures other than the base colour are ignored ({} material(s) use them, first {first}); their constant factors are used",
+                "textures other than the base colour and emission are ignored ({} material(s) use them, first {first}); their constant factors are used",
                 textured.len()
             );
             self.warn(w);
@@ -1159,12 +1180,11 @@ fn rgb3(c: [f32; 3]) -> Rgb {
     Rgb::new(c[0] as f64, c[1] as f64, c[2] as f64)
 }
 
-/// Whether `m` uses a texture other than the base colour (not read yet).
+/// Whether `m` uses a texture other than the base colour and emission (not read yet).
 fn other_textures(m: &::gltf::Material) -> bool {
     m.pbr_metallic_roughness()
         .metallic_roughness_texture()
         .is_some()
-        || m.emissive_texture().is_some()
         || m.normal_texture().is_some()
         || m.occlusion_texture().is_some()
         || m.transmission()
