@@ -209,6 +209,9 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
+/// A material's texture: (material, image, wrap modes, transform, which map it fills).
+type TextureRequest = (usize, usize, (Wrap, Wrap), UvTransform, Slot);
+
 /// Which map a texture request fills.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Slot {
@@ -437,7 +440,7 @@ struct Loader {
     /// Texture coordinates per vertex (zero where a primitive has none).
     uvs: Vec<Vec2>,
     /// Base-colour textures: (material, image index, sampler wrap, transform).
-    texture_requests: Vec<(usize, usize, (Wrap, Wrap), UvTransform, Slot)>,
+    texture_requests: Vec<TextureRequest>,
     triangles: Vec<[u32; 3]>,
     tri_material: Vec<u32>,
     /// Point lights: world position and intensity.
