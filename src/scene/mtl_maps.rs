@@ -199,11 +199,7 @@ pub fn apply(
                 let t = &set.textures[texture as usize];
                 let channel = spec
                     .channel
-                    .unwrap_or(if t.texels.iter().any(|p| p[3] < 1.0) {
-                        3
-                    } else {
-                        0
-                    });
+                    .unwrap_or(if t.has_partial_alpha() { 3 } else { 0 });
                 m.maps.alpha = Some(Alpha {
                     factor: 1.0,
                     map: Some(tref),

@@ -10,6 +10,10 @@
 //!   loader flips it), wrapped per axis (repeat, clamp to edge, mirrored repeat, as glTF's sampler
 //!   says), then bilinear between the four nearest texel centres.
 //! - A [`TextureSet`] decodes each file once, in parallel, and reports the memory the texels take.
+//! - Storage: 8-bit images keep their bytes (4 B per texel) and are decoded at lookup through a
+//!   256-entry table (the same f32 values a decode at load gave); 16-bit and float images are
+//!   kept as linear f32 RGBA (16 B per texel). A scene of hundreds of 8-bit textures so takes a
+//!   quarter of the memory it would as floats.
 
 use crate::math::Rgb;
 use anyhow::{Context, bail};
@@ -60,9 +64,27 @@ pub fn srgb_to_linear(c: f64) -> f64 {
 pub struct Texture {
     pub width: usize,
     pub height: usize,
-    /// RGBA, f32 (memory: 16 B per texel).
-    pub texels: Vec<[f32; 4]>,
+    texels: Texels,
     pub source: String,
+}
+
+/// How a texture's texels are stored.
+#[derive(Clone, PartialEq)]
+enum Texels {
+    /// Linear RGBA (16 B per texel).
+    Float(Vec<[f32; 4]>),
+    /// 8-bit RGBA as stored in the file (4 B per texel); colour channels sRGB-encoded when `srgb`.
+    Byte { rgba: Vec<[u8; 4]>, srgb: bool },
+}
+
+/// The values 8-bit texels decode to: [sRGB-decoded, as stored], for byte values 0..=255; the
+/// same expressions a decode of the whole image at load used (`image`'s u8 → f32 is c / 255).
+fn byte_tables() -> &'static [[f32; 256]; 2] {
+    static TABLES: std::sync::OnceLock<[[f32; 256]; 2]> = std::sync::OnceLock::new();
+    TABLES.get_or_init(|| {
+        let stored: [f32; 256] = std::array::from_fn(|c| c as f32 / 255.0);
+        [stored.map(|v| srgb_to_linear(v as f64) as f32), stored]
+    })
 }
 
 impl std::fmt::Debug for Texture {
@@ -101,9 +123,36 @@ impl Texture {
         Ok(Texture {
             width,
             height,
-            texels,
+            texels: Texels::Float(texels),
             source: source.to_string(),
         })
+    }
+
+    /// Linear RGBA of texel `i` (row-major from the top).
+    #[inline]
+    pub fn texel(&self, i: usize) -> [f32; 4] {
+        match &self.texels {
+            Texels::Float(t) => t[i],
+            Texels::Byte { rgba, srgb } => {
+                let tables = byte_tables();
+                let colour = &tables[if *srgb { 0 } else { 1 }];
+                let [r, g, b, a] = rgba[i];
+                [
+                    colour[r as usize],
+                    colour[g as usize],
+                    colour[b as usize],
+                    tables[1][a as usize],
+                ]
+            }
+        }
+    }
+
+    /// True when some texel's alpha is below 1 (the image has a coverage channel in use).
+    pub fn has_partial_alpha(&self) -> bool {
+        match &self.texels {
+            Texels::Float(t) => t.iter().any(|p| p[3] < 1.0),
+            Texels::Byte { rgba, .. } => rgba.iter().any(|p| p[3] < 255),
+        }
     }
 
     /// Decodes `path`: PNG, JPEG, TGA, HDR through `image`, EXR through `exr`.
@@ -149,6 +198,27 @@ impl Texture {
         encoding: Encoding,
     ) -> anyhow::Result<Texture> {
         let (w, h) = (img.width() as usize, img.height() as usize);
+        if matches!(
+            img.color(),
+            image::ColorType::L8
+                | image::ColorType::La8
+                | image::ColorType::Rgb8
+                | image::ColorType::Rgba8
+        ) {
+            if w == 0 || h == 0 {
+                bail!("{name}: a texture needs at least one texel");
+            }
+            let rgba = img.into_rgba8().pixels().map(|p| p.0).collect();
+            return Ok(Texture {
+                width: w,
+                height: h,
+                texels: Texels::Byte {
+                    rgba,
+                    srgb: encoding == Encoding::Colour,
+                },
+                source: name.to_string(),
+            });
+        }
         let encoded = !matches!(
             img.color(),
             image::ColorType::Rgb32F | image::ColorType::Rgba32F
@@ -170,7 +240,10 @@ impl Texture {
 
     /// Bytes the texels take.
     pub fn bytes(&self) -> usize {
-        self.texels.len() * std::mem::size_of::<[f32; 4]>()
+        match &self.texels {
+            Texels::Float(t) => t.len() * std::mem::size_of::<[f32; 4]>(),
+            Texels::Byte { rgba, .. } => rgba.len() * 4,
+        }
     }
 
     /// Bilinear RGBA at `(u, v)` (v up), with each axis wrapped by `wrap`.
@@ -198,7 +271,7 @@ impl Texture {
         let mut out = [0.0; 4];
         for (j, wy) in [(0, 1.0 - fy), (1, fy)] {
             for (i, wx) in [(0, 1.0 - fx), (1, fx)] {
-                let t = &self.texels[iy[j] * self.width + ix[i]];
+                let t = self.texel(iy[j] * self.width + ix[i]);
                 for c in 0..4 {
                     out[c] += wx * wy * t[c] as f64;
                 }
@@ -370,6 +443,34 @@ mod tests {
         assert_eq!(UvTransform::default().apply(0.3, 0.7), (0.3, 0.7));
     }
 
+    /// 8-bit storage decodes every byte to the f32 a decode of the whole image at load gives
+    /// (`image`'s own u8 → f32, then the sRGB curve), bit for bit, for colour and data alike.
+    #[test]
+    fn byte_texels_decode_to_the_floats_of_a_full_decode() {
+        let bytes: Vec<u8> = (0..=255u8)
+            .flat_map(|c| [c, 255 - c, c / 2, 255 - c / 3])
+            .collect();
+        let img =
+            image::DynamicImage::ImageRgba8(image::RgbaImage::from_raw(256, 1, bytes).unwrap());
+        for encoding in [Encoding::Colour, Encoding::Linear] {
+            let t = Texture::from_image(img.clone(), "ramp", encoding).unwrap();
+            assert_eq!(t.bytes(), 256 * 4);
+            let full = img.to_rgba32f();
+            for (i, p) in full.pixels().enumerate() {
+                let d = |c: f32| match encoding {
+                    Encoding::Colour => srgb_to_linear(c as f64) as f32,
+                    Encoding::Linear => c,
+                };
+                let want = [d(p[0]), d(p[1]), d(p[2]), p[3]];
+                assert_eq!(
+                    t.texel(i).map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "texel {i}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn png_textures_are_decoded_once_and_srgb_to_linear() {
         let dir = std::env::temp_dir().join(format!("ftpd3d-tex-{}", std::process::id()));
@@ -388,10 +489,11 @@ mod tests {
         assert_eq!(ids, [0, 0, 1]);
         let colour = &set.textures[0];
         let expect = srgb_to_linear(128.0 / 255.0);
-        assert!((colour.texels[0][0] as f64 - expect).abs() < 1e-6);
-        assert_eq!(colour.texels[1][0], 1.0);
-        assert!((set.textures[1].texels[0][0] as f64 - 128.0 / 255.0).abs() < 1e-6);
-        assert_eq!(set.bytes(), 2 * 2 * 16);
+        assert!((colour.texel(0)[0] as f64 - expect).abs() < 1e-6);
+        assert_eq!(colour.texel(1)[0], 1.0);
+        assert!((set.textures[1].texel(0)[0] as f64 - 128.0 / 255.0).abs() < 1e-6);
+        // 8-bit images keep their bytes: 4 B per texel.
+        assert_eq!(set.bytes(), 2 * 2 * 4);
         let missing = TextureSet::load(&[(dir.join("nope.png"), Encoding::Colour)]).unwrap_err();
         assert!(format!("{missing:#}").contains("nope.png"));
         std::fs::remove_dir_all(&dir).ok();
