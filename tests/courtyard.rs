@@ -19,6 +19,13 @@ fn courtyard_loads_without_warnings_with_sun_sky_camera_slices_and_cutouts() {
         "{:?}",
         scene.report.warnings
     );
+    // The run summary names the textures and their memory: four 64 × 64 8-bit images, 4 B each.
+    let line = ftpd3d::cli::report::scene_line(
+        std::path::Path::new("courtyard.toml"),
+        &scene,
+        std::time::Duration::ZERO,
+    );
+    assert!(line.contains("4 textures (65.5 kB)"), "{line}");
     let f = scene.features;
     assert!(f.sun, "the [[sun]]: {f}");
     assert!(f.sky, "the [environment] map: {f}");

@@ -116,12 +116,19 @@ pub fn human_bytes(b: f64) -> String {
     }
 }
 
-/// The scene line every run prints: triangles, lights, features, load time (parsing and the BVH
-/// build apart).
+/// The scene line every run prints: triangles, lights, features, textures and their memory, load
+/// time (parsing and the BVH build apart).
 pub fn scene_line(path: &std::path::Path, scene: &crate::scene::Scene, load: Duration) -> String {
+    let textures = match scene.textures.textures.len() {
+        0 => String::new(),
+        n => format!(
+            ", {n} textures ({})",
+            human_bytes(scene.report.texture_bytes as f64)
+        ),
+    };
     format!(
-        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {} (loaded in {:.2} s: \
-         parsing {:.2} s, BVH {:.2} s)",
+        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {}{textures} (loaded \
+         in {:.2} s: parsing {:.2} s, BVH {:.2} s)",
         path.display(),
         scene.triangles.len(),
         scene.report.degenerate_dropped,
