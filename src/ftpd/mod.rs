@@ -183,7 +183,7 @@ pub fn radiance_direction<K: Kernel>(
         // A light that faces away: this strategy contributes nothing here.
         return (sp.uniform(s.next_2d()), Rgb::ZERO);
     };
-    scene.texture_light_sample(&mut ls, x);
+    crate::transport::light::texture_light_sample(scene, &mut ls, x);
     let omega = -ls.wi;
     *rays += 1;
     if !trace::visible::<K>(scene, x, x + ls.wi * ls.dist) {

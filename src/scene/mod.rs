@@ -937,21 +937,17 @@ impl Scene {
         }
     }
 
-    /// A light sample taken from `x` on an emitter with an emission texture gets the texel's
-    /// radiance at its point; other samples, and scenes without emission textures, are left as
-    /// they are. The light was chosen and its point drawn in proportion to the material's
-    /// constant emission, which stays a valid density: only the radiance changes.
+    /// The emission texture's radiance at point `y` of triangle `prim` (the texel at its
+    /// barycentric coordinates, times the material's emission); `None` when the scene has no
+    /// emission textures or the material none. For light samples, which know a point, not a hit.
     #[inline(always)]
-    pub fn texture_light_sample(&self, ls: &mut crate::transport::light::LightSample, x: DVec3) {
-        if self.features.emission_textures && ls.emitter != crate::transport::light::NO_EMITTER {
-            let prim = ls.emitter;
-            let [a, b, c] =
-                self.triangles[prim as usize].map(|v| self.positions[v as usize].as_dvec3());
-            let bary = barycentric(x + ls.wi * ls.dist, a, b, c).map(|u| u as f32);
-            if let Some(l) = self.emission_texel(prim, bary) {
-                ls.li = l;
-            }
+    pub fn emission_at(&self, prim: u32, y: DVec3) -> Option<Rgb> {
+        if !self.features.emission_textures {
+            return None;
         }
+        let [a, b, c] =
+            self.triangles[prim as usize].map(|v| self.positions[v as usize].as_dvec3());
+        self.emission_texel(prim, barycentric(y, a, b, c).map(|u| u as f32))
     }
 
     /// The emission texture's radiance (texel × the material's emission) at barycentric `bary` of

@@ -20,7 +20,7 @@
 //!   one warning with their count.
 //! - An emitter with `map_Ke` is still chosen for light sampling, and its points drawn, by its
 //!   constant `Ke`; the radiance at the drawn point and at every hit is the texel's
-//!   ([`crate::scene::Scene::texture_light_sample`]).
+//!   (`transport::light::texture_light_sample`).
 
 use crate::math::Rgb;
 use crate::scene::LoadReport;

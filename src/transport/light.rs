@@ -21,12 +21,26 @@ pub struct LightSample {
     /// Point lights can only be reached by light sampling.
     pub delta: bool,
     /// The scene triangle of an area light's point ([`NO_EMITTER`] for other lights), so that an
-    /// emission texture can be read there ([`crate::scene::Scene::texture_light_sample`]).
+    /// emission texture can be read there ([`texture_light_sample`]).
     pub emitter: u32,
 }
 
 /// [`LightSample::emitter`] of a light that is not a triangle.
 pub const NO_EMITTER: u32 = u32::MAX;
+
+/// A light sample taken from `x` on an emitter with an emission texture gets the texel's radiance
+/// at its point; other samples, and scenes without emission textures, are left as they are. The
+/// light was chosen and its point drawn in proportion to the material's constant emission, which
+/// stays a valid density: only the radiance changes.
+#[inline(always)]
+pub fn texture_light_sample(scene: &crate::scene::Scene, ls: &mut LightSample, x: DVec3) {
+    if scene.features.emission_textures
+        && ls.emitter != NO_EMITTER
+        && let Some(l) = scene.emission_at(ls.emitter, x + ls.wi * ls.dist)
+    {
+        ls.li = l;
+    }
+}
 
 /// `dist^(dims−1)`: how densities per unit of an emitter's measure (area in 3D, length in
 /// flatland) turn into densities per solid angle (per angle), and how a point light's intensity

@@ -270,7 +270,7 @@ pub fn radiance<K: Kernel>(
             let u_l = s.next_f64();
             let u = s.next_2d();
             if let Some(mut ls) = lights.sample(sp, hit.p, u_l, u) {
-                scene.texture_light_sample(&mut ls, hit.p);
+                crate::transport::light::texture_light_sample(scene, &mut ls, hit.p);
                 let f = bsdf.eval_in::<K::Space>(lobe, wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
                 if f != Rgb::ZERO {
                     st.rays += 1;
