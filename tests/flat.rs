@@ -147,14 +147,7 @@ fn params(weighting: Weighting, flat: Flatland) -> Params {
 }
 
 fn opts(spp: u32, seed: u64) -> RenderOptions {
-    RenderOptions {
-        spp,
-        batches: 8,
-        seed,
-        threads: 0,
-        progress: false,
-        ..Default::default()
-    }
+    crate::support::render_opts(spp, seed)
 }
 
 // ------------------------------------------------------------------------------------------------

@@ -813,6 +813,36 @@ fn gltf_without_lights_names_the_ways_to_add_one() {
     );
 }
 
+/// A PNG of `w` × `h` grey-or-colour RGB bytes as a base64 data URI.
+fn png_uri(w: u32, h: u32, rgb: Vec<u8>) -> String {
+    let mut png = Vec::new();
+    image::RgbImage::from_raw(w, h, rgb)
+        .unwrap()
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&png)
+    )
+}
+
+/// The unit quad in z = 0 with TEXCOORD_0 running over the texture (u along x; glTF's v points
+/// down, so the top edge y = 1 is v = 0): (positions, uvs, indices) accessors.
+fn textured_quad(bin: &mut Bin) -> (usize, usize, usize) {
+    let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
+    let uv_bytes: Vec<u8> = [[0f32, 1.], [1., 1.], [1., 0.], [0., 0.]]
+        .iter()
+        .flatten()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    let uv_view = bin.view(&uv_bytes);
+    bin.accessors
+        .push(json!({"bufferView": uv_view, "componentType": 5126, "count": 4, "type": "VEC2"}));
+    let uv = bin.accessors.len() - 1;
+    let idx = bin.indices(&[0, 1, 2, 0, 2, 3]);
+    (pos, uv, idx)
+}
+
 /// A quad with a 2 × 1 base-colour texture (an embedded PNG: sRGB 255 and 128), factor 0.8, under
 /// a delta sun overhead: at each texel's centre the quad reflects 0.8 × the texel (decoded to
 /// linear by the sRGB formula written out here) / π × E, to rounding; half-way between, the
@@ -829,31 +859,11 @@ fn gltf_base_colour_texture_gives_each_texel_its_albedo() {
             ((c + 0.055) / 1.055).powf(2.4)
         }
     };
-    let mut png = Vec::new();
-    image::RgbImage::from_raw(2, 1, vec![255, 255, 255, 128, 128, 128])
-        .unwrap()
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .unwrap();
-    let png_uri = format!(
-        "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(&png)
-    );
+    let png_uri = png_uri(2, 1, vec![255, 255, 255, 128, 128, 128]);
     for (k, offset) in [0.0, 0.5].into_iter().enumerate() {
         let dir = temp_dir(&format!("texture{k}"));
         let mut bin = Bin::default();
-        let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
-        // glTF's v points down: the quad's top edge (y = 1) is v = 0.
-        let uv_bytes: Vec<u8> = [[0f32, 1.], [1., 1.], [1., 0.], [0., 0.]]
-            .iter()
-            .flatten()
-            .flat_map(|x| x.to_le_bytes())
-            .collect();
-        let uv_view = bin.view(&uv_bytes);
-        bin.accessors.push(
-            json!({"bufferView": uv_view, "componentType": 5126, "count": 4, "type": "VEC2"}),
-        );
-        let uv = bin.accessors.len() - 1;
-        let idx = bin.indices(&[0, 1, 2, 0, 2, 3]);
+        let (pos, uv, idx) = textured_quad(&mut bin);
         let mut info = json!({"index": 0});
         if offset != 0.0 {
             info["extensions"] = json!({"KHR_texture_transform": {"offset": [offset, 0.0]}});
@@ -908,28 +918,10 @@ fn gltf_base_colour_texture_gives_each_texel_its_albedo() {
 /// each texel's centre sees 2 × the texel, decoded to linear.
 #[test]
 fn gltf_emissive_texture_scales_the_emission_per_texel() {
-    let mut png = Vec::new();
-    image::RgbImage::from_raw(2, 1, vec![255, 255, 255, 128, 128, 128])
-        .unwrap()
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .unwrap();
-    let png_uri = format!(
-        "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(&png)
-    );
+    let png_uri = png_uri(2, 1, vec![255, 255, 255, 128, 128, 128]);
     let dir = temp_dir("emissive_texture");
     let mut bin = Bin::default();
-    let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
-    let uv_bytes: Vec<u8> = [[0f32, 1.], [1., 1.], [1., 0.], [0., 0.]]
-        .iter()
-        .flatten()
-        .flat_map(|x| x.to_le_bytes())
-        .collect();
-    let uv_view = bin.view(&uv_bytes);
-    bin.accessors
-        .push(json!({"bufferView": uv_view, "componentType": 5126, "count": 4, "type": "VEC2"}));
-    let uv = bin.accessors.len() - 1;
-    let idx = bin.indices(&[0, 1, 2, 0, 2, 3]);
+    let (pos, uv, idx) = textured_quad(&mut bin);
     let extra = json!({
         "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0}],

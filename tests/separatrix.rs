@@ -319,14 +319,7 @@ fn shadow_scene(floor: Bsdf) -> Scene {
 }
 
 fn opts(spp: u32, seed: u64) -> RenderOptions {
-    RenderOptions {
-        spp,
-        batches: 8,
-        seed,
-        threads: 0,
-        progress: false,
-        ..Default::default()
-    }
+    crate::support::render_opts(spp, seed)
 }
 
 fn params(flat: Option<Flatland>) -> Params {

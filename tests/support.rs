@@ -72,3 +72,15 @@ pub fn scene_of(
     )
     .unwrap()
 }
+
+/// Render options of `spp` samples per cell in 8 batches with `seed`, on every core, quietly.
+pub fn render_opts(spp: u32, seed: u64) -> ftpd3d::render::RenderOptions {
+    ftpd3d::render::RenderOptions {
+        spp,
+        batches: 8,
+        seed,
+        threads: 0,
+        progress: false,
+        ..Default::default()
+    }
+}
