@@ -292,7 +292,7 @@ pub type CutTest = dyn Fn(u32, [f32; 2], f64) -> bool + Send + Sync;
 /// The two geometries' triangles and numbers, and the cut-out test.
 struct Cutouts {
     /// The index arrays Embree reads for geometries 0 and 1 (kept alive here).
-    _indices: [SharedArray<[u32; 3]>; 2],
+    indices: [SharedArray<[u32; 3]>; 2],
     /// Index (in the buffer given to [`Accel::with_cutouts`]) of geometry 0's triangle `primID`.
     opaque: Vec<u32>,
     /// Likewise for geometry 1, the cut-out triangles.
@@ -433,13 +433,13 @@ impl Accel {
                 SharedArray::new(ids.iter().map(|&i| triangles[i as usize]).collect())
             };
             let cuts = Box::new(Cutouts {
-                _indices: [pick(&opaque), pick(cutout)],
+                indices: [pick(&opaque), pick(cutout)],
                 opaque,
                 cut: cutout.to_vec(),
                 test: None,
             });
             let user = &*cuts as *const Cutouts as *mut c_void;
-            let [opaque_tris, cut_tris] = cuts._indices.clone();
+            let [opaque_tris, cut_tris] = cuts.indices.clone();
             accel.cutouts = Some(cuts);
             if !opaque_tris.is_empty() {
                 attach(dev, scene, 0, &accel.shared_positions, &opaque_tris, None)?;
