@@ -22,8 +22,9 @@ For every OBJ it verifies
     the scene); in a room every object lies strictly inside the room;
   * stair wall only: the centre of every tread sees the light's centre and
     corners;
-  * flatland scenes (flat_*): every triangle crossing z = 0 has its normal in
-    that plane (the scene is extruded along z, as --flatland requires);
+  * flatland scenes (flat_* and those in FLATLAND): every triangle crossing
+    z = 0 has its normal in that plane (the scene is extruded along z, as
+    --flatland requires);
   * texture coordinates and maps: every `vt` has two or three numbers, every face
     of a material with a map gives a `vt` for each corner (indices in range),
     every map file exists next to the MTL and is a PNG that decodes (chunk
@@ -31,8 +32,9 @@ For every OBJ it verifies
     (or is grey), and (courtyard) the leaf mask's alpha is 0 or 255 only;
   * sidecars (`.toml` listed in SIDECARS, read with tomllib): the mesh and the
     environment map exist, the map is a Radiance RGBE image that decodes with
-    finite non-negative texels, every sun is above the horizon, and every
-    named slice and camera lies inside the scene's bounds;
+    finite non-negative texels, every sun is above the horizon, every
+    named slice and camera lies inside the scene's bounds, and every point
+    light is finite and lies in every named slice;
 and prints bounds per scene and object. Exits non-zero on any failure.
 """
 
@@ -65,10 +67,37 @@ EXPECT = {
         'north_arcade_front': 'solid', 'north_back_wall': 'solid', 'north_roof': 'solid',
         'south_arcade_front': 'solid', 'south_back_wall': 'solid', 'south_roof': 'solid',
         'trunk': 'solid', 'leaves': 'open'},
+    # The paper's figures (generate_paper.py)
+    'paper/fig3a_stairs.obj': {'stairs': 'solid', 'light': 'open'},
+    'paper/fig3b_mirrors.obj': {'light': 'open', 'mirror_left': 'solid', 'mirror_right': 'solid',
+                                'box_left': 'solid', 'box_right': 'solid'},
+    'paper/fig3c_curved_mirror.obj': {'light': 'open', 'curved_mirror': 'solid', 'cube': 'solid'},
+    'paper/fig4a_glossy_reflectors.obj': {'light': 'open', 'mirror_left': 'solid',
+                                          'mirror_right': 'solid', 'box_left': 'solid',
+                                          'box_right': 'solid'},
+    'paper/fig4c_patches.obj': {'border_left': 'open', 'patch_0_phong37': 'open',
+                                'strip_0': 'open', 'patch_1_phong112': 'open', 'strip_1': 'open',
+                                'patch_2_phong1029': 'open', 'strip_2': 'open',
+                                'patch_3_mirror': 'open', 'border_right': 'open'},
+    'paper/fig5_glass.obj': {'glass': 'solid', 'floor': 'open', 'light': 'open'},
+    'paper/fig6a_u_room.obj': {'room': 'room', 'partition': 'solid', 'light': 'open'},
+    'paper/fig6b_door.obj': {'room': 'room', 'wall_back': 'solid', 'wall_front': 'solid',
+                             'lintel': 'solid', 'door': 'solid'},
+    'paper/fig6c_canal.obj': {'canal': 'open'},
+    'paper/fig6c_canal_obstacle.obj': {'canal': 'open', 'obstacle': 'solid'},
+    'paper/fig7a_mirror_prism.obj': {'room': 'room', 'arrow': 'solid', 'square': 'solid',
+                                     'mirror': 'solid', 'prism': 'solid'},
 }
 
+# Flatland scenes (checked for extrusion along z): the flat_* scenes and these.
+FLATLAND = {'paper/fig3a_stairs.obj', 'paper/fig3b_mirrors.obj', 'paper/fig3c_curved_mirror.obj',
+            'paper/fig4a_glossy_reflectors.obj', 'paper/fig4c_patches.obj',
+            'paper/fig5_glass.obj', 'paper/fig7a_mirror_prism.obj'}
+
 # Sidecar scene files to check (relative to this directory).
-SIDECARS = ['courtyard/courtyard.toml']
+SIDECARS = ['courtyard/courtyard.toml', 'paper/fig4c_patches.toml', 'paper/fig6b_door.toml',
+            'paper/fig6c_canal.toml', 'paper/fig6c_canal_obstacle.toml',
+            'paper/fig7c_courtyard.toml']
 
 # Map images whose alpha must be binary (0 or 255): cut-out masks meant to be exact.
 BINARY_ALPHA = {'courtyard/leaf_mask.png'}
@@ -450,7 +479,7 @@ def check_file(path):
         print(msg)
         if name == 'stair_wall.obj':
             check_treads_lit(verts, objects, o, errors)
-    if name.startswith('flat_'):
+    if name.startswith('flat_') or rel in FLATLAND:
         check_extruded(verts, objects, errors)
     check_maps(path, mats, errors)
 
@@ -701,6 +730,18 @@ def check_sidecar(path):
               % (k + 1, fmtv(d), elev, sun['irradiance']))
         if not elev > 0:
             errors.append('sun #%d is below the horizon' % (k + 1))
+    for k, pl in enumerate(sc.get('point_light', [])):
+        pos = pl['position']
+        print('   point light #%d at %s, intensity %s' % (k + 1, fmtv(pos), pl['intensity']))
+        if not (all(math.isfinite(c) for c in pos) and all(c >= 0 for c in pl['intensity'])):
+            errors.append('point light #%d: position not finite or intensity negative' % (k + 1))
+        # The paper's runs put their point lights in the slice (its section 5.5: light
+        # separatrices show best there); flatland needs it.
+        for sl in sc.get('slice', []):
+            axis, _, value = sl['plane'].partition('=')
+            if abs(pos['xyz'.index(axis.strip())] - float(value)) > 1e-9:
+                errors.append('point light #%d does not lie in slice %s (%s)'
+                              % (k + 1, sl['name'], sl['plane']))
     if lo is not None:
         inside = lambda p: all(lo[k] <= p[k] <= hi[k] for k in range(3))
         for cam in sc.get('camera', []):

@@ -72,7 +72,8 @@ def segment_light(name, material, a, b):
 # 45-degree slope: the risers (facing -x) get no direct light, and each step's
 # outer corner shades the back part of the tread below it, so every corner
 # starts a shadow boundary.
-def flat_stair_wall():
+def stair_wall_parts():
+    """The meshes and materials of the flatland stair wall."""
     stairs = prism('stairs', 'wall', g.stair_profile())
     # Light: 0.8 m long, front normal n = (-1, -2)/sqrt(5), its centre 2.4 m
     # from the middle of the third tread (0, 1.2) along -n.
@@ -82,11 +83,14 @@ def flat_stair_wall():
     a = (c[0] - 0.4 * t[0], c[1] - 0.4 * t[1])
     b = (c[0] + 0.4 * t[0], c[1] + 0.4 * t[1])
     lamp = segment_light('light', 'light', a, b)
+    return [stairs, lamp], {'wall': g.diffuse(0.7), 'light': g.light(10, 10, 10)}
+
+
+def flat_stair_wall():
+    meshes, materials = stair_wall_parts()
     g.write_scene('flat_stair_wall',
                   'Flatland stair wall (cf. Fig. 3a), extruded over z in [-1, 1]; slice z = 0',
-                  [stairs, lamp],
-                  {'wall': g.diffuse(0.7), 'light': g.light(10, 10, 10)},
-                  generator=GENERATOR)
+                  meshes, materials, generator=GENERATOR)
 
 
 # Fig. 3(b): an area light that reaches two diffuse objects only through a
@@ -94,18 +98,30 @@ def flat_stair_wall():
 # into a 45-degree mirror above it, which sends the light to the right into a
 # second 45-degree mirror, which sends it down onto two diffuse boxes. The
 # boxes lie below the light's plane, so no light reaches them directly.
-def flat_mirrors():
+def mirrors_parts(left=None, right=None):
+    """The meshes and materials of the two-mirror system; `left` and `right` replace the
+    mirrors' material (MTL lines) when given (the paper's Fig. 4a makes them glossy)."""
     lamp = segment_light('light', 'light', (-1.3, 0.3), (-1.9, 0.3))   # normal +y
-    mirror_a = slab('mirror_left', 'mirror', (-1.6, 2.3), 45.0, 1.2, 0.04)
-    mirror_b = slab('mirror_right', 'mirror', (1.6, 2.3), -45.0, 1.2, 0.04)
+    mat_a, mat_b = ('mirror', 'mirror') if left is None else ('reflector_left', 'reflector_right')
+    mirror_a = slab('mirror_left', mat_a, (-1.6, 2.3), 45.0, 1.2, 0.04)
+    mirror_b = slab('mirror_right', mat_b, (1.6, 2.3), -45.0, 1.2, 0.04)
     box_a = box2d('box_left', 'grey', 1.15, 0.0, 1.45, 0.28)
     box_b = box2d('box_right', 'grey', 1.65, 0.0, 2.05, 0.18)
+    materials = {'grey': g.diffuse(0.7)}
+    if left is None:
+        materials['mirror'] = g.mirror(0.9)
+    else:
+        materials['reflector_left'] = left
+        materials['reflector_right'] = right
+    materials['light'] = g.light(10, 10, 10)
+    return [lamp, mirror_a, mirror_b, box_a, box_b], materials
+
+
+def flat_mirrors():
+    meshes, materials = mirrors_parts()
     g.write_scene('flat_mirrors',
                   'Flatland two-mirror system (cf. Fig. 3b), extruded over z in [-1, 1]; slice z = 0',
-                  [lamp, mirror_a, mirror_b, box_a, box_b],
-                  {'grey': g.diffuse(0.7), 'mirror': g.mirror(0.9),
-                   'light': g.light(10, 10, 10)},
-                  generator=GENERATOR)
+                  meshes, materials, generator=GENERATOR)
 
 
 def main():
