@@ -85,12 +85,12 @@ def fig3():
     meshes, materials = fl.mirrors_parts()
     write('fig3b_mirrors', 'Fig. 3b: flatland light reaching two boxes through two mirrors '
           '(as flat_mirrors)', meshes, materials)
-    # Fig. 3c: the light (a segment at x = -1.2 facing +x) shines at a mirroring cylinder of
-    # radius 0.6 (96 facets); the cube stands behind the light's plane (x < -1.2), so only light
-    # the curved mirror throws back reaches it, passing below the light.
-    lamp = fl.segment_light('light', 'light', (-1.2, 0.9), (-1.2, 1.5))      # normal +x
-    curved = fl.prism('curved_mirror', 'mirror', polygon((0.8, 1.2), 0.6, 96))
-    cube = fl.box2d('cube', 'grey', -2.1, 0.2, -1.7, 0.6)
+    # Fig. 3c: the light (a segment 1 m long at x = -1 facing +x) shines at a mirroring cylinder
+    # of radius 0.6 (96 facets); the cube stands behind the light's plane (x < -1), below it, so
+    # only light that the curved mirror throws back reaches it.
+    lamp = fl.segment_light('light', 'light', (-1.0, 0.7), (-1.0, 1.7))      # normal +x
+    curved = fl.prism('curved_mirror', 'mirror', polygon((0.6, 1.2), 0.6, 96))
+    cube = fl.box2d('cube', 'grey', -1.9, -0.1, -1.5, 0.3)
     write('fig3c_curved_mirror', 'Fig. 3c: flatland area light, a curved mirror and a cube it lights',
           [lamp, curved, cube],
           {'mirror': g.mirror(0.9), 'grey': g.diffuse(0.7), 'light': g.light(10, 10, 10)})
@@ -197,12 +197,12 @@ def fig6():
                   'intensity = [6.0, 6.0, 6.0]\n\n'
                   '[[slice]]\nname = "middle"\nplane = "y=1.2"\n')
 
-    # (c) A canal along x (floor and two side walls, open at the top and the ends), lit by a
-    # point light near its left end; the slice z = 0 runs along its middle through the light.
+    # (c) A canal along x (5 m long, 1.2 m wide and deep: a floor and two side walls, open at
+    # the top and the ends), lit by a point light near its left end; the slice z = 0 runs along its middle through the light.
     # The second version has an obstacle across the canal.
     def canal():
         m = g.Mesh('canal', 'stone')
-        x0, x1, w, h = -4.0, 4.0, 0.6, 1.0
+        x0, x1, w, h = -2.5, 2.5, 0.6, 1.2
         v = {}
         for (x, y, z) in [(x, y, z) for x in (x0, x1) for y in (0.0, h) for z in (-w, w)]:
             v[(x, y, z)] = m.vert((x, y, z))
@@ -213,13 +213,13 @@ def fig6():
     for stem, extra, title in [
             ('fig6c_canal', [], 'Fig. 6c (left): a canal lit by a point light; slice z = 0'),
             ('fig6c_canal_obstacle',
-             [g.box('obstacle', 'stone', (0.0, 0.25 + LIFT, 0.0), (0.5, 0.5, 1.2 - 2 * LIFT))],
+             [g.box('obstacle', 'stone', (0.0, 0.25 + LIFT, 0.0), (0.4, 0.5, 1.2 - 2 * LIFT))],
              'Fig. 6c (right): the canal blocked by an obstacle; slice z = 0')]:
         write(stem, title, [canal()] + extra, {'stone': g.diffuse(0.6)})
         write_sidecar(stem, title.split(';')[0] + ', and its point light',
                       'mesh = "%s.obj"\n\n'
                       '[[point_light]]                     # in the slice z = 0\n'
-                      'position = [-3.2, 0.7, 0.0]\n'
+                      'position = [-2.2, 0.8, 0.0]\n'
                       'intensity = [4.0, 4.0, 4.0]\n\n'
                       '[[slice]]\nname = "middle"\nplane = "z=0"\n' % stem)
 
@@ -263,40 +263,41 @@ def fig7():
 # --size and --spp by tiny values and keeps everything else.
 GALLERY = [
     ('fig3a_stairs', '3a', 'flatland stair wall, area light; radiance-weighted',
-     '--scene scenes/paper/fig3a_stairs.obj --slice z=0 --flatland --res 200 --spp 512'),
+     '--scene scenes/paper/fig3a_stairs.obj --slice z=0 --flatland --res 240 --spp 1024'),
     ('fig3b_mirrors', '3b', 'flatland: light reaching two boxes only through two mirrors; '
      'radiance-weighted',
-     '--scene scenes/paper/fig3b_mirrors.obj --slice z=0 --flatland --res 200 --spp 512'),
+     '--scene scenes/paper/fig3b_mirrors.obj --slice z=0 --flatland --res 240 --spp 1024'),
     ('fig3c_curved_mirror', '3c', 'flatland: area light, curved mirror, and a cube lit only by '
      'the mirror; radiance-weighted',
-     '--scene scenes/paper/fig3c_curved_mirror.obj --slice z=0 --flatland --res 200 --spp 512'),
+     '--scene scenes/paper/fig3c_curved_mirror.obj --slice z=0 --window -2.2,-0.6,1.4,3 --flatland '
+     '--res 240 --spp 1024'),
     ('fig4a_glossy_reflectors', '4a', 'flatland: Fig. 3b with Phong 2000 (left) and 200 (right) '
      'reflectors; radiance-weighted',
-     '--scene scenes/paper/fig4a_glossy_reflectors.obj --slice z=0 --flatland --res 200 --spp 512'),
+     '--scene scenes/paper/fig4a_glossy_reflectors.obj --slice z=0 --flatland --res 240 --spp 1024'),
     ('fig4c_patches', '4c', 'flatland: point-lit patches of Phong 37, 112, 1029 and a mirror; '
      'radiance-weighted',
      '--scene scenes/paper/fig4c_patches.toml --slice middle --window -2.45,0,2.45,1.6 --flatland '
-     '--res 240 --spp 256'),
+     '--res 240 --spp 1024'),
     ('fig5_glass', '5', 'flatland glass cylinder, radiance paths of at most 6 segments; '
      'radiance-weighted, with the integrated radiance',
      '--scene scenes/paper/fig5_glass.obj --slice z=0 --window -1.5,0,1.5,2.6 --flatland '
-     '--max-bounces 5 --res 200 --spp 512'),
+     '--max-bounces 5 --res 200 --spp 1024'),
     ('fig6a_u_room', '6a', '3D U-shaped room, area light; slice y = 1.2, radiance-weighted',
-     '--scene scenes/paper/fig6a_u_room.obj --slice y=1.2 --res 160 --spp 128'),
+     '--scene scenes/paper/fig6a_u_room.obj --slice y=1.2 --res 200 --spp 512'),
     ('fig6b_door', '6b', '3D door scene, point light, door ajar; slice y = 1.2, '
      'radiance-weighted',
-     '--scene scenes/paper/fig6b_door.toml --slice middle --res 160 --spp 128'),
+     '--scene scenes/paper/fig6b_door.toml --slice middle --res 200 --spp 512'),
     ('fig6c_canal', '6c', '3D canal, point light; slice z = 0, radiance-weighted',
-     '--scene scenes/paper/fig6c_canal.toml --slice middle --window -4,0,4,1.4 --res 200 --spp 128'),
+     '--scene scenes/paper/fig6c_canal.toml --slice middle --window -2.5,0,2.5,1.6 --res 300 --spp 1024'),
     ('fig6c_canal_obstacle', '6c', '3D canal blocked by an obstacle; slice z = 0, '
      'radiance-weighted',
-     '--scene scenes/paper/fig6c_canal_obstacle.toml --slice middle --window -4,0,4,1.4 --res 200 '
-     '--spp 128'),
+     '--scene scenes/paper/fig6c_canal_obstacle.toml --slice middle --window -2.5,0,2.5,1.6 '
+     '--res 300 --spp 1024'),
     ('fig7a_mirror_prism', '7a', 'flatland room with a mirror and a glass prism; unweighted',
      '--scene scenes/paper/fig7a_mirror_prism.obj --slice z=0 --flatland --weight unweighted '
-     '--res 200 --spp 256'),
+     '--res 200 --spp 512'),
     ('fig7c_courtyard', '7c', '3D courtyard seen by a camera; importance-weighted',
-     '--scene scenes/paper/fig7c_courtyard.toml --camera coves --size 200,150 --spp 64'),
+     '--scene scenes/paper/fig7c_courtyard.toml --camera coves --size 200,150 --spp 256'),
 ]
 
 

@@ -8,6 +8,7 @@ mod cutout;
 mod driver;
 mod flat;
 mod ftpd;
+mod gallery;
 mod geometry;
 mod gltf;
 mod layers;
