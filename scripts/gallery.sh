@@ -50,10 +50,11 @@ while IFS=$'\t' read -r name figure what args; do
         "$topng" "$out/$name.exr" "$out/$name.radiance.png" < /dev/null > /dev/null
     fi
     if [[ -z "${NO_DOCS:-}" ]]; then
-        # The README shows σ with the separatrices over it (NAME.png, σ alone, stays in out/).
-        cp "$out/$name.sep.png" "$docs/$name.sep.png"
+        # The README shows σ with the separatrices over it (NAME.png, σ alone, stays in out/),
+        # as palette PNGs to keep the repository small.
+        python3 scripts/png_palette.py "$out/$name.sep.png" "$docs/$name.sep.png"
         if [[ "$name" == fig5_* || "$name" == fig7c_* ]]; then
-            cp "$out/$name.radiance.png" "$docs/$name.radiance.png"
+            python3 scripts/png_palette.py "$out/$name.radiance.png" "$docs/$name.radiance.png"
         fi
     fi
 done < scenes/paper/gallery.txt
