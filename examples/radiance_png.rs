@@ -39,15 +39,13 @@ fn main() -> anyhow::Result<()> {
     };
     let slice = channels("fluence");
     let camera = slice.is_err();
-    let (w, h, [r, g, b]) = slice
-        .or_else(|_| channels("radiance"))
-        .with_context(|| {
-            format!(
-                "{}: neither fluence.R/G/B (radiance-weighted slices) nor radiance.R/G/B \
+    let (w, h, [r, g, b]) = slice.or_else(|_| channels("radiance")).with_context(|| {
+        format!(
+            "{}: neither fluence.R/G/B (radiance-weighted slices) nor radiance.R/G/B \
                  (camera images)",
-                field.display()
-            )
-        })?;
+            field.display()
+        )
+    })?;
     // A camera's beauty image is defined at every pixel, also where σ is not (the sky).
     let valid = if camera {
         vec![1.0; w * h]
