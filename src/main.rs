@@ -226,6 +226,11 @@ struct ConvergeArgs {
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = RenderOptions::default().threads)]
     threads: usize,
+    /// An older build of ftpd3d: run it and this binary, each as its own processes, at the same
+    /// levels and draw both curves on one plot [reference: --reference, else the baseline's
+    /// highest-spp run].
+    #[arg(long, value_name = "BIN")]
+    baseline: Option<PathBuf>,
     /// No per-run lines or summary.
     #[arg(short, long)]
     quiet: bool,
@@ -695,7 +700,14 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
         seed: args.seed,
         threads: args.threads,
         quiet: args.quiet,
+        baseline: args.baseline.clone(),
+        forward_args: estimator_flags_as_given(),
     };
+    if let Some(b) = &args.baseline
+        && !b.is_file()
+    {
+        anyhow::bail!("--baseline {}: no such file", b.display());
+    }
     let conv = converge::run_converge(&job)?;
     if !args.quiet {
         for c in &conv.curves {
@@ -707,6 +719,35 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The estimator and light flags of this process's command line ([`EstimatorFlags`]) with their
+/// values, as given: what `converge --baseline` passes on to both binaries.
+fn estimator_flags_as_given() -> Vec<String> {
+    const FLAGS: [&str; 8] = [
+        "--point-light",
+        "--sun",
+        "--sky",
+        "--env",
+        "--t0",
+        "--t1",
+        "--angle",
+        "--max-bounces",
+    ];
+    let mut out = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let name = a.split('=').next().unwrap_or_default();
+        if !FLAGS.contains(&name) {
+            continue;
+        }
+        if a.contains('=') {
+            out.push(a);
+        } else if let Some(v) = args.next() {
+            out.push(format!("{a}={v}"));
+        }
+    }
+    out
 }
 
 fn separatrices(args: &SeparatricesArgs) -> anyhow::Result<()> {
