@@ -226,6 +226,11 @@ struct ConvergeArgs {
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = RenderOptions::default().threads)]
     threads: usize,
+    /// An older build of ftpd3d: run it and this binary, each as its own processes, at the same
+    /// levels and draw both curves on one plot [reference: --reference, else the baseline's
+    /// highest-spp run].
+    #[arg(long, value_name = "BIN")]
+    baseline: Option<PathBuf>,
     /// No per-run lines or summary.
     #[arg(short, long)]
     quiet: bool,
@@ -331,8 +336,9 @@ struct RunArgs {
     /// Cells along the longer side of the slice.
     #[arg(long, default_value_t = 256)]
     res: usize,
-    /// Samples (deflection pairs) per cell [default: 64, or no cap when --time or --target-error
-    /// is given]. With --adaptive: the mean over cells.
+    /// Samples (deflection pairs) per cell [default: no cap; without --spp, --time and
+    /// --target-error a run stops at --target-error 0.05 or after --time 60s, whichever comes
+    /// first]. With --adaptive: the mean over cells.
     #[arg(long)]
     spp: Option<u32>,
     /// Passes --spp is split into when no --pass-spp is given (at most --spp).
@@ -577,11 +583,15 @@ impl RunArgs {
             seed: self.seed,
             threads: self.threads,
             progress: !self.quiet,
-            budget: Budget {
-                cap_spp: self.spp.is_some() || (self.time.is_none() && self.target_error.is_none()),
-                time: self.time,
-                target_error: self.target_error,
-                max_passes: None,
+            budget: if self.spp.is_none() && self.time.is_none() && self.target_error.is_none() {
+                DEFAULT_BUDGET
+            } else {
+                Budget {
+                    cap_spp: self.spp.is_some(),
+                    time: self.time,
+                    target_error: self.target_error,
+                    max_passes: None,
+                }
             },
             pass_spp: self.pass_spp,
             adaptive: self.adaptive.then_some(Adaptive {
@@ -591,6 +601,17 @@ impl RunArgs {
         }
     }
 }
+
+/// The budget of a run given no --spp, --time or --target-error: p95 relative error 0.05 or one
+/// minute, whichever comes first (the README's first command shows clean structure within a
+/// minute on two cores; the README gives the error it reaches). A time budget makes the number of
+/// passes depend on the machine: `--spp N` gives a reproducible run.
+const DEFAULT_BUDGET: Budget = Budget {
+    cap_spp: false,
+    time: Some(Duration::from_secs(60)),
+    target_error: Some(0.05),
+    max_passes: None,
+};
 
 fn bench(args: &RunArgs) -> anyhow::Result<()> {
     if args.volume.is_some() {
@@ -695,7 +716,14 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
         seed: args.seed,
         threads: args.threads,
         quiet: args.quiet,
+        baseline: args.baseline.clone(),
+        forward_args: estimator_flags_as_given(),
     };
+    if let Some(b) = &args.baseline
+        && !b.is_file()
+    {
+        anyhow::bail!("--baseline {}: no such file", b.display());
+    }
     let conv = converge::run_converge(&job)?;
     if !args.quiet {
         for c in &conv.curves {
@@ -707,6 +735,35 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The estimator and light flags of this process's command line ([`EstimatorFlags`]) with their
+/// values, as given: what `converge --baseline` passes on to both binaries.
+fn estimator_flags_as_given() -> Vec<String> {
+    const FLAGS: [&str; 8] = [
+        "--point-light",
+        "--sun",
+        "--sky",
+        "--env",
+        "--t0",
+        "--t1",
+        "--angle",
+        "--max-bounces",
+    ];
+    let mut out = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let name = a.split('=').next().unwrap_or_default();
+        if !FLAGS.contains(&name) {
+            continue;
+        }
+        if a.contains('=') {
+            out.push(a);
+        } else if let Some(v) = args.next() {
+            out.push(format!("{a}={v}"));
+        }
+    }
+    out
 }
 
 fn separatrices(args: &SeparatricesArgs) -> anyhow::Result<()> {

@@ -109,6 +109,43 @@ fn a_run_writes_exr_and_png_and_never_leaves_temporaries() {
 }
 
 #[test]
+fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
+    // A 4x4 unweighted slice reaches p95 relative error 0.05 in well under a minute: the run
+    // stops there, deterministically, with the default budget recorded in the output.
+    let dir = crate::support::temp_dir("cli", "default_budget");
+    let out = dir.join("d.exr");
+    let cornell = scene_path("cornell_mirror.obj");
+    let (ok, _, err) = ftpd3d(&[
+        "--scene",
+        cornell.to_str().unwrap(),
+        "--slice",
+        "z=0",
+        "--res",
+        "4",
+        "--weight",
+        "unweighted",
+        "--no-png",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("budget time 1m00s or target error 0.05"),
+        "{err}"
+    );
+    let f = ftpd3d::output::exr::read_exr(&out).unwrap();
+    let info = f.info("d.exr").unwrap();
+    let target: Option<f64> = info.budget_target_error.and_then(|t| t.parse().ok());
+    assert_eq!(target, Some(0.05), "{:?}", f.meta);
+    assert_eq!(info.budget_time.as_deref(), Some("1m00s"), "{:?}", f.meta);
+    let p95 = ftpd3d::render::error_stats(&f.cells).p95;
+    assert!(p95 <= 0.05, "p95 {p95}: {err}");
+    // More than the old default of 64 spp was needed, and no spp cap was applied.
+    assert!(f.cells.iter().all(|c| c.n > 64), "{:?}", f.meta);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn camera_runs_write_radiance_and_refuse_wrong_weightings() {
     let dir = std::env::temp_dir().join(format!("ftpd3d-cam-{}", std::process::id()));
     let out = dir.join("cam.exr");

@@ -609,12 +609,14 @@ fn sigint_writes_a_valid_resumable_partial_file() {
 }
 
 /// z-scores of a run against an independent run of 16 times the samples, over the cells valid in
-/// both: (mean, variance, standard error of the variance from the z's fourth moment).
-fn zscores_against_16x(s: &Setup, spp: u32) -> (f64, f64, f64) {
+/// both: (mean, variance, standard error of the variance from the z's fourth moment). Every pass
+/// gives each cell `pass_spp` samples: one scrambled Sobol' sequence of that many points (unweighted
+/// runs), whose points are not independent, while the standard error treats them as independent.
+fn zscores_against_16x(s: &Setup, spp: u32, pass_spp: u32) -> (f64, f64, f64) {
     let run = |seed, spp| {
         let mut o = opts(seed);
         o.spp = spp;
-        o.pass_spp = Some(8);
+        o.pass_spp = Some(pass_spp);
         s.fresh_run(&o).0
     };
     let (a, r) = (run(1, spp), run(2, 16 * spp));
@@ -633,25 +635,35 @@ fn zscores_against_16x(s: &Setup, spp: u32) -> (f64, f64, f64) {
     (m, v, ((m4 - v * v) / n).max(0.0).sqrt())
 }
 
+/// The range issue 13 asks of the z variance: the standard error neither much optimistic nor
+/// much pessimistic.
+const Z_VAR_RANGE: std::ops::RangeInclusive<f64> = 0.8..=1.25;
+
 /// The per-cell standard error predicts the error against a 16× reference (Cornell box, z = 0,
-/// 24² cells, independent seeds). Unweighted, the variance of the z-scores is 1 within three of its
-/// standard errors. Radiance-weighted, the contributions are heavy-tailed (rare paths carry 100×
-/// the mean), so a cell's error estimate rests on few effective samples and is optimistic at low
-/// sample counts, like any estimate from the samples themselves: the z variance was 1.67 ± 0.13 at
-/// 128 spp and 1.27 ± 0.07 at 512 with 8ae9f4f's estimator (the spread of σ over batches of 8, used
-/// before, gave 5.0), and 1.41 ± 0.09 and 1.30 ± 0.07 with Russian roulette from the fifth event.
-/// The test asserts that it does not grow with the samples (by more than three standard errors of
-/// the difference), stays below 2, and stays above 1 − 3 se (the error is not overestimated).
+/// 24² cells, independent seeds), with the QMC sampler (unweighted) and passes of 8 samples (the
+/// default's 64 spp in 8 passes): the variance of the z-scores is 1 within three of its standard
+/// errors and inside [`Z_VAR_RANGE`] (measured 0.96 ± 0.07). With longer passes see
+/// `qmc_stderr_z_variance_with_64_point_sequences`.
+///
+/// Radiance-weighted, the contributions are heavy-tailed (rare paths carry 100× the mean), so a
+/// cell's error estimate rests on few effective samples and is optimistic at low sample counts,
+/// like any estimate from the samples themselves: the z variance was 1.67 ± 0.13 at 128 spp and
+/// 1.27 ± 0.07 at 512 with 8ae9f4f's estimator (the spread of σ over batches of 8, used before,
+/// gave 5.0), and 1.41 ± 0.09 and 1.30 ± 0.07 with Russian roulette from the fifth event. Here the
+/// test asserts that it does not grow with the samples (by more than three standard errors of the
+/// difference), stays below 2, and stays above 1 − 3 se (the error is not overestimated); that it
+/// lies in [`Z_VAR_RANGE`] is the ignored test below, which fails today.
 #[test]
 fn stderr_predicts_the_error_against_a_16x_reference() {
     let mut s = cornell(24);
     s.params.weighting = Weighting::Unweighted;
-    let (m, v, se) = zscores_against_16x(&s, 128);
-    println!("unweighted, 128 spp: z mean {m:.3}, variance {v:.3} ± {se:.3}");
+    let (m, v, se) = zscores_against_16x(&s, 128, 8);
+    println!("unweighted, 128 spp, 8 per pass: z mean {m:.3}, variance {v:.3} ± {se:.3}");
     assert!((v - 1.0).abs() < 3.0 * se, "z variance {v} ± {se}");
+    assert!(Z_VAR_RANGE.contains(&v), "z variance {v} ± {se}");
     s.params.weighting = Weighting::Radiance;
-    let (m1, v1, se1) = zscores_against_16x(&s, 128);
-    let (m2, v2, se2) = zscores_against_16x(&s, 512);
+    let (m1, v1, se1) = zscores_against_16x(&s, 128, 8);
+    let (m2, v2, se2) = zscores_against_16x(&s, 512, 8);
     println!("radiance, 128 spp: z mean {m1:.3}, variance {v1:.3} ± {se1:.3}");
     println!("radiance, 512 spp: z mean {m2:.3}, variance {v2:.3} ± {se2:.3}");
     assert!(
@@ -659,4 +671,34 @@ fn stderr_predicts_the_error_against_a_16x_reference() {
         "{v1} ± {se1} → {v2} ± {se2}"
     );
     assert!(v2 > 1.0 - 3.0 * se2, "{v2} ± {se2}");
+}
+
+/// The QMC sampler with passes of 64 samples: each pass of a cell is one scrambled Sobol' sequence
+/// of 64 points, whose stratification lowers the error, while the standard error treats the points
+/// as independent and so overestimates it. Not met today: z variance 0.68 ± 0.05 (unweighted,
+/// 128 spp, 24² cells), i.e. error bars about 1.2× too wide; `--spp 512` in the default 8 passes
+/// has passes of this size.
+#[test]
+#[ignore = "not met today: with 64-point QMC passes the standard error is pessimistic (z variance 0.68)"]
+fn qmc_stderr_z_variance_with_64_point_sequences() {
+    let mut s = cornell(24);
+    s.params.weighting = Weighting::Unweighted;
+    let (m, v, se) = zscores_against_16x(&s, 128, 64);
+    println!("unweighted, 128 spp, 64 per pass: z mean {m:.3}, variance {v:.3} ± {se:.3}");
+    assert!(Z_VAR_RANGE.contains(&v), "z variance {v} ± {se}");
+}
+
+/// Issue 13's goal for radiance weighting: the z variance against a 16× reference in
+/// [`Z_VAR_RANGE`] at 128 and 512 spp. Not met: the standard error of radiance-weighted σ is
+/// optimistic (see the test above for the measured values).
+#[test]
+#[ignore = "not met today: radiance-weighted standard errors are optimistic (z variance 1.3-1.4)"]
+fn radiance_stderr_z_variance_in_range() {
+    let mut s = cornell(24);
+    s.params.weighting = Weighting::Radiance;
+    for spp in [128, 512] {
+        let (m, v, se) = zscores_against_16x(&s, spp, 8);
+        println!("radiance, {spp} spp: z mean {m:.3}, variance {v:.3} ± {se:.3}");
+        assert!(Z_VAR_RANGE.contains(&v), "{spp} spp: z variance {v} ± {se}");
+    }
 }

@@ -19,6 +19,12 @@
 //!
 //! Before each curve, one untimed warm-up run of the first level's size absorbs one-time costs.
 //!
+//! **`--baseline BIN`** (an older build of this tool, e.g. 8ae9f4f) draws the old and the new
+//! estimator on one plot: both binaries run every level as separate processes on the same scene,
+//! slice, grid and estimator flags, against one reference (see [`measure_binaries`]); the CSVs
+//! gain a row per baseline level and fit (`binary` = `baseline`), the plot a darker curve per
+//! weighting with its own slope, and every run's EXR stays in `runs/` of the output directory.
+//!
 //! The fit is ordinary least squares of ln(RMSE) against ln(wall seconds) (and against ln(spp)),
 //! with the slope's standard error. Monte Carlo converges as t^−½ once the time is proportional
 //! to the samples; fixed costs per run make small runs look cheaper than they are.
@@ -58,6 +64,11 @@ pub struct ConvergeJob {
     pub seed: u64,
     pub threads: usize,
     pub quiet: bool,
+    /// An older build of this tool: its curves are measured too, and drawn on the same plot
+    /// (see [`measure_binaries`]).
+    pub baseline: Option<PathBuf>,
+    /// The estimator and light flags as given, passed on to both binaries with `--baseline`.
+    pub forward_args: Vec<String>,
 }
 
 /// Default `--res` of a convergence run without a reference.
@@ -71,6 +82,7 @@ pub struct Level {
     pub seed: u64,
     /// Wall time of the estimate (not the scene load).
     pub seconds: f64,
+    /// Rays traced (0 for runs of `--baseline` mode, whose outputs do not store it).
     pub rays: u64,
     pub samples: u64,
     /// Cells valid in both this run and the reference.
@@ -133,6 +145,8 @@ pub fn fit_line(pts: &[(f64, f64)]) -> Option<Fit> {
 #[derive(Clone, Debug)]
 pub struct Curve {
     pub weighting: Weighting,
+    /// Measured with the `--baseline` binary (else with this one).
+    pub baseline: bool,
     pub levels: Vec<Level>,
     /// ln RMSE against ln seconds.
     pub fit_time: Option<Fit>,
@@ -162,6 +176,19 @@ pub struct Report {
     pub plane: String,
     pub grid: (usize, usize),
     pub scene: PathBuf,
+    /// The `--baseline` binary whose curves are among `curves`.
+    pub baseline: Option<PathBuf>,
+}
+
+impl Curve {
+    /// The weighting, with "(baseline)" for a curve of the baseline binary.
+    pub fn label(&self) -> String {
+        if self.baseline {
+            format!("{} (baseline)", self.weighting)
+        } else {
+            self.weighting.to_string()
+        }
+    }
 }
 
 /// Sample counts start, 2·start, …, up to max.
@@ -235,6 +262,38 @@ pub fn mean_stderr(field: &Field) -> f64 {
         .filter(|v| v.valid)
         .fold((0usize, 0.0), |(n, s), v| (n + 1, s + v.stderr));
     if n > 0 { s / n as f64 } else { 0.0 }
+}
+
+/// The curve of `levels` with its fits (see the module documentation).
+fn curve_of(weighting: Weighting, levels: Vec<Level>, baseline: bool) -> Curve {
+    let mut curve = Curve {
+        weighting,
+        baseline,
+        levels,
+        fit_time: None,
+        fit_spp: None,
+        time_per_doubling: None,
+    };
+    let ln =
+        |v: &[(f64, f64)]| -> Vec<(f64, f64)> { v.iter().map(|(x, y)| (x.ln(), y.ln())).collect() };
+    curve.fit_time = fit_line(&ln(&curve.fit_points()));
+    let by_spp: Vec<(f64, f64)> = curve
+        .levels
+        .iter()
+        .filter_map(|l| Some((l.spp as f64, l.net_rmse?)))
+        .filter(|(_, e)| *e > 0.0)
+        .collect();
+    curve.fit_spp = fit_line(&ln(&by_spp));
+    let ratios: Vec<f64> = curve
+        .levels
+        .windows(2)
+        .filter(|w| w[0].seconds > 0.0 && w[1].seconds > 0.0)
+        .map(|w| (w[1].seconds / w[0].seconds).ln())
+        .collect();
+    if !ratios.is_empty() {
+        curve.time_per_doubling = Some((ratios.iter().sum::<f64>() / ratios.len() as f64).exp());
+    }
+    curve
 }
 
 /// Runs the levels of every weighting and measures them (see the module documentation).
@@ -319,44 +378,141 @@ pub fn measure(
                 is_reference: self_ref,
             });
         }
-        let mut curve = Curve {
-            weighting: p.weighting,
-            levels: out,
-            fit_time: None,
-            fit_spp: None,
-            time_per_doubling: None,
-        };
-        let ln = |v: &[(f64, f64)]| -> Vec<(f64, f64)> {
-            v.iter().map(|(x, y)| (x.ln(), y.ln())).collect()
-        };
-        curve.fit_time = fit_line(&ln(&curve.fit_points()));
-        let by_spp: Vec<(f64, f64)> = curve
-            .levels
-            .iter()
-            .filter_map(|l| Some((l.spp as f64, l.net_rmse?)))
-            .filter(|(_, e)| *e > 0.0)
-            .collect();
-        curve.fit_spp = fit_line(&ln(&by_spp));
-        let ratios: Vec<f64> = curve
-            .levels
-            .windows(2)
-            .filter(|w| w[0].seconds > 0.0 && w[1].seconds > 0.0)
-            .map(|w| (w[1].seconds / w[0].seconds).ln())
-            .collect();
-        if !ratios.is_empty() {
-            curve.time_per_doubling =
-                Some((ratios.iter().sum::<f64>() / ratios.len() as f64).exp());
-        }
-        curves.push(curve);
+        curves.push(curve_of(p.weighting, out, false));
         tops.push(fields.pop().expect("at least one level"));
     }
     Ok((curves, tops))
 }
 
+/// With `--baseline`: the levels of the baseline binary and of this one, each run as a separate
+/// process with the same plain command line ([`crate::analysis::binary`]), interleaved level by
+/// level (baseline, then this) so that a change of the machine's load hits both alike. Times are
+/// the compute seconds each process stores in its output.
+///
+/// Seeds: the baseline's level k uses `seed + k`, this binary's `seed + n + k` for n levels, so
+/// that no run of one binary shares a seed (and so random streams) with a run of the other.
+/// Reference: `--reference` when given; else the baseline's highest-spp run, which is the
+/// self-reference of the baseline curve (its own row is left out) and the reference of every
+/// level of this binary, so that a bias of the newer estimator cannot hide in its reference.
+/// Returns the curves (per weighting: baseline, then this) and this binary's top field per
+/// weighting.
+fn measure_binaries(
+    job: &ConvergeJob,
+    baseline: &Path,
+    plane: &Plane,
+    weightings: &[Weighting],
+    reference: Option<(&str, &Field)>,
+    levels: &[u32],
+    mut say: impl FnMut(&str),
+) -> anyhow::Result<(Vec<Curve>, Vec<Field>)> {
+    use crate::analysis::binary::{SliceRun, run_slice, seconds};
+    let this = std::env::current_exe().context("converge: cannot find this binary")?;
+    let runs_dir = job.out_dir.join("runs");
+    std::fs::create_dir_all(&runs_dir)
+        .with_context(|| format!("{}: cannot create it", runs_dir.display()))?;
+    let n = levels.len() as u64;
+    let res = plane.width.max(plane.height);
+    let mut curves = Vec::new();
+    let mut tops = Vec::new();
+    for &w in weightings {
+        let run = |spp: u32, seed: u64| SliceRun {
+            scene: &job.scene,
+            slice: &job.slice,
+            res,
+            window: job.window,
+            weighting: w,
+            spp,
+            batches: job.batches.clamp(1, spp),
+            seed,
+            threads: job.threads,
+            extra: &job.forward_args,
+        };
+        // Untimed warm-up of each binary (file cache, first process start).
+        for (tag, bin) in [("baseline", baseline), ("this", this.as_path())] {
+            let out = runs_dir.join(format!("warmup_{tag}_{w}.exr"));
+            run_slice(bin, &run(levels[0], job.seed.wrapping_sub(1)), &out)?;
+            let _ = std::fs::remove_file(&out);
+        }
+        let mut fields: [Vec<(u32, u64, f64, Field)>; 2] = [Vec::new(), Vec::new()];
+        for (k, &spp) in levels.iter().enumerate() {
+            for (b, (tag, bin, seed)) in [
+                ("baseline", baseline, job.seed.wrapping_add(k as u64)),
+                ("this", this.as_path(), job.seed.wrapping_add(n + k as u64)),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let out = runs_dir.join(format!("{tag}_{w}_spp{spp}.exr"));
+                let field = run_slice(bin, &run(spp, seed), &out)?;
+                let name = out.display().to_string();
+                match (b, reference, fields[0].first()) {
+                    (1, Some((rn, r)), _) => crate::merge::check_same_run(rn, r, &name, &field)?,
+                    (_, _, Some(f)) if (f.3.width, f.3.height) != (field.width, field.height) => {
+                        bail!(
+                            "{name}: {}x{} cells, the baseline wrote {}x{}",
+                            field.width,
+                            field.height,
+                            f.3.width,
+                            f.3.height
+                        )
+                    }
+                    _ => {}
+                }
+                let secs = seconds(&field, &out)?;
+                say(&format!(
+                    "{:<10} {tag:<8} {spp:>6} spp  seed {seed:<4} {secs:>8.3} s",
+                    w.to_string()
+                ));
+                fields[b].push((spp, seed, secs, field));
+            }
+        }
+        let top = levels.len() - 1;
+        let base_top = &fields[0][top].3;
+        for (b, lv) in fields.iter().enumerate() {
+            let mut out = Vec::new();
+            for (k, (spp, seed, secs, field)) in lv.iter().enumerate() {
+                let self_ref = reference.is_none() && b == 0 && k == top;
+                let cmp = match reference {
+                    Some((_, r)) => compare(field, r),
+                    None if self_ref => Comparison {
+                        cells: field.valid().iter().filter(|v| **v).count(),
+                        ..Comparison::default()
+                    },
+                    None => compare(field, base_top),
+                };
+                out.push(Level {
+                    weighting: w,
+                    spp: *spp,
+                    seed: *seed,
+                    seconds: *secs,
+                    // Runs do not store their ray count.
+                    rays: 0,
+                    samples: field.info("converge run")?.samples.unwrap_or(0),
+                    cells: cmp.cells,
+                    rmse: (!self_ref).then_some(cmp.rmse),
+                    net_rmse: (!self_ref).then_some(cmp.net_rmse()),
+                    mean_rel_err: (!self_ref).then_some(cmp.mean_rel),
+                    mean_stderr: mean_stderr(field),
+                    is_reference: self_ref,
+                });
+            }
+            curves.push(curve_of(w, out, b == 0));
+        }
+        let [_, mut this_fields] = fields;
+        tops.push(this_fields.pop().expect("at least one level").3);
+    }
+    Ok((curves, tops))
+}
+
+/// The `binary` column: `baseline` or `this`.
+fn binary_name(c: &Curve) -> &'static str {
+    if c.baseline { "baseline" } else { "this" }
+}
+
 /// The levels as CSV: one row per run.
 pub fn csv(report: &Report) -> String {
     let mut s = String::from(
-        "weighting,spp,seed,seconds,rays,samples,cells,rmse,net_rmse,mean_rel_err,mean_stderr,reference,in_fit\n",
+        "weighting,spp,seed,seconds,rays,samples,cells,rmse,net_rmse,mean_rel_err,mean_stderr,reference,in_fit,binary\n",
     );
     let reference = match &report.reference {
         Some(p) => p.display().to_string().replace(',', ";"),
@@ -370,12 +526,14 @@ pub fn csv(report: &Report) -> String {
                 reference.clone()
             } else if l.is_reference {
                 "self-reference (this run; error excluded)".to_string()
+            } else if report.baseline.is_some() && !c.baseline {
+                format!("baseline's {top} spp run")
             } else {
                 format!("self-reference ({top} spp run)")
             };
             let _ = writeln!(
                 s,
-                "{},{},{},{:.6},{},{},{},{},{},{},{:.6e},{},{}",
+                "{},{},{},{:.6},{},{},{},{},{},{},{:.6e},{},{},{}",
                 l.weighting,
                 l.spp,
                 l.seed,
@@ -388,7 +546,8 @@ pub fn csv(report: &Report) -> String {
                 opt(l.mean_rel_err),
                 l.mean_stderr,
                 what,
-                u8::from(l.net_rmse.is_some_and(|e| e > 0.0) && l.seconds > 0.0)
+                u8::from(l.net_rmse.is_some_and(|e| e > 0.0) && l.seconds > 0.0),
+                binary_name(c)
             );
         }
     }
@@ -398,17 +557,18 @@ pub fn csv(report: &Report) -> String {
 /// The fits as CSV: one row per weighting.
 pub fn fit_csv(report: &Report) -> String {
     let mut s = String::from(
-        "weighting,points,slope_time,slope_time_se,slope_spp,slope_spp_se,time_per_doubling,reference\n",
+        "weighting,points,slope_time,slope_time_se,slope_spp,slope_spp_se,time_per_doubling,reference,binary\n",
     );
     let reference = match &report.reference {
         Some(p) => p.display().to_string().replace(',', ";"),
+        None if report.baseline.is_some() => "the baseline's highest spp run".into(),
         None => "self-reference (highest spp run)".into(),
     };
     for c in &report.curves {
         let f = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:.4}"));
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{}",
             c.weighting,
             c.fit_time.map_or(0, |f| f.points),
             f(c.fit_time.map(|f| f.slope)),
@@ -416,7 +576,8 @@ pub fn fit_csv(report: &Report) -> String {
             f(c.fit_spp.map(|f| f.slope)),
             f(c.fit_spp.and_then(|f| f.slope_se)),
             f(c.time_per_doubling),
-            reference
+            reference,
+            binary_name(c)
         );
     }
     s
@@ -424,13 +585,30 @@ pub fn fit_csv(report: &Report) -> String {
 
 const COLORS: [(u8, u8, u8); 3] = [(200, 60, 40), (40, 90, 200), (30, 150, 70)];
 
+/// `c` mixed with white: lighter lines of the same hue.
+fn lighter(c: (u8, u8, u8)) -> (u8, u8, u8) {
+    (c.0 / 2 + 110, c.1 / 2 + 110, c.2 / 2 + 110)
+}
+
 /// The log-log plot: RMSE against seconds per weighting (markers), its fitted line (dashed), the
-/// mean estimated standard error (thin), and a t^−½ line through the first curve.
+/// mean estimated standard error (thin), and a t^−½ line through the first curve. With a
+/// baseline, each weighting's baseline curve is drawn in the same hue, darker, with square
+/// markers, its slope in the legend.
 pub fn plot(report: &Report, path: &Path, size: (u32, u32)) -> anyhow::Result<()> {
     let mut series = Vec::new();
     let (mut t_lo, mut t_hi) = (f64::INFINITY, 0.0f64);
-    for (k, c) in report.curves.iter().enumerate() {
-        let color = COLORS[k % COLORS.len()];
+    let mut hues: Vec<Weighting> = Vec::new();
+    for c in &report.curves {
+        if !hues.contains(&c.weighting) {
+            hues.push(c.weighting);
+        }
+        let k = hues.iter().position(|w| *w == c.weighting).unwrap_or(0);
+        let hue = COLORS[k % COLORS.len()];
+        let color = if c.baseline {
+            (hue.0 / 2, hue.1 / 2, hue.2 / 2)
+        } else {
+            hue
+        };
         let pts = c.fit_points();
         for (t, _) in &pts {
             t_lo = t_lo.min(*t);
@@ -441,29 +619,37 @@ pub fn plot(report: &Report, path: &Path, size: (u32, u32)) -> anyhow::Result<()
             None => format!(", slope {:.2}", f.slope),
         });
         series.push(Series {
-            label: format!("{} RMSE{fit}", c.weighting),
+            label: format!("{} RMSE{fit}", c.label()),
             points: pts.clone(),
             color,
-            line: Line::Markers,
+            line: if c.baseline {
+                Line::Squares
+            } else {
+                Line::Markers
+            },
         });
         if let (Some(f), Some(a), Some(b)) = (c.fit_time, pts.first(), pts.last()) {
             let line = |t: f64| (t, (f.intercept + f.slope * t.ln()).exp());
             series.push(Series {
-                label: format!("{} fit", c.weighting),
+                label: format!("{} fit", c.label()),
                 points: vec![line(a.0), line(b.0)],
                 color,
                 line: Line::Dashed,
             });
         }
+        if c.baseline {
+            // One estimated-error line per weighting (this binary's) keeps the plot readable.
+            continue;
+        }
         series.push(Series {
-            label: format!("{} mean est. stderr", c.weighting),
+            label: format!("{} mean est. stderr", c.label()),
             points: c
                 .levels
                 .iter()
                 .filter(|l| !l.is_reference)
                 .map(|l| (l.seconds, l.mean_stderr))
                 .collect(),
-            color: (color.0 / 2 + 110, color.1 / 2 + 110, color.2 / 2 + 110),
+            color: lighter(color),
             line: Line::Thin,
         });
     }
@@ -486,6 +672,7 @@ pub fn plot(report: &Report, path: &Path, size: (u32, u32)) -> anyhow::Result<()
             "reference {}",
             p.file_name().map_or(p.as_os_str(), |n| n).to_string_lossy()
         ),
+        None if report.baseline.is_some() => "reference: baseline's highest spp run".into(),
         None => "self-reference: highest spp run".into(),
     };
     let scene = report
@@ -508,7 +695,8 @@ pub fn plot(report: &Report, path: &Path, size: (u32, u32)) -> anyhow::Result<()
 }
 
 /// Runs a [`ConvergeJob`] end to end: runs, `converge.csv`, `converge_fit.csv`, `converge.png`,
-/// and the top run of each weighting as `<weighting>_spp<N>.exr` in the output directory.
+/// and the top run of each weighting (of this binary) as `<weighting>_spp<N>.exr` in the output
+/// directory.
 pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
     let levels = spp_levels(job.start_spp, job.max_spp)?;
     if job.reference.is_none() && levels.len() < 3 {
@@ -588,9 +776,10 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
             .map(Weighting::to_string)
             .collect::<Vec<_>>()
             .join(" and "),
-        match &job.reference {
-            Some(p) => format!("reference {}", p.display()),
-            None => "self-reference (highest spp)".into(),
+        match (&job.reference, &job.baseline) {
+            (Some(p), _) => format!("reference {}", p.display()),
+            (None, Some(_)) => "reference: the baseline's highest spp run".into(),
+            (None, None) => "self-reference (highest spp)".into(),
         }
     ));
     let ref_name = job
@@ -598,21 +787,33 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         .as_ref()
         .map(|p| p.display().to_string())
         .unwrap_or_default();
-    let (curves, tops) = measure(
-        &scene,
-        &plane,
-        &params,
-        reference.as_ref().map(|r| (ref_name.as_str(), r)),
-        &levels,
-        job,
-        say,
-    )?;
+    let (curves, tops) = match &job.baseline {
+        Some(b) => measure_binaries(
+            job,
+            b,
+            &plane,
+            &weightings,
+            reference.as_ref().map(|r| (ref_name.as_str(), r)),
+            &levels,
+            say,
+        )?,
+        None => measure(
+            &scene,
+            &plane,
+            &params,
+            reference.as_ref().map(|r| (ref_name.as_str(), r)),
+            &levels,
+            job,
+            say,
+        )?,
+    };
     let report = Report {
         curves,
         reference: job.reference.clone(),
         plane: plane.label.clone(),
         grid: (plane.width, plane.height),
         scene: job.scene.clone(),
+        baseline: job.baseline.clone(),
     };
     for (name, text) in [
         ("converge.csv", csv(&report)),
@@ -623,7 +824,7 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
         })?;
     }
     plot(&report, &job.out_dir.join("converge.png"), (800, 560))?;
-    for (c, f) in report.curves.iter().zip(&tops) {
+    for (c, f) in report.curves.iter().filter(|c| !c.baseline).zip(&tops) {
         let top = c.levels.last().map_or(0, |l| l.spp);
         write_outputs(
             f,

@@ -20,6 +20,7 @@
 //! Times are the compute seconds the binaries store in their outputs (the scene load is left
 //! out). On a shared machine they are noisy: compare ratios from one run.
 
+use crate::analysis::binary::{SliceRun, run_slice, seconds};
 use crate::analysis::converge::{Fit, compare, fit_line};
 use crate::field::Field;
 use crate::ftpd::Weighting;
@@ -207,32 +208,19 @@ fn run_binary(
     seed: u64,
     out: &Path,
 ) -> anyhow::Result<Field> {
-    let mut cmd = std::process::Command::new(bin);
-    cmd.arg("--scene")
-        .arg(scene)
-        .args(["--slice", &job.slice])
-        .args(["--res", &job.res.to_string()])
-        .args(["--spp", &spp.to_string()])
-        .args(["--batches", &spp.min(16).to_string()])
-        .args(["--seed", &seed.to_string()])
-        .args(["--weight", &weighting.to_string()])
-        .args(["--threads", &job.threads.to_string()])
-        .args(["--quiet", "--no-png", "-o"])
-        .arg(out);
-    let status = cmd
-        .status()
-        .with_context(|| format!("{}: cannot start it", bin.display()))?;
-    if !status.success() {
-        bail!("{} failed ({status}): {cmd:?}", bin.display());
-    }
-    crate::output::exr::read_exr(out).with_context(|| format!("{}", out.display()))
-}
-
-fn seconds(field: &Field, path: &Path) -> anyhow::Result<f64> {
-    field
-        .info(&path.display().to_string())?
-        .elapsed
-        .with_context(|| format!("{}: no elapsed time stored", path.display()))
+    let run = SliceRun {
+        scene,
+        slice: &job.slice,
+        res: job.res,
+        window: None,
+        weighting,
+        spp,
+        batches: spp.min(16),
+        seed,
+        threads: job.threads,
+        extra: &[],
+    };
+    run_slice(bin, &run, out)
 }
 
 /// Runs every scene and weighting of `job` (see the module documentation); `say` gets one line

@@ -164,7 +164,7 @@ pub fn converge_line(c: &crate::analysis::converge::Curve) -> String {
     let f = |v: Option<f64>| v.map_or("n/a".to_string(), |x| format!("{x:.3}"));
     format!(
         "{:<10} slope vs time {} ± {}, vs spp {} ± {}; time per doubling {}",
-        c.weighting.to_string(),
+        c.label(),
         f(c.fit_time.map(|f| f.slope)),
         f(c.fit_time.and_then(|f| f.slope_se)),
         f(c.fit_spp.map(|f| f.slope)),

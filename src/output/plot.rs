@@ -23,6 +23,8 @@ fn register() {
 pub enum Line {
     /// Solid line with a circle at every point.
     Markers,
+    /// Solid line with a square at every point (a second set of curves, e.g. a baseline's).
+    Squares,
     /// Dashed line, no markers.
     Dashed,
     /// Thin solid line, no markers.
@@ -157,6 +159,17 @@ pub fn write_loglog_png(
                 Line::Markers => {
                     chart
                         .draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled())))
+                        .map_err(|e| err(&e))?;
+                    chart
+                        .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+                        .map_err(|e| err(&e))?
+                }
+                Line::Squares => {
+                    chart
+                        .draw_series(pts.iter().map(|&(x, y)| {
+                            EmptyElement::at((x, y))
+                                + Rectangle::new([(-4, -4), (4, 4)], c.filled())
+                        }))
                         .map_err(|e| err(&e))?;
                     chart
                         .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
