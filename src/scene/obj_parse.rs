@@ -227,7 +227,14 @@ impl Chunk {
 
     /// Reads the lines that start in the file's byte range `[start, end)` (`first`: `start` is
     /// known to start a line) and parses them.
-    fn read_and_parse(&mut self, file: &File, len: u64, range: (u64, u64), first: bool, strict: bool) {
+    fn read_and_parse(
+        &mut self,
+        file: &File,
+        len: u64,
+        range: (u64, u64),
+        first: bool,
+        strict: bool,
+    ) {
         self.reset();
         let (start, end) = range;
         self.from = if first { start } else { start - 1 };
@@ -428,9 +435,21 @@ fn append(out: &mut ObjData, chunks: &[Chunk], bases: &[(Base, usize)]) {
     let dests: Vec<Dest> = split(&mut out.positions, old.0[0], lens(|d| d.positions.len()))
         .into_iter()
         .zip(split(&mut out.normals, old.0[2], lens(|d| d.normals.len())))
-        .zip(split(&mut out.texcoords, old.0[1], lens(|d| d.texcoords.len())))
-        .zip(split(&mut out.triangles, old.1, lens(|d| d.triangles.len())))
-        .zip(split(&mut out.tri_normals, old.1, lens(|d| d.triangles.len())))
+        .zip(split(
+            &mut out.texcoords,
+            old.0[1],
+            lens(|d| d.texcoords.len()),
+        ))
+        .zip(split(
+            &mut out.triangles,
+            old.1,
+            lens(|d| d.triangles.len()),
+        ))
+        .zip(split(
+            &mut out.tri_normals,
+            old.1,
+            lens(|d| d.triangles.len()),
+        ))
         .zip(tri_texcoords.drain(..))
         .map(
             |(((((positions, normals), texcoords), triangles), tri_normals), tri_texcoords)| Dest {
@@ -1140,7 +1159,10 @@ mod tests {
             }
         }
         let d = parse("long-lines", &text);
-        assert_eq!((d.triangles.len(), d.positions.len(), d.lines), (40_000, 120_000, lines));
+        assert_eq!(
+            (d.triangles.len(), d.positions.len(), d.lines),
+            (40_000, 120_000, lines)
+        );
         assert_eq!(d.triangles[39_999], [119_997, 119_998, 119_999]);
         // The same file with a bad line at the end, and again without a final newline.
         for end in ["f 1 2 999999\n", "f 1 2 999999"] {
