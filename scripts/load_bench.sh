@@ -7,8 +7,9 @@
 #     scripts/load_bench.sh [SPHERES_PER_SIDE] [DIR]
 #
 # SPHERES_PER_SIDE is 20 (10.2 M triangles, with vn, vt and 300 materials); 8 gives 655 k
-# triangles in 68 MB for a quick run. Run it several times on a shared machine: the CPU seconds
-# (user + system) vary less than the wall time.
+# triangles in 68 MB for a quick run. RUNS=N loads the scene N times (one process each, default 1):
+# on a shared machine the CPU seconds (user + system) vary less than the wall time, and the
+# example's estimate for two free cores (serial CPU + the rest / 2) does not depend on the load.
 set -eu
 n=${1:-20}
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -23,6 +24,8 @@ fi
 python3 "$root/scripts/heavy_scene.py" "$dir/heavy_$n.obj" "$n" 3 --attributes --materials 300
 cd "$root"
 cargo build --release --example load_bench
-/usr/bin/time -v "${CARGO_TARGET_DIR:-$root/target}/release/examples/load_bench" "$dir/heavy_$n.obj" \
-    2>"$dir/time.txt"
-grep -E 'User time|System time|Elapsed|Maximum resident' "$dir/time.txt"
+for _ in $(seq "${RUNS:-1}"); do
+    /usr/bin/time -v "${CARGO_TARGET_DIR:-$root/target}/release/examples/load_bench" "$dir/heavy_$n.obj" \
+        2>"$dir/time.txt"
+    grep -E 'User time|System time|Elapsed|Maximum resident' "$dir/time.txt"
+done
