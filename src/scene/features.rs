@@ -11,6 +11,9 @@ pub struct Features {
     pub diffuse: bool,
     pub glossy: bool,
     pub mirror: bool,
+    /// Planar perfect mirrors, whose images of the lights are sampled
+    /// ([`crate::scene::mirror::Mirrors`]).
+    pub planar_mirrors: bool,
     pub dielectric: bool,
     pub area_lights: bool,
     pub point_lights: bool,
@@ -69,6 +72,7 @@ impl fmt::Display for Features {
             (self.diffuse, "diffuse"),
             (self.glossy, "glossy"),
             (self.mirror, "mirror"),
+            (self.planar_mirrors, "planar-mirrors"),
             (self.dielectric, "dielectric"),
             (self.area_lights, "area-lights"),
             (self.point_lights, "point-lights"),
