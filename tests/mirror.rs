@@ -46,16 +46,31 @@ fn mirror_room() -> Scene {
     );
     // Winding so that the light's front side faces +x.
     quad(
-        [[0.5, 1.05, -0.15], [0.5, 1.35, -0.15], [0.5, 1.35, 0.15], [0.5, 1.05, 0.15]],
+        [
+            [0.5, 1.05, -0.15],
+            [0.5, 1.35, -0.15],
+            [0.5, 1.35, 0.15],
+            [0.5, 1.05, 0.15],
+        ],
         2,
     );
     quad(
-        [[0.55, 0.0, 0.35], [0.95, 0.0, 0.35], [0.95, 1.6, 0.35], [0.55, 1.6, 0.35]],
+        [
+            [0.55, 0.0, 0.35],
+            [1.0, 0.0, 0.35],
+            [1.0, 1.6, 0.35],
+            [0.55, 1.6, 0.35],
+        ],
         0,
     );
     // A wall facing the mirror, where the pairs that start along the reflected light deflect.
     quad(
-        [[-0.7, 0., -1.], [-0.7, 1.6, -1.], [-0.7, 1.6, 1.], [-0.7, 0., 1.]],
+        [
+            [-0.7, 0., -1.],
+            [-0.7, 1.6, -1.],
+            [-0.7, 1.6, 1.],
+            [-0.7, 0., 1.],
+        ],
         0,
     );
     let materials = vec![
@@ -118,18 +133,34 @@ fn the_mirror_is_found_as_one_plane() {
     assert!(cornell.mirrors.is_empty() && !cornell.features.planar_mirrors);
 }
 
-/// Light that reaches the points only through the mirror: from the area light and the spot.
-/// The point at z = 0.6 sees the mirror's image of the area light only past the blocker's edge,
-/// and the one at z = 0.9 not at all (the blocker hides it); both must still agree.
+/// Light that reaches the points only through the mirror: from the area light and the spot. The
+/// points at z = 0.6 and 0.9 do not see the lights' images (the blocker hides them): their virtual
+/// samples fail, and what they get comes by other paths, much of it light the mirror throws on the
+/// floor, which the reference finds only by rare BSDF paths that hit the mirror and then the light.
+/// Its batch errors are then too optimistic at 16 × 6000 samples (z up to 5.3 on σ, with MIS
+/// above), while at 16 × 80000 all eight comparisons are within 1.3 standard errors: these two
+/// points get the larger count.
 #[test]
 fn light_seen_only_through_a_mirror_matches_the_reference() {
     let scene = mirror_room();
-    let points = [
-        DVec3::new(-0.3, 0.8, -0.2),
-        DVec3::new(0.0, 1.2, 0.6),
-        DVec3::new(0.2, 1.0, 0.9),
-    ];
-    agrees_with_reference(&scene, &points, &params(), 6000, (300, 400), "mirror room");
+    let open = [DVec3::new(-0.3, 0.8, -0.2)];
+    agrees_with_reference(
+        &scene,
+        &open,
+        &params(),
+        6000,
+        (300, 400),
+        "mirror room, open",
+    );
+    let hidden = [DVec3::new(0.0, 1.2, 0.6), DVec3::new(0.2, 1.0, 0.9)];
+    agrees_with_reference(
+        &scene,
+        &hidden,
+        &params(),
+        80000,
+        (700, 800),
+        "mirror room, hidden",
+    );
 }
 
 /// The virtual sample from a point in the open sees the image of the light at the light's
@@ -161,10 +192,16 @@ fn virtual_light_samples_pass_in_the_open_and_fail_behind_the_blocker() {
         (hits, tries)
     };
     let (open_hits, open_tries) = count(DVec3::new(-0.3, 0.8, -0.2));
-    assert!(open_tries > 0 && open_hits == open_tries, "{open_hits}/{open_tries}");
+    assert!(
+        open_tries > 0 && open_hits == open_tries,
+        "{open_hits}/{open_tries}"
+    );
     let (hidden_hits, hidden_tries) = count(DVec3::new(0.2, 1.0, 0.9));
     assert!(hidden_tries > 0, "no sample from behind the blocker");
-    assert!(hidden_hits < hidden_tries / 4, "{hidden_hits}/{hidden_tries}");
+    assert!(
+        hidden_hits < hidden_tries / 4,
+        "{hidden_hits}/{hidden_tries}"
+    );
 }
 
 /// In flatland (the shipped two-mirror system), radiance weighting with the lights' mirror images
@@ -221,7 +258,10 @@ fn flatland_mirror_images_agree_with_the_estimator_without_them() {
             ]
         };
         let (a, b) = (run(&with, 500), run(&without, 600));
-        for (name, (a, b)) in ["m1", "mean c", "sigma", "fluence"].iter().zip(a.iter().zip(&b)) {
+        for (name, (a, b)) in ["m1", "mean c", "sigma", "fluence"]
+            .iter()
+            .zip(a.iter().zip(&b))
+        {
             let z = (a.0 - b.0) / (a.1 * a.1 + b.1 * b.1).sqrt();
             eprintln!(
                 "flat point {k} {name}: images {:.5} ± {:.5}, without {:.5} ± {:.5}, z = {z:.2}",

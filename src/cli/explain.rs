@@ -117,7 +117,10 @@ pub fn explain(
                 Some(f) if params.flat.is_some() => &f.mirrors,
                 _ => &scene.mirrors,
             };
-            if effects.iter().any(|e| e.name == "mirror-images" && e.simulated) {
+            if effects
+                .iter()
+                .any(|e| e.name == "mirror-images" && e.simulated)
+            {
                 writeln!(
                     out,
                     "           mirror images of the lights through {} planar mirror{} ({} triangles)",

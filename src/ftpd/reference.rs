@@ -101,8 +101,6 @@ fn delta_light_mirrored(
     out
 }
 
-
-
 /// A light that only a connection can find (point, spot, sun without a disc), seen from `x`
 /// (shadow rays leave from `origin`): the unit direction towards it and what arrives, `I / d²` with
 /// the spot's falloff or the sun's irradiance, 0 when occluded; `None` for the other kinds.

@@ -302,7 +302,8 @@ impl FlatScene {
                 bad.push((i, out));
                 continue;
             }
-            if let (Some(k), Section::Segment { a, b, .. }) = (scene.mirrors.plane_of(i as u32), section)
+            if let (Some(k), Section::Segment { a, b, .. }) =
+                (scene.mirrors.plane_of(i as u32), section)
             {
                 mirror_lengths[k as usize] += (b - a).length();
             }

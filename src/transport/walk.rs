@@ -277,14 +277,13 @@ pub fn radiance_mis<K: Kernel>(
     let has_mirrors = !mirrors.is_empty() && !lights_empty;
     // The last non-specular vertex (before a mirror) and, once the path has reflected in a planar
     // mirror from there, its image (`through`).
-    let mut before: Option<MirrorMis> = (has_mirrors && start.virtual_fraction > 0.0).then_some(
-        MirrorMis {
+    let mut before: Option<MirrorMis> =
+        (has_mirrors && start.virtual_fraction > 0.0).then_some(MirrorMis {
             p: x,
             pdf: start.pdf,
             scale: start.virtual_fraction,
             balance: true,
-        },
-    );
+        });
     let mut through: Option<MirrorMis> = None;
     loop {
         st.rays += 1;
@@ -373,7 +372,8 @@ pub fn radiance_mis<K: Kernel>(
             let u_m = s.next_f64();
             let u_l = s.next_f64();
             let u = s.next_2d();
-            if let Some(vs) = crate::transport::mirror::sample_virtual(scene, sp, hit.p, u_m, u_l, u)
+            if let Some(vs) =
+                crate::transport::mirror::sample_virtual(scene, sp, hit.p, u_m, u_l, u)
             {
                 let f = bsdf.eval_in::<K::Space>(lobe, wo, vs.wi, hit.ng, hit.ns, Mode::Radiance);
                 if f != Rgb::ZERO {
