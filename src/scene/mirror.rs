@@ -71,6 +71,7 @@ impl Mirrors {
     /// reflects about the plane. Triangles whose normal and offset agree within `1e-6` (relative,
     /// offsets against the scene's `extent`) share a plane; only the [`MAX_PLANES`] largest planes
     /// are kept.
+    #[allow(clippy::too_many_arguments)]
     pub fn detect(
         n: usize,
         materials: &[Material],
@@ -102,13 +103,8 @@ impl Mirrors {
         // (normal, offset, area, triangles, bounds)
         type Group = (DVec3, f64, f64, Vec<u32>, (DVec3, DVec3));
         let mut groups: Vec<Group> = Vec::new();
-        for i in 0..n {
-            if !perfect
-                .get(tri_material[i] as usize)
-                .copied()
-                .unwrap_or(false)
-                || !flat_shaded(i)
-            {
+        for (i, &m) in tri_material.iter().enumerate().take(n) {
+            if !perfect.get(m as usize).copied().unwrap_or(false) || !flat_shaded(i) {
                 continue;
             }
             let nrm = ng(i);

@@ -65,7 +65,7 @@ pub fn sample_virtual<D: Space>(
     let dn = plane.normal.dot(wi);
     let t = -side / dn;
     // The ray must reach the plane before the image of the light (so the light is on x's side).
-    if !(t > 0.0 && t < ls.dist) || !mirrors.may_hold(k, x + wi * t) {
+    if !(t > 0.0 && t < ls.dist && mirrors.may_hold(k, x + wi * t)) {
         return None;
     }
     let pdf = p_plane * ls.pdf;
