@@ -12,7 +12,8 @@ pub struct Features {
     pub glossy: bool,
     pub mirror: bool,
     /// Planar perfect mirrors, whose images of the lights are sampled
-    /// ([`crate::scene::mirror::Mirrors`]).
+    /// ([`crate::scene::mirror::Mirrors`]). Not in the printed set, which files carry as a merge
+    /// key: `--explain` reports it as the effect `mirror-images`.
     pub planar_mirrors: bool,
     pub dielectric: bool,
     pub area_lights: bool,
@@ -72,7 +73,6 @@ impl fmt::Display for Features {
             (self.diffuse, "diffuse"),
             (self.glossy, "glossy"),
             (self.mirror, "mirror"),
-            (self.planar_mirrors, "planar-mirrors"),
             (self.dielectric, "dielectric"),
             (self.area_lights, "area-lights"),
             (self.point_lights, "point-lights"),
