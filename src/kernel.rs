@@ -53,6 +53,8 @@ pub trait Space: Send + Sync + 'static {
     fn of(scene: &Scene) -> &Self;
     /// The lights as this space sees them.
     fn lights(scene: &Scene) -> &Lights<Self::Shape>;
+    /// The planar mirrors as this space sees them (flatland: lines in the plane).
+    fn mirrors(scene: &Scene) -> &crate::scene::mirror::Mirrors;
     /// Material `m`'s scattering model and its Phong lobe's constants.
     fn scatter(scene: &Scene, m: u32) -> (&Bsdf, &Self::Lobe);
     /// Closest hit along `o + t d` for t in (0, tmax).

@@ -413,6 +413,7 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
         "sky",
         "textures",
         "light-sampling",
+        "mirror-images",
         "flatland",
     ];
     let lit = "radiance-estimate area-lights light-sampling";
@@ -425,7 +426,7 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
         (
             "cornell_mirror.obj",
             &[],
-            format!("lambertian-reflection mirror-reflection {lit}"),
+            format!("lambertian-reflection mirror-reflection {lit} mirror-images"),
         ),
         (
             "cornell_mirror.obj",
@@ -440,7 +441,7 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
         (
             "glossy_panels.obj",
             &[],
-            format!("lambertian-reflection phong-lobe mirror-reflection {lit}"),
+            format!("lambertian-reflection phong-lobe mirror-reflection {lit} mirror-images"),
         ),
         (
             "smooth_sphere.obj",

@@ -13,6 +13,7 @@ mod geometry;
 mod gltf;
 mod layers;
 mod merge;
+mod mirror;
 mod mis;
 mod outdoor;
 mod pinned;

@@ -105,7 +105,7 @@ fn mis_radiance_weighting_matches_the_reference_under_sky_sun_and_spot() {
 /// At each of `points`, the production estimator and the reference (streams keyed by `seeds` + the
 /// point's index, `n` samples per batch) agree on m1, m2, σ and the fluence within 4 standard
 /// errors of their difference.
-fn agrees_with_reference(
+pub(crate) fn agrees_with_reference(
     scene: &Scene,
     points: &[DVec3],
     p: &Params,

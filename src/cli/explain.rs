@@ -113,6 +113,22 @@ pub fn explain(
                 .map(|e| e.name)
                 .collect();
             writeln!(out, "simulates  {}", on.join(" "))?;
+            let mirrors = match &scene.flat {
+                Some(f) if params.flat.is_some() => &f.mirrors,
+                _ => &scene.mirrors,
+            };
+            if effects
+                .iter()
+                .any(|e| e.name == "mirror-images" && e.simulated)
+            {
+                writeln!(
+                    out,
+                    "           mirror images of the lights through {} planar mirror{} ({} triangles)",
+                    mirrors.planes.len(),
+                    if mirrors.planes.len() == 1 { "" } else { "s" },
+                    mirrors.triangles
+                )?;
+            }
             for (i, e) in effects.iter().filter(|e| !e.simulated).enumerate() {
                 let head = if i == 0 { "skips" } else { "" };
                 writeln!(out, "{head:<10} {} ({})", e.name, e.why)?;

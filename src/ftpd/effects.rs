@@ -27,6 +27,11 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
         !scene.lights.is_empty()
     };
     let radiance = k.radiance;
+    let mirrors = if p.flat.is_some() {
+        scene.flat.as_ref().is_some_and(|fl| !fl.mirrors.is_empty())
+    } else {
+        !scene.mirrors.is_empty()
+    };
     let e = |name, simulated, why| Effect {
         name,
         simulated,
@@ -107,6 +112,17 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
                 "no light to sample"
             } else {
                 "no radiance estimate"
+            },
+        ),
+        e(
+            "mirror-images",
+            radiance && has_lights && mirrors,
+            if !radiance {
+                "no radiance estimate"
+            } else if !has_lights {
+                "no light to sample"
+            } else {
+                "no planar perfect mirror: lights are not sampled through mirrors"
             },
         ),
         e(

@@ -23,7 +23,7 @@ use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::flat::Flatland;
 use crate::transport::trace;
-use crate::transport::walk::{RadianceStats, radiance, walk_counted};
+use crate::transport::walk::{RadianceStats, StartMis, radiance, radiance_mis, walk_counted};
 use glam::DVec3;
 use std::fmt;
 
@@ -133,12 +133,20 @@ pub struct Sample {
 /// towards the lights (when the scene has any).
 pub const UNIFORM_FRACTION: f64 = 0.5;
 
+/// In scenes with planar mirrors ([`crate::scene::mirror::Mirrors`]): the fractions of
+/// radiance-weighted samples whose direction is drawn uniformly, towards the lights and towards the
+/// lights' mirror images.
+pub const MIRROR_FRACTIONS: (f64, f64, f64) = (0.4, 0.3, 0.3);
+
 /// A start direction ω with its weight `w(x, ω) / p(ω)` (RGB) for radiance weighting.
 ///
-/// The radiance `L(x, ω)` of the light passing `x` along ω is split into three parts, each estimated
-/// by the strategies that can produce it, with the balance heuristic (one-sample MIS):
+/// The radiance `L(x, ω)` of the light passing `x` along ω is split into parts, each estimated by
+/// the strategies that can produce it, with the balance heuristic (one-sample MIS):
 /// - directly visible emission of area lights: uniform directions (density α/4π) and light
-///   sampling (density (1−α)·p_light(ω)) both produce it;
+///   sampling (density α_l·p_light(ω)) both produce it;
+/// - in scenes with planar mirrors, light reflected once by such a mirror straight from a light:
+///   uniform directions and the lights' mirror images (density α_v·p_virtual(ω),
+///   `crate::transport::mirror`); images of point lights only by the latter;
 /// - everything else that a path from `x` towards −ω collects (reflected light, including light of
 ///   point lights reflected by the first surface): uniform directions only;
 /// - point lights seen directly: Dirac deltas in ω, produced by light sampling only.
@@ -152,10 +160,15 @@ pub fn radiance_direction<K: Kernel>(
 ) -> (DVec3, Rgb) {
     let sp = K::Space::of(scene);
     let lights = K::Space::lights(scene);
-    let alpha = if lights.is_empty() {
-        1.0
+    // The images need a mirror that can still reflect (the first hit scatters below the cap).
+    let virtual_lights =
+        !lights.is_empty() && !K::Space::mirrors(scene).is_empty() && max_bounces >= 1;
+    let (alpha, alpha_l, alpha_v) = if lights.is_empty() {
+        (1.0, 0.0, 0.0)
+    } else if virtual_lights {
+        MIRROR_FRACTIONS
     } else {
-        UNIFORM_FRACTION
+        (UNIFORM_FRACTION, 1.0 - UNIFORM_FRACTION, 0.0)
     };
     // Densities per steradian, or per radian in flatland.
     let p_uniform = alpha * K::Space::PDF_UNIFORM;
@@ -165,19 +178,41 @@ pub fn radiance_direction<K: Kernel>(
     if strategy < alpha {
         let omega = sp.uniform(u);
         // Light passing x along ω arrives from −ω.
-        let r = radiance::<K>(scene, x, -omega, max_bounces, s, &mut st);
+        let start = StartMis {
+            pdf: p_uniform,
+            virtual_fraction: alpha_v,
+        };
+        let r = radiance_mis::<K>(scene, x, -omega, max_bounces, start, s, &mut st);
         *rays += st.rays;
         let direct = if r.escaped {
             // One balance-heuristic weight per distant light seen along −ω.
             let mut sum = Rgb::ZERO;
             lights.escaped::<K::Space>(-omega, |le, p_light| {
-                sum += le / (p_uniform + (1.0 - alpha) * p_light);
+                sum += le / (p_uniform + alpha_l * p_light);
             });
             sum
         } else {
-            r.direct / (p_uniform + (1.0 - alpha) * r.direct_pdf)
+            r.direct / (p_uniform + alpha_l * r.direct_pdf)
         };
         return (omega, direct + r.rest / p_uniform);
+    }
+    if strategy >= alpha + alpha_l {
+        // The strategy number, rescaled, chooses the mirror plane.
+        let u_m = ((strategy - alpha - alpha_l) / alpha_v).clamp(0.0, 1.0 - f64::EPSILON);
+        let Some(vs) = crate::transport::mirror::sample_virtual(scene, sp, x, u_m, u_l, u) else {
+            return (sp.uniform(s.next_2d()), Rgb::ZERO);
+        };
+        let omega = -vs.wi;
+        let Some(li) = crate::transport::mirror::connect_virtual::<K>(scene, x, x, &vs, rays)
+        else {
+            return (omega, Rgb::ZERO);
+        };
+        let weight = if vs.delta {
+            li / (alpha_v * vs.pdf)
+        } else {
+            li / (p_uniform + alpha_v * vs.pdf)
+        };
+        return (omega, weight);
     }
     let Some(mut ls) = lights.sample(sp, x, u_l, u) else {
         // A light that faces away: this strategy contributes nothing here.
@@ -190,9 +225,9 @@ pub fn radiance_direction<K: Kernel>(
         return (omega, Rgb::ZERO);
     }
     let weight = if ls.delta {
-        ls.li / ((1.0 - alpha) * ls.pdf)
+        ls.li / (alpha_l * ls.pdf)
     } else {
-        ls.li / (p_uniform + (1.0 - alpha) * ls.pdf)
+        ls.li / (p_uniform + alpha_l * ls.pdf)
     };
     (omega, weight)
 }

@@ -44,6 +44,59 @@ pub fn sample_reference(
             let smp = pair_from::<Plain3D>(scene, x, -wi, t, s.next_2d(), w, p, s);
             out.push((smp.c, smp.delta, smp.weight));
         }
+        if p.max_bounces >= 1 {
+            for (wi, w) in delta_light_mirrored(scene, light, x, |_| x) {
+                let smp = pair_from::<Plain3D>(scene, x, -wi, t, s.next_2d(), w, p, s);
+                out.push((smp.c, smp.delta, smp.weight));
+            }
+        }
+    }
+    out
+}
+
+/// The images of a light that only a connection can find (see [`delta_light`]) in each planar
+/// mirror of the scene, seen from `x` (rays along `wi` leave from `origin(wi)`): the unit direction towards the
+/// image and what arrives through the mirror, when the ray towards the image first hits a mirror
+/// triangle in that plane and the mirror point sees the light. Every plane is tried (no sampling),
+/// and the mirror's reflectance is read from the material hit.
+fn delta_light_mirrored(
+    scene: &Scene,
+    light: &Light,
+    x: DVec3,
+    origin: impl Fn(DVec3) -> DVec3,
+) -> Vec<(DVec3, Rgb)> {
+    let mut out = Vec::new();
+    for (k, plane) in scene.mirrors.planes.iter().enumerate() {
+        let n = plane.normal;
+        let side = n.dot(x) - plane.offset;
+        if side == 0.0 {
+            continue;
+        }
+        let image = x - n * (2.0 * side);
+        // What the light sends to the image point, without the shadow test.
+        let Some((wi_image, arriving, target)) = delta_light_parts(scene, light, image) else {
+            continue;
+        };
+        let wi = wi_image - n * (2.0 * n.dot(wi_image));
+        let t_plane = -side / n.dot(wi);
+        if !(t_plane > 0.0) || (target - image).length() <= t_plane {
+            continue;
+        }
+        let Some(hit) = scene.intersect(origin(wi), wi, f64::INFINITY) else {
+            continue;
+        };
+        if scene.mirrors.plane_of(hit.prim) != Some(k as u32) {
+            continue;
+        }
+        let bsdf = scene
+            .textured_bsdf(&hit)
+            .unwrap_or_else(|| scene.material(&hit).bsdf.clone());
+        let crate::scene::material::Bsdf::Mirror { ks, .. } = bsdf else {
+            continue;
+        };
+        if scene.visible(hit.spawn_origin(wi_image), target) {
+            out.push((wi, ks * arriving));
+        }
     }
     out
 }
@@ -52,7 +105,15 @@ pub fn sample_reference(
 /// (shadow rays leave from `origin`): the unit direction towards it and what arrives, `I / d²` with
 /// the spot's falloff or the sun's irradiance, 0 when occluded; `None` for the other kinds.
 fn delta_light(scene: &Scene, light: &Light, x: DVec3, origin: DVec3) -> Option<(DVec3, Rgb)> {
-    let (wi, arriving, target) = match light {
+    let (wi, arriving, target) = delta_light_parts(scene, light, x)?;
+    let visible = scene.visible(origin, target);
+    Some((wi, if visible { arriving } else { Rgb::ZERO }))
+}
+
+/// The direction from `x` towards a light that only a connection can find, what arrives if
+/// nothing blocks it, and the shadow ray's target; `None` for the other kinds.
+fn delta_light_parts(scene: &Scene, light: &Light, x: DVec3) -> Option<(DVec3, Rgb, DVec3)> {
+    Some(match light {
         Light::Point {
             position,
             intensity,
@@ -87,9 +148,7 @@ fn delta_light(scene: &Scene, light: &Light, x: DVec3, origin: DVec3) -> Option<
             x + *direction * scene.lights.beyond(x),
         ),
         _ => return None,
-    };
-    let visible = scene.visible(origin, target);
-    Some((wi, if visible { arriving } else { Rgb::ZERO }))
+    })
 }
 
 /// What a ray leaving the scene along the unit `d` sees: the sky, environment maps, sun discs.
@@ -154,6 +213,14 @@ pub fn radiance_plain(
             if let Some((wi, arriving)) = delta_light(scene, light, hit.p, o) {
                 let f = bsdf.eval(-d, wi, hit.ng, hit.ns, Mode::Radiance);
                 l += beta * f * arriving;
+            }
+            // Through planar mirrors, where the mirror point can still scatter.
+            if depth + 1 < max_bounces {
+                let through = delta_light_mirrored(scene, light, hit.p, |wi| hit.spawn_origin(wi));
+                for (wi, arriving) in through {
+                    let f = bsdf.eval(-d, wi, hit.ng, hit.ns, Mode::Radiance);
+                    l += beta * f * arriving;
+                }
             }
         }
         let Some(bs) = bsdf.sample(

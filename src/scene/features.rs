@@ -11,6 +11,10 @@ pub struct Features {
     pub diffuse: bool,
     pub glossy: bool,
     pub mirror: bool,
+    /// Planar perfect mirrors, whose images of the lights are sampled
+    /// ([`crate::scene::mirror::Mirrors`]). Not in the printed set, which files carry as a merge
+    /// key: `--explain` reports it as the effect `mirror-images`.
+    pub planar_mirrors: bool,
     pub dielectric: bool,
     pub area_lights: bool,
     pub point_lights: bool,

@@ -262,6 +262,8 @@ pub struct FlatScene {
     pub label: String,
     pub lights: FlatLights,
     pub bsdfs: Vec<FlatBsdf>,
+    /// The planar mirrors that cross the plane, as lines in it.
+    pub mirrors: crate::scene::mirror::Mirrors,
 }
 
 impl FlatScene {
@@ -282,6 +284,7 @@ impl FlatScene {
         // report either triangle).
         let mut edges: std::collections::HashMap<[u64; 6], u32> = Default::default();
         let mut bad: Vec<(usize, f64)> = Vec::new();
+        let mut mirror_lengths = vec![0.0; scene.mirrors.planes.len()];
         for (i, tri) in scene.triangles.iter().enumerate() {
             let v = tri.map(|k| scene.positions[k as usize].as_dvec3());
             let mag = v
@@ -298,6 +301,11 @@ impl FlatScene {
             if out > MAX_NORMAL_OUT_OF_PLANE {
                 bad.push((i, out));
                 continue;
+            }
+            if let (Some(k), Section::Segment { a, b, .. }) =
+                (scene.mirrors.plane_of(i as u32), section)
+            {
+                mirror_lengths[k as usize] += (b - a).length();
             }
             let m = &scene.materials[scene.tri_material[i] as usize];
             if luminance(m.emission) <= 0.0 {
@@ -454,6 +462,12 @@ impl FlatScene {
                 .iter()
                 .map(|m| FlatBsdf::new(&m.bsdf))
                 .collect(),
+            mirrors: scene.mirrors.section(
+                plane.normal,
+                plane.offset,
+                |v| plane.in_plane(v),
+                &mirror_lengths,
+            ),
         })
     }
 }

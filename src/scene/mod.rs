@@ -9,6 +9,7 @@ pub mod gltf;
 pub mod light;
 pub mod load;
 pub mod material;
+pub mod mirror;
 pub mod mtl_maps;
 pub mod obj;
 pub mod obj_parse;
@@ -156,6 +157,8 @@ pub struct Scene {
     pub tri_material: Vec<u32>,
     pub materials: Vec<Material>,
     pub lights: LightSet,
+    /// The planar mirrors (empty in scenes without: then nothing samples their virtual lights).
+    pub mirrors: crate::scene::mirror::Mirrors,
     pub bounds: Aabb,
     pub features: Features,
     pub report: LoadReport,
@@ -411,6 +414,25 @@ impl Scene {
             0.5 * extent,
         );
         let mut features = Features::of(&materials, &tri_material, &lights);
+        let mirrors = crate::scene::mirror::Mirrors::detect(
+            tri_hit.len(),
+            &materials,
+            &tri_material,
+            |i| tri_hit[i].ng,
+            |i| tri_hit[i].p.map(|v| v.as_dvec3()),
+            |i| {
+                let [a, b, c] = tri_hit[i].p.map(|v| v.as_dvec3());
+                0.5 * (b - a).cross(c - a).length()
+            },
+            |i| {
+                tri_shading.get(i).is_none_or(|ns| {
+                    ns.iter()
+                        .all(|n| n.as_dvec3().normalize_or_zero().dot(tri_hit[i].ng) > 1.0 - 1e-9)
+                })
+            },
+            extent,
+        );
+        features.planar_mirrors = !mirrors.is_empty();
         // Cut-outs: the triangles of materials with alpha, in a geometry of their own. An emitter
         // stays opaque (its light samples would otherwise land on cut-out texels).
         let mut cut_materials = vec![false; materials.len()];
@@ -447,6 +469,7 @@ impl Scene {
             tri_material,
             materials,
             lights,
+            mirrors,
             bounds,
             features,
             report,

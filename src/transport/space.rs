@@ -65,6 +65,11 @@ impl Space for Sphere {
     }
 
     #[inline(always)]
+    fn mirrors(scene: &Scene) -> &crate::scene::mirror::Mirrors {
+        &scene.mirrors
+    }
+
+    #[inline(always)]
     fn scatter(scene: &Scene, m: u32) -> (&Bsdf, &()) {
         (&scene.materials[m as usize].bsdf, &())
     }
@@ -176,6 +181,11 @@ impl Space for Flatland {
     #[inline(always)]
     fn lights(scene: &Scene) -> &Lights<Segment> {
         &scene.flat().lights
+    }
+
+    #[inline(always)]
+    fn mirrors(scene: &Scene) -> &crate::scene::mirror::Mirrors {
+        &scene.flat().mirrors
     }
 
     #[inline(always)]

@@ -185,6 +185,47 @@ impl Radiance {
     }
 }
 
+/// How the start direction of a radiance path was chosen, for the multiple-importance weights of
+/// light that reaches the start point by one reflection in a planar mirror, which the caller also
+/// samples directly (`crate::transport::mirror`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StartMis {
+    /// Density with which the caller drew the start direction (per steradian, or radian).
+    pub pdf: f64,
+    /// The probability with which the caller samples the lights' mirror images instead (0: it
+    /// does not, and such light counts in full).
+    pub virtual_fraction: f64,
+}
+
+/// Balance (`balance`) or power heuristic for two strategies with densities `a` (the one used) and
+/// `b`.
+#[inline]
+fn heuristic(a: f64, b: f64, balance: bool) -> f64 {
+    if balance {
+        if a + b > 0.0 && (a + b).is_finite() {
+            a / (a + b)
+        } else {
+            1.0
+        }
+    } else {
+        power_heuristic(a, b)
+    }
+}
+
+/// The last non-specular vertex of a radiance path before a planar mirror, for the weight of light
+/// it reaches through the mirror (whose direct sampling is its virtual-light estimate).
+#[derive(Clone, Copy, Debug)]
+struct MirrorMis {
+    /// The vertex, and after the mirror its image in the mirror plane.
+    p: DVec3,
+    /// The density with which the path left the vertex.
+    pdf: f64,
+    /// The probability of the virtual-light strategy there (times the plane's, after the mirror).
+    scale: f64,
+    /// One-sample balance heuristic (the start point) or the power heuristic (path vertices).
+    balance: bool,
+}
+
 /// Estimates the radiance arriving at `x` from the direction `look` (unit), i.e. the radiance of the
 /// light that passes `x` travelling along `-look`.
 /// Paths have at most `max_bounces` scattering events; Russian roulette from the
@@ -195,6 +236,27 @@ pub fn radiance<K: Kernel>(
     x: DVec3,
     look: DVec3,
     max_bounces: u32,
+    s: &mut Sampler,
+    st: &mut RadianceStats,
+) -> Radiance {
+    radiance_mis::<K>(scene, x, look, max_bounces, StartMis::default(), s, st)
+}
+
+/// [`radiance`] for a caller that draws the start direction with density `start.pdf` and also
+/// samples the lights' images in planar mirrors from `x` (with probability
+/// `start.virtual_fraction`): light reaching `x` by one reflection in a planar mirror is weighted by
+/// the balance heuristic against that strategy.
+///
+/// In scenes with planar mirrors, every non-specular vertex also samples the lights' mirror images
+/// (`crate::transport::mirror`), combined with the BSDF-sampled paths that reach a light through
+/// the mirror by the power heuristic.
+#[inline]
+pub fn radiance_mis<K: Kernel>(
+    scene: &Scene,
+    x: DVec3,
+    look: DVec3,
+    max_bounces: u32,
+    start: StartMis,
     s: &mut Sampler,
     st: &mut RadianceStats,
 ) -> Radiance {
@@ -211,6 +273,18 @@ pub fn radiance<K: Kernel>(
     let mut prev_delta = true; // the start direction is given, like a camera ray
     let mut eta_scale = 1.0;
     let mut depth = 0;
+    let mirrors = K::Space::mirrors(scene);
+    let has_mirrors = !mirrors.is_empty() && !lights_empty;
+    // The last non-specular vertex (before a mirror) and, once the path has reflected in a planar
+    // mirror from there, its image (`through`).
+    let mut before: Option<MirrorMis> =
+        (has_mirrors && start.virtual_fraction > 0.0).then_some(MirrorMis {
+            p: x,
+            pdf: start.pdf,
+            scale: start.virtual_fraction,
+            balance: true,
+        });
+    let mut through: Option<MirrorMis> = None;
     loop {
         st.rays += 1;
         let Some(hit) = trace::intersect::<K>(scene, origin, d, f64::INFINITY) else {
@@ -222,7 +296,9 @@ pub fn radiance<K: Kernel>(
                     out.escaped = true;
                 } else {
                     lights.escaped::<K::Space>(d, |le, p_light| {
-                        let w = if prev_delta {
+                        let w = if let Some(m) = through {
+                            heuristic(m.pdf, m.scale * p_light, m.balance)
+                        } else if prev_delta {
                             1.0
                         } else {
                             power_heuristic(prev_pdf, p_light)
@@ -242,7 +318,10 @@ pub fn radiance<K: Kernel>(
         } else {
             let le = scene.emitted(&hit, -d);
             if le != Rgb::ZERO {
-                let w = if prev_delta {
+                let w = if let Some(m) = through {
+                    let p_light = lights.pdf_hit::<K::Space>(m.p, hit.prim, hit.p);
+                    heuristic(m.pdf, m.scale * p_light, m.balance)
+                } else if prev_delta {
                     1.0
                 } else {
                     let p_light = lights.pdf_hit::<K::Space>(prev_p, hit.prim, hit.p);
@@ -287,12 +366,60 @@ pub fn radiance<K: Kernel>(
                 }
             }
         }
+        // The lights' images in planar mirrors, where the path could still reach them by BSDF
+        // sampling (the mirror point scatters only below the bounce cap).
+        if has_mirrors && !bsdf.is_delta() && depth + 1 < max_bounces {
+            let u_m = s.next_f64();
+            let u_l = s.next_f64();
+            let u = s.next_2d();
+            if let Some(vs) =
+                crate::transport::mirror::sample_virtual(scene, sp, hit.p, u_m, u_l, u)
+            {
+                let f = bsdf.eval_in::<K::Space>(lobe, wo, vs.wi, hit.ng, hit.ns, Mode::Radiance);
+                if f != Rgb::ZERO {
+                    let o = scene.spawn_origin_from(&hit, vs.wi, origin);
+                    if let Some(li) = crate::transport::mirror::connect_virtual::<K>(
+                        scene,
+                        hit.p,
+                        o,
+                        &vs,
+                        &mut st.rays,
+                    ) {
+                        let w = if vs.delta {
+                            1.0
+                        } else {
+                            let p_bsdf = bsdf.pdf_in::<K::Space>(lobe, wo, vs.wi, hit.ng, hit.ns);
+                            power_heuristic(vs.pdf, p_bsdf)
+                        };
+                        l += beta * f * li * (w / vs.pdf);
+                    }
+                }
+            }
+        }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
         let sampled = bsdf.sample_in(sp, lobe, wo, hit.ng, hit.ns, u_lobe, u, s, Mode::Radiance);
         let Some(bs) = sampled else {
             break;
         };
+        if has_mirrors {
+            // Through a planar mirror from the last non-specular vertex: the next light found is
+            // also found by that vertex's virtual-light sample.
+            through = match (before, bs.delta, mirrors.plane_of(hit.prim)) {
+                (Some(m), true, Some(k)) => Some(MirrorMis {
+                    p: mirrors.planes[k as usize].reflect_point(m.p),
+                    scale: m.scale * mirrors.prob(k as usize),
+                    ..m
+                }),
+                _ => None,
+            };
+            before = (!bs.delta).then_some(MirrorMis {
+                p: hit.p,
+                pdf: bs.pdf,
+                scale: 1.0,
+                balance: false,
+            });
+        }
         beta *= bs.weight;
         if bs.etap != 1.0 {
             eta_scale *= bs.etap.powi(K::Space::DIMS - 1);
