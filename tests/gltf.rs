@@ -995,8 +995,9 @@ fn mr_two_texel_scene(dir: &Path, textured: bool) -> Scene {
     let mut bin = Bin::default();
     // (x range, u range) of the two halves.
     let halves = [([0., 0.5], [0., 0.25]), ([0.5, 1.], [0.75, 1.])];
-    // (material, the quads of one primitive).
-    let parts: Vec<(usize, Vec<([f32; 2], f32, [f32; 2])>)> = if textured {
+    // (material, the quads of one primitive as (x range, height, u range)).
+    type Quad = ([f32; 2], f32, [f32; 2]);
+    let parts: Vec<(usize, Vec<Quad>)> = if textured {
         vec![
             (0, vec![([-2., 3.], 0.0, [0., 0.])]),
             (1, halves.iter().map(|&(x, u)| (x, 1.0, u)).collect()),
