@@ -57,6 +57,10 @@ pub trait Space: Send + Sync + 'static {
     fn mirrors(scene: &Scene) -> &crate::scene::mirror::Mirrors;
     /// Material `m`'s scattering model and its Phong lobe's constants.
     fn scatter(scene: &Scene, m: u32) -> (&Bsdf, &Self::Lobe);
+    /// The Phong lobe's constants for `bsdf`, the model a hit read from textures
+    /// ([`Scene::textured_bsdf`]), given `own`, those of its material: `own` unless the texels
+    /// changed the exponent (a metallic-roughness texture), then computed for it.
+    fn textured_lobe(bsdf: &Bsdf, own: &Self::Lobe) -> Self::Lobe;
     /// Closest hit along `o + t d` for t in (0, tmax).
     fn intersect(scene: &Scene, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit>;
 

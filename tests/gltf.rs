@@ -949,3 +949,287 @@ fn gltf_emissive_texture_scales_the_emission_per_texel() {
         );
     }
 }
+
+/// Appends a quad in z = `z` over [x0, x1] × [0, 1] (front side +z) to `pos`/`uv`/`idx`, its
+/// TEXCOORD_0 u running from `u0` to `u1` along x (v = 1 − y, glTF's v pointing down).
+fn quad_at(
+    pos: &mut Vec<[f32; 3]>,
+    uv: &mut Vec<[f32; 2]>,
+    idx: &mut Vec<u16>,
+    [x0, x1]: [f32; 2],
+    z: f32,
+    [u0, u1]: [f32; 2],
+) {
+    let b = pos.len() as u16;
+    for (x, y, u) in [(x0, 0., u0), (x1, 0., u1), (x1, 1., u1), (x0, 1., u0)] {
+        pos.push([x, y, z]);
+        uv.push([u, 1.0 - y]);
+    }
+    idx.extend([b, b + 1, b + 2, b, b + 2, b + 3]);
+}
+
+/// A primitive's accessors: (positions, uvs, indices).
+fn primitive(bin: &mut Bin, pos: &[[f32; 3]], uv: &[[f32; 2]], idx: &[u16]) -> Value {
+    let p = bin.vec3(pos);
+    let uv_bytes: Vec<u8> = uv.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    let view = bin.view(&uv_bytes);
+    bin.accessors.push(
+        json!({"bufferView": view, "componentType": 5126, "count": uv.len(), "type": "VEC2"}),
+    );
+    let t = bin.accessors.len() - 1;
+    let i = bin.indices(idx);
+    json!({"attributes": {"POSITION": p, "TEXCOORD_0": t}, "indices": i})
+}
+
+/// Roughness of the metal texel of [`mr_two_texel_scene`]: the 8-bit value 77, read as stored.
+const METAL_G: u8 = 77;
+
+/// A floor (z = 0, 0.5 grey, Lambertian) under a quad at z = 1 over x ∈ [0, 1], y ∈ [0, 1], base
+/// colour 0.8. `textured`: one material with metallicFactor = roughnessFactor = 1 and a 2 × 1
+/// metallic-roughness texture (clamped) whose left texel is a rough dielectric (G 255, B 0: r = 1,
+/// m = 0) and right texel a glossy metal (G 77, B 255: r = 77/255, m = 1); the left half of the
+/// quad has u ∈ [0, ¼] and the right half u ∈ [¾, 1], where the bilinear lookup gives exactly one
+/// texel. Otherwise: the two halves with constant materials of those values (the mapping makes
+/// them a Lambertian and a Phong lobe, through no texture).
+fn mr_two_texel_scene(dir: &Path, textured: bool) -> Scene {
+    let mut bin = Bin::default();
+    // (x range, u range) of the two halves.
+    let halves = [([0., 0.5], [0., 0.25]), ([0.5, 1.], [0.75, 1.])];
+    // (material, the quads of one primitive as (x range, height, u range)).
+    type Quad = ([f32; 2], f32, [f32; 2]);
+    let parts: Vec<(usize, Vec<Quad>)> = if textured {
+        vec![
+            (0, vec![([-2., 3.], 0.0, [0., 0.])]),
+            (1, halves.iter().map(|&(x, u)| (x, 1.0, u)).collect()),
+        ]
+    } else {
+        vec![
+            (0, vec![([-2., 3.], 0.0, [0., 0.])]),
+            (1, vec![(halves[0].0, 1.0, halves[0].1)]),
+            (2, vec![(halves[1].0, 1.0, halves[1].1)]),
+        ]
+    };
+    let prims: Vec<Value> = parts
+        .into_iter()
+        .map(|(material, quads)| {
+            let (mut pos, mut uv, mut idx) = (Vec::new(), Vec::new(), Vec::new());
+            for (x, z, u) in quads {
+                quad_at(&mut pos, &mut uv, &mut idx, x, z, u);
+            }
+            let mut prim = primitive(&mut bin, &pos, &uv, &idx);
+            prim["material"] = json!(material);
+            prim
+        })
+        .collect();
+    let pbr = |m: f64, r: f64| {
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+            "metallicFactor": m, "roughnessFactor": r}})
+    };
+    let floor_material = json!({"pbrMetallicRoughness": {
+        "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}});
+    let mut extra = json!({
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": prims}],
+    });
+    if textured {
+        let mut m = pbr(1.0, 1.0);
+        m["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({"index": 0});
+        extra["materials"] = json!([floor_material, m]);
+        extra["textures"] = json!([{"source": 0, "sampler": 0}]);
+        extra["samplers"] = json!([{"wrapS": 33071, "wrapT": 33071}]);
+        extra["images"] = json!([{"uri": png_uri(2, 1, vec![0, 255, 0, 0, METAL_G, 255])}]);
+    } else {
+        let r = (METAL_G as f32 / 255.0) as f64;
+        extra["materials"] = json!([floor_material, pbr(0.0, 1.0), pbr(1.0, r)]);
+    }
+    let name = if textured { "mr.gltf" } else { "constant.gltf" };
+    let path = bin.write_embedded(dir, name, extra);
+    let mut scene = load_scene(&path).unwrap();
+    assert!(
+        scene.report.warnings.is_empty(),
+        "{:?}",
+        scene.report.warnings
+    );
+    scene.add_point_light(DVec3::new(0.4, 0.5, 3.0), Rgb::splat(20.0));
+    scene
+}
+
+/// σ (unweighted and radiance-weighted) and fluence at points over each texel, above and below
+/// the quad, in the plane y = 0.5 (in flatland: the slice plane), for the textured quad and for
+/// the two constant quads, with independent seeds: the difference of each pair over its combined
+/// standard error.
+fn mr_z_scores(flatland: bool) -> Vec<(String, f64)> {
+    use ftpd3d::ftpd::moments::Moments;
+    use ftpd3d::ftpd::{Params, Weighting, sample_point};
+    use ftpd3d::rng::Sampler;
+    let dir = temp_dir(if flatland { "mr_flat" } else { "mr_3d" });
+    let mut scenes = [
+        mr_two_texel_scene(&dir, true),
+        mr_two_texel_scene(&dir, false),
+    ];
+    assert!(scenes[0].features.textures && scenes[0].features.glossy);
+    assert!(scenes[0].features.diffuse && !scenes[0].features.mirror);
+    assert_eq!(scenes[0].report.texture_bytes, 2 * 4);
+    let plane = ftpd3d::kernel::Flatland::new(DVec3::new(0.0, 0.5, 0.0), DVec3::X, DVec3::Z);
+    if flatland {
+        for s in &mut scenes {
+            s.prepare_flatland(plane, "y=0.5").unwrap();
+        }
+    }
+    let mut out = Vec::new();
+    let n = 3000;
+    for weighting in [Weighting::Unweighted, Weighting::Radiance] {
+        let p = Params {
+            t0: 0.3,
+            t1: 0.8,
+            theta_max: 0.15,
+            weighting,
+            max_bounces: 8,
+            flat: flatland.then_some(plane),
+        };
+        for (ix, x) in [0.1, 0.25, 0.4, 0.6, 0.75, 0.9].into_iter().enumerate() {
+            for (iz, height) in [0.3, 0.7, 1.3, 1.8].into_iter().enumerate() {
+                let at = DVec3::new(x, 0.5, height);
+                let cells: Vec<(f64, f64, f64, f64)> = scenes
+                    .iter()
+                    .enumerate()
+                    .map(|(k, sc)| {
+                        let cell = (ix * 4 + iz) as u64;
+                        let mut s = Sampler::new(21 + k as u64, cell, weighting as u64);
+                        let mut m = Moments::default();
+                        let (mut f, mut f2) = (0.0, 0.0);
+                        for _ in 0..n {
+                            let smp = sample_point(sc, at, &p, &mut s);
+                            m.add_sample(smp.c, smp.delta, smp.weight);
+                            let w = ftpd3d::math::luminance(smp.weight);
+                            f += w;
+                            f2 += w * w;
+                        }
+                        let v = m.finalize();
+                        let mean = f / n as f64;
+                        let se = ((f2 / n as f64 - mean * mean).max(0.0) / (n - 1) as f64).sqrt();
+                        (v.sigma, v.stderr, mean, se)
+                    })
+                    .collect();
+                let (a, b) = (cells[0], cells[1]);
+                let z = |x: f64, sx: f64, y: f64, sy: f64| {
+                    let se = (sx * sx + sy * sy).sqrt();
+                    if se > 0.0 { (x - y) / se } else { 0.0 }
+                };
+                let name = format!("{weighting:?} at {x:.2},{height:.2}");
+                out.push((format!("σ {name}"), z(a.0, a.1, b.0, b.1)));
+                if weighting == Weighting::Radiance {
+                    out.push((format!("fluence {name}"), z(a.2, a.3, b.2, b.3)));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A quad whose metallic-roughness texture has two texels gives, over each texel, the σ and
+/// fluence of a quad of constant material with that texel's values (3D).
+#[test]
+fn gltf_metallic_roughness_texels_match_constant_materials_3d() {
+    crate::support::assert_consistent("3D", &mr_z_scores(false));
+}
+
+/// The same in flatland, where the Phong lobe's normalisation of each texel's exponent is
+/// computed per hit (in closed form) and the constant material's once (by recurrence).
+#[test]
+fn gltf_metallic_roughness_texels_match_constant_materials_flatland() {
+    crate::support::assert_consistent("flatland", &mr_z_scores(true));
+}
+
+/// The metallic-roughness texture through the loader: read as stored (G 128 is r = 128/255, not
+/// its sRGB decoding), with the sampler's wrap modes and KHR_texture_transform, on TEXCOORD_0;
+/// a base-colour texture multiplies baseColorFactor per hit; an image that is both base colour
+/// and metallic-roughness is decoded once for each reading (both counted in the texture
+/// memory). The metallic-roughness texture gives no warning, a normal texture still does, and so
+/// does a metallic-roughness texture on a transmissive material.
+#[test]
+fn gltf_metallic_roughness_texture_is_read_linear_with_its_sampler_and_transform() {
+    use ftpd3d::scene::gltf::phong_exponent;
+    let srgb = |c: f64| ((c + 0.055) / 1.055f64).powf(2.4);
+    // Left texel: G 128, B 0 (r = 128/255, m = 0); right: G 255, B 255 (r = 1, m = 1).
+    let mr_png = png_uri(2, 1, vec![0, 128, 0, 0, 255, 255]);
+    let grey_png = png_uri(1, 1, vec![128, 128, 128]);
+    let r_left = (128f32 / 255.0) as f64;
+    // (wrapS, offset, the texel read at x = 0.25 and x = 0.75: true for the left one).
+    let cases = [
+        (33071, 0.0, [true, false]),
+        (10497, 0.5, [false, true]),
+        (33071, 0.5, [false, false]),
+    ];
+    for (k, (wrap, offset, left)) in cases.into_iter().enumerate() {
+        let dir = temp_dir(&format!("mr_sampler{k}"));
+        let mut bin = Bin::default();
+        let (pos, uv, idx) = textured_quad(&mut bin);
+        let mut info = json!({"index": 0});
+        if offset != 0.0 {
+            info["extensions"] = json!({"KHR_texture_transform": {"offset": [offset, 0.0]}});
+        }
+        let extra = json!({
+            "extensionsUsed": ["KHR_texture_transform", "KHR_materials_transmission"],
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{
+                "attributes": {"POSITION": pos, "TEXCOORD_0": uv},
+                "indices": idx, "material": 0}]}],
+            "materials": [
+                {"pbrMetallicRoughness": {
+                    "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 1.0,
+                    "roughnessFactor": 1.0, "metallicRoughnessTexture": info,
+                    "baseColorTexture": {"index": 1}}},
+                {"pbrMetallicRoughness": {"baseColorTexture": {"index": 2}},
+                    "normalTexture": {"index": 0}},
+                {"pbrMetallicRoughness": {"metallicRoughnessTexture": {"index": 0}},
+                    "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}}},
+            ],
+            "textures": [{"source": 0, "sampler": 0}, {"source": 1}, {"source": 0}],
+            "samplers": [{"wrapS": wrap, "wrapT": 33071}],
+            "images": [{"uri": mr_png.clone()}, {"uri": grey_png.clone()}],
+        });
+        let path = bin.write_embedded(&dir, "mr.gltf", extra);
+        let scene = load_scene(&path).unwrap();
+        let w = &scene.report.warnings;
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(
+            w.iter().any(|w| w.contains(
+                "normal, occlusion and transmission textures are ignored (1 material(s)"
+            )),
+            "{w:?}"
+        );
+        assert!(
+            w.iter()
+                .any(|w| w.contains("metallic-roughness texture ignored on a transmissive")),
+            "{w:?}"
+        );
+        assert!(!w.iter().any(|w| w.contains("material #0")), "{w:?}");
+        // Image 0 as metallic-roughness (linear) and as base colour (sRGB), image 1 once.
+        assert_eq!(scene.report.texture_bytes, 2 * 2 * 4 + 4);
+        let base = 0.8 * srgb(128.0 / 255.0);
+        for (x, left) in [0.25, 0.75].into_iter().zip(left) {
+            let o = DVec3::new(x, 0.5, 1.0);
+            let hit = scene.intersect(o, -DVec3::Z, f64::INFINITY).unwrap();
+            let Some(Bsdf::Glossy { kd, ks, exponent }) = scene.textured_bsdf(&hit) else {
+                panic!("case {k}, x = {x}: not glossy");
+            };
+            // Left: m = 0, kd = base, ks = 0.04; right: m = 1, kd = 0, ks = base.
+            let (kd_e, ks_e, r) = if left {
+                (base, 0.04, r_left)
+            } else {
+                (0.0, base, 1.0)
+            };
+            let msg = format!("case {k}, x = {x}: {kd:?} {ks:?} {exponent}");
+            assert!(
+                (kd.x - kd_e).abs() < 1e-6 && (ks.x - ks_e).abs() < 1e-6,
+                "{msg}"
+            );
+            // To the f32 rounding of the interpolated texture coordinate, which moves the
+            // bilinear weights by ~1e-7 (an sRGB decoding would give r = 0.216, n = 919).
+            assert!((exponent / phong_exponent(r) - 1.0).abs() < 1e-5, "{msg}");
+        }
+    }
+}

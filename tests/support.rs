@@ -84,3 +84,23 @@ pub fn render_opts(spp: u32, seed: u64) -> ftpd3d::render::RenderOptions {
         ..Default::default()
     }
 }
+
+/// Checks a set of z-scores from independent estimates of equal expectations: none beyond 4.5,
+/// and no more beyond 3 than a binomial tail allows (expected 0.27 %; at most 1 + 3 % of them).
+pub fn assert_consistent(what: &str, zs: &[(String, f64)]) {
+    let beyond3: Vec<_> = zs.iter().filter(|(_, z)| z.abs() > 3.0).collect();
+    let mean_sq = zs.iter().map(|(_, z)| z * z).sum::<f64>() / zs.len() as f64;
+    eprintln!(
+        "{what}: {} comparisons, mean z² {mean_sq:.2}, beyond 3: {beyond3:?}",
+        zs.len()
+    );
+    for (name, z) in zs {
+        assert!(z.abs() <= 4.5, "{what}: {name}: z = {z:.2}");
+    }
+    assert!(
+        beyond3.len() as f64 <= 1.0 + 0.03 * zs.len() as f64,
+        "{what}: {} of {} beyond 3 standard errors",
+        beyond3.len(),
+        zs.len()
+    );
+}

@@ -46,6 +46,10 @@ impl Features {
                 Bsdf::Glossy { kd, .. } => {
                     f.glossy = true;
                     f.diffuse |= *kd != crate::math::Rgb::ZERO;
+                    // Per hit, metallic below the factor leaves a Lambertian part of the base.
+                    if let Some(mr) = &m.maps.metallic_roughness {
+                        f.diffuse |= mr.base != crate::math::Rgb::ZERO;
+                    }
                 }
                 Bsdf::Mirror { kd, .. } => {
                     f.mirror = true;

@@ -90,6 +90,35 @@ pub fn cos_power_integral(m: f64) -> f64 {
     i
 }
 
+/// [`cos_power_integral`] in closed form with a fixed, small cost, for Phong lobes whose exponent
+/// changes from hit to hit (a metallic-roughness texture's roughness).
+///
+/// I(m) = √π / R(a) with a = (m+1)/2 and R(a) = Γ(a + ½)/Γ(a). R(a + 1) = R(a)·(a + ½)/a, so
+/// R(a) = R(x)·∏ (a+j)/(a+j+½) over the j < k that lift a to x = a + k ≥ 32 (at most 32 factors),
+/// and R(x) = √x (1 − 1/8x + 1/128x² + 5/1024x³ − 21/32768x⁴ − 399/262144x⁵ + 869/4194304x⁶ +
+/// 39325/33554432x⁷ + …), the asymptotic series of the ratio, whose truncation there is below
+/// 2·10⁻¹⁶ relative. Relative error ~10⁻¹⁵ for every m ≥ 0 (the tests hold it to quadrature).
+#[inline]
+pub fn cos_power_integral_closed(m: f64) -> f64 {
+    let a = 0.5 * (m.max(0.0) + 1.0);
+    let (mut num, mut den, mut x) = (1.0, 1.0, a);
+    while x < 32.0 {
+        num *= x;
+        den *= x + 0.5;
+        x += 1.0;
+    }
+    let t = 1.0 / x;
+    let series = 1.0
+        + t * (-1.0 / 8.0
+            + t * (1.0 / 128.0
+                + t * (5.0 / 1024.0
+                    + t * (-21.0 / 32768.0
+                        + t * (-399.0 / 262_144.0
+                            + t * (869.0 / 4_194_304.0 + t * (39_325.0 / 33_554_432.0)))))));
+    let ratio = x.sqrt() * series * (num / den);
+    PI.sqrt() / ratio
+}
+
 /// Γ(x) for x in [0.5, 2] (Lanczos, g = 7, 9 terms; relative error ~1e-15).
 fn gamma(x: f64) -> f64 {
     const G: f64 = 7.0;
@@ -144,6 +173,22 @@ impl PhongLobe {
             exponent: n,
             inv_pdf_norm: 1.0 / cos_power_integral(n),
             inv_brdf_norm: 1.0 / cos_power_integral(n + 1.0),
+        }
+    }
+}
+
+impl PhongLobe {
+    /// [`PhongLobe::new`] for an exponent read at a hit (a metallic-roughness texel): both
+    /// normalisations from one closed-form integral ([`cos_power_integral_closed`]), the BRDF's by
+    /// I(n)·I(n+1) = 2π/(n+1) (Γ((n+1)/2)/Γ((n+3)/2) = 2/(n+1)).
+    #[inline]
+    pub fn at(exponent: f64) -> PhongLobe {
+        let n = exponent.max(0.0);
+        let i = cos_power_integral_closed(n);
+        PhongLobe {
+            exponent: n,
+            inv_pdf_norm: 1.0 / i,
+            inv_brdf_norm: i * (n + 1.0) / TAU,
         }
     }
 }
@@ -475,6 +520,79 @@ impl FlatScene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// ∫_{−π/2}^{π/2} cosᵐα dα by tanh-sinh quadrature over [−L, L], L = min(π/2, 40/√m) (beyond
+    /// it cosᵐα ≤ e^(−mα²/2) < e^(−800)): double-exponential nodes, so the endpoint singularity of
+    /// m < 1 and the narrow peak of m = 10⁶ converge alike.
+    fn quadrature(m: f64) -> f64 {
+        let l = if m > 0.0 {
+            (40.0 / m.sqrt()).min(PI / 2.0)
+        } else {
+            PI / 2.0
+        };
+        let h = 1.0 / 256.0;
+        let mut sum = 0.0;
+        for k in -1400..=1400 {
+            let t = k as f64 * h;
+            let u = PI / 2.0 * t.sinh();
+            // α = L tanh u; L − |α| = 2L / (1 + e^(2|u|)).
+            let gap = 2.0 * l / (1.0 + (2.0 * u.abs()).exp());
+            let alpha_abs = l - gap;
+            // ln cos α: by ln(1 − 2 sin²(α/2)) near the peak, so that cosᵐ keeps its precision
+            // for m = 10⁶; by the sine of the gap near the ends.
+            let ln_cos = if l < PI / 2.0 {
+                (-2.0 * (0.5 * alpha_abs).sin().powi(2)).ln_1p()
+            } else {
+                gap.sin().ln()
+            };
+            let w = l * PI / 2.0 * t.cosh() / u.cosh().powi(2);
+            if w > 0.0 && ln_cos.is_finite() {
+                sum += w * (m * ln_cos).exp();
+            }
+        }
+        sum * h
+    }
+
+    #[test]
+    fn quadrature_reproduces_closed_forms() {
+        // I(0) = π, I(1) = 2, I(2) = π/2, I(3) = 4/3.
+        for (m, v) in [(0.0, PI), (1.0, 2.0), (2.0, PI / 2.0), (3.0, 4.0 / 3.0)] {
+            assert!((quadrature(m) / v - 1.0).abs() < 1e-13, "m = {m}");
+        }
+    }
+
+    /// The per-hit closed form against independent quadrature and the recurrence, over the
+    /// exponents a roughness texel can give (n(r) ∈ [1, 10⁶]) and below; both normalisations of
+    /// [`PhongLobe::at`] make the sampling density integrate to 1 and the BRDF's normal-incidence
+    /// albedo ks, and equal [`PhongLobe::new`]'s.
+    #[test]
+    fn closed_form_lobe_normalisation_matches_quadrature_per_exponent() {
+        for m in [
+            0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 2.646, 7.3, 13.43, 30.0, 62.5, 63.0, 245.0, 1029.0,
+            4095.5, 4097.0, 1.0e4, 1.2345e5, 1.0e6,
+        ] {
+            let q = quadrature(m);
+            let c = cos_power_integral_closed(m);
+            assert!(
+                (c / q - 1.0).abs() < 1e-13,
+                "m = {m}: closed {c} vs quadrature {q}"
+            );
+            let r = cos_power_integral(m);
+            assert!(
+                (c / r - 1.0).abs() < 1e-13,
+                "m = {m}: closed {c} vs recurrence {r}"
+            );
+            let lobe = PhongLobe::at(m);
+            assert_eq!(lobe.exponent, m);
+            // ∫ pdf = I(n)/I(n) and ∫ brdf cos^(n+1)… = I(n+1)/I(n+1), by quadrature.
+            assert!((lobe.inv_pdf_norm * q - 1.0).abs() < 1e-13, "m = {m}");
+            let q1 = quadrature(m + 1.0);
+            assert!((lobe.inv_brdf_norm * q1 - 1.0).abs() < 1e-13, "m = {m}");
+            let own = PhongLobe::new(m);
+            assert!((lobe.inv_pdf_norm / own.inv_pdf_norm - 1.0).abs() < 1e-13);
+            assert!((lobe.inv_brdf_norm / own.inv_brdf_norm - 1.0).abs() < 1e-13);
+        }
+    }
 
     #[test]
     fn section_of_an_extruded_quad() {

@@ -3,8 +3,8 @@
 //! to its mesh's positions and normals (normals with the inverse transpose, renormalised; triangle
 //! winding flipped where the transform mirrors), and a mesh used by several nodes is copied once per
 //! node. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are read, indexed or not; points and
-//! lines are skipped with a warning. Buffers are read by this module; images (base-colour textures)
-//! are decoded by `crate::scene::texture`.
+//! lines are skipped with a warning. Buffers are read by this module; images (base-colour, emissive
+//! and metallic-roughness textures) are decoded by `crate::scene::texture`.
 //!
 //! Metallic-roughness mapping (base = `baseColorFactor` RGB, m = `metallicFactor`, r =
 //! `roughnessFactor`, all clamped to [0, 1]; α = r², Phong exponent n = 2/α² − 2 clamped to
@@ -13,6 +13,7 @@
 //! | glTF material                                     | material                                       |
 //! |---------------------------------------------------|------------------------------------------------|
 //! | `KHR_materials_transmission` factor > 0.5         | smooth dielectric, index `KHR_materials_ior` (default 1.5), tint base |
+//! | `metallicRoughnessTexture` (TEXCOORD_0)           | always `kd` Lambertian + normalised Phong `ks`, exponent n: per hit the rows below for the texel's m and r, but of the glossy kind at every texel (see below) |
 //! | m ≤ 0.05 and r ≥ 0.9 (rough dielectric)           | Lambertian base                                |
 //! | n(r) reaches 10⁶ (r ≲ 0.038: smooth)              | `kd` Lambertian + perfect mirror `ks` (m = 1, r = 0: mirror of reflectance base) |
 //! | otherwise                                         | `kd` Lambertian + normalised Phong `ks`, exponent n(r) |
@@ -25,8 +26,23 @@
 //! `KHR_texture_transform`) multiplies the Lambertian albedo at each hit (the material's own `kd`,
 //! which holds `baseColorFactor`, times the sRGB-decoded texel). The emissive texture likewise
 //! multiplies the emitted radiance (`emissiveFactor` × strength) at each hit and at each light
-//! sample's point. Other textures (metallic-roughness, normal, occlusion, transmission) are ignored
-//! with one warning per file, their factors are used; `doubleSided` (opaque surfaces are two-sided anyway) and other extensions are ignored.
+//! sample's point.
+//!
+//! The metallic-roughness texture (TEXCOORD_0, its sampler's wrap modes, `KHR_texture_transform`;
+//! read as stored, linear, never sRGB-decoded) gives at each hit r = `roughnessFactor` × G and
+//! m = `metallicFactor` × B (R and A are not read), and the material's model is rebuilt there by
+//! the formulas above ([`pbr_lobes`]) from those and base = `baseColorFactor` × the base-colour
+//! texel (so with this texture the base colour reaches `ks` too). The material's kind is decided
+//! once, from the range the texture can produce: always glossy, because the kernel's effects (and
+//! `--explain`) follow the kinds, and a texel must never make a material a kind they do not
+//! cover. A texel in the Lambertian corner gives `ks` = 0 (it scatters exactly as the Lambertian
+//! model), a texel at the mirror limit the Phong lobe of exponent 10⁶ (f cos/pdf → ks, within about
+//! a milliradian of the mirror direction), never a Dirac mirror. In flatland the lobe's
+//! normalisation for a texel's exponent is computed per hit, in closed form
+//! ([`PhongLobe::at`](crate::scene::flat::PhongLobe::at)). On a transmissive material the texture
+//! has nothing to act on and is ignored with a warning. Normal, occlusion and transmission
+//! textures are ignored with one warning per file, their factors are used; `doubleSided` (opaque
+//! surfaces are two-sided anyway) and other extensions are ignored.
 //! `alphaMode` `MASK` makes a cut-out where the base colour's alpha (factor × texel) is below
 //! `alphaCutoff` (default 0.5); `BLEND` makes a stochastic cut-out, present with probability α
 //! (exact where α is 0 or 1, and unbiased between); both are seen by every ray.
@@ -43,7 +59,7 @@
 
 use crate::math::Rgb;
 use crate::scene::material::Bsdf;
-use crate::scene::material::{Alpha, AlphaMode, TextureRef};
+use crate::scene::material::{Alpha, AlphaMode, MetallicRoughness, TextureRef};
 use crate::scene::material::{Material, conserve_energy};
 use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
 use crate::scene::{Camera, Light, LoadReport, Scene};
@@ -130,39 +146,78 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         cameras,
         ..
     } = loader;
-    // Base-colour textures: each image decoded once (in parallel), the materials pointing at them.
+    // Textures: each image decoded once per encoding (in parallel), the materials pointing at
+    // them.
     let textures = if texture_requests.is_empty() {
         TextureSet::default()
     } else {
-        let images: Vec<usize> = {
-            let mut v: Vec<usize> = texture_requests.iter().map(|r| r.1).collect();
-            v.sort_unstable();
+        let images: Vec<(usize, Encoding)> = {
+            let mut v: Vec<_> = texture_requests
+                .iter()
+                .map(|r| (r.1, r.4.encoding()))
+                .collect();
+            v.sort_unstable_by_key(|&(i, e)| (i, e == Encoding::Linear));
             v.dedup();
             v
         };
         let decoded = images
             .par_iter()
-            .map(|&i| decode_image(&doc, i, &buffers, path))
+            .map(|&(i, e)| decode_image(&doc, i, e, &buffers, path))
             .collect::<anyhow::Result<Vec<_>>>()?;
+        // Materials whose whole glossy model is rebuilt per hit: their base-colour texture
+        // multiplies `baseColorFactor` (not the Lambertian albedo).
+        let mut per_hit = vec![false; materials.len()];
+        for r in &texture_requests {
+            per_hit[r.0] |= r.4 == Slot::MetallicRoughness;
+        }
         for (m, image, wrap, transform, slot) in texture_requests {
+            let key = (image, slot.encoding());
             let texture = TextureRef {
-                texture: images.binary_search(&image).unwrap_or(0) as u32,
+                texture: images.iter().position(|k| *k == key).unwrap_or(0) as u32,
                 factor: Rgb::ONE,
                 wrap,
                 transform,
             };
-            if slot == Slot::Emissive {
-                // The texel times `emissiveFactor` (the material's emission, which lights use).
-                materials[m].maps.emission = Some(texture);
-                continue;
+            match slot {
+                Slot::Emissive => {
+                    // The texel times `emissiveFactor` (the material's emission, which lights
+                    // use).
+                    materials[m].maps.emission = Some(texture);
+                    continue;
+                }
+                Slot::MetallicRoughness => {
+                    let Some(gm) = doc.materials().nth(m) else {
+                        continue;
+                    };
+                    let (base, metallic, roughness) = pbr_params(&gm).0.unit();
+                    let mr = MetallicRoughness {
+                        map: texture,
+                        metallic,
+                        roughness,
+                        base,
+                    };
+                    // Its own model: the factors alone (a white texel), of the kind every texel
+                    // gives.
+                    materials[m].bsdf = mr.bsdf(base, [1.0; 4]);
+                    materials[m].maps.metallic_roughness = Some(mr);
+                    continue;
+                }
+                Slot::BaseColour => {}
             }
             // The base colour's alpha channel is the coverage of a cut-out.
             if let Some(alpha) = materials[m].maps.alpha.as_mut() {
                 alpha.map = Some(texture.clone());
             }
-            let factor = match &materials[m].bsdf {
-                Bsdf::Diffuse { kd } | Bsdf::Glossy { kd, .. } | Bsdf::Mirror { kd, .. } => *kd,
-                _ => continue,
+            let factor = if per_hit[m] {
+                let Some(gm) = doc.materials().nth(m) else {
+                    continue;
+                };
+                pbr_params(&gm).0.unit().0
+            } else {
+                match &materials[m].bsdf {
+                    Bsdf::Diffuse { kd } | Bsdf::Glossy { kd, .. } | Bsdf::Mirror { kd, .. } => *kd,
+                    _ => continue,
+                }
             };
             materials[m].maps.base_color = Some(TextureRef { factor, ..texture });
         }
@@ -217,13 +272,27 @@ type TextureRequest = (usize, usize, (Wrap, Wrap), UvTransform, Slot);
 enum Slot {
     BaseColour,
     Emissive,
+    MetallicRoughness,
+}
+
+impl Slot {
+    /// Colour textures are sRGB-encoded; the metallic-roughness texture holds data, read as
+    /// stored (glTF's rule).
+    fn encoding(self) -> Encoding {
+        match self {
+            Slot::BaseColour | Slot::Emissive => Encoding::Colour,
+            Slot::MetallicRoughness => Encoding::Linear,
+        }
+    }
 }
 
 /// Decodes image `index` of the document: a data URI, a file next to the glTF, or a buffer view
-/// (PNG, JPEG, TGA, HDR). Base colour is sRGB-encoded (glTF's rule), decoded to linear.
+/// (PNG, JPEG, TGA, HDR). Colour textures (`encoding`) are sRGB-encoded (glTF's rule), decoded to
+/// linear; data textures are read as stored.
 fn decode_image(
     doc: &::gltf::Document,
     index: usize,
+    encoding: Encoding,
     buffers: &[Vec<u8>],
     path: &Path,
 ) -> anyhow::Result<Texture> {
@@ -236,16 +305,15 @@ fn decode_image(
     match image.source() {
         ::gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
             let bytes = decode_data_uri(uri).map_err(|e| anyhow!("{file}: {label}: {e}"))?;
-            Texture::from_bytes(&bytes, &format!("{file}: {label}"), Encoding::Colour)
+            Texture::from_bytes(&bytes, &format!("{file}: {label}"), encoding)
         }
-        ::gltf::image::Source::Uri { uri, .. } => Texture::load(
-            &path.parent().unwrap_or(Path::new(".")).join(uri),
-            Encoding::Colour,
-        )
-        .with_context(|| format!("{file}: {label}")),
+        ::gltf::image::Source::Uri { uri, .. } => {
+            Texture::load(&path.parent().unwrap_or(Path::new(".")).join(uri), encoding)
+                .with_context(|| format!("{file}: {label}"))
+        }
         ::gltf::image::Source::View { view, .. } => {
             let bytes = view_bytes(&view, buffers).map_err(|e| anyhow!("{file}: {label}: {e}"))?;
-            Texture::from_bytes(bytes, &format!("{file}: {label}"), Encoding::Colour)
+            Texture::from_bytes(bytes, &format!("{file}: {label}"), encoding)
         }
     }
 }
@@ -459,15 +527,29 @@ impl Loader {
         let mut textured = Vec::new();
         for m in doc.materials() {
             let label = named("material", m.index().unwrap_or(0), m.name());
-            let (material, warnings, has_texture) = convert_material(&m, &label);
+            let (material, warnings) = convert_material(&m, &label);
             for w in warnings {
                 self.warn(format!("{label}: {w}"));
             }
             let base = m.pbr_metallic_roughness().base_color_texture();
             let emissive = m.emissive_texture();
+            let mut metallic_roughness = m.pbr_metallic_roughness().metallic_roughness_texture();
+            // A smooth dielectric has no metallic or roughness to read.
+            if metallic_roughness.is_some() && matches!(material.bsdf, Bsdf::Dielectric { .. }) {
+                self.warn(format!(
+                    "{label}: metallic-roughness texture ignored on a transmissive material (a \
+                     smooth dielectric)"
+                ));
+                metallic_roughness = None;
+            }
             for (info, slot, what) in [
                 (&base, Slot::BaseColour, "base colour"),
                 (&emissive, Slot::Emissive, "emissive"),
+                (
+                    &metallic_roughness,
+                    Slot::MetallicRoughness,
+                    "metallic-roughness",
+                ),
             ] {
                 let Some(info) = info else {
                     continue;
@@ -500,15 +582,15 @@ impl Loader {
                     ));
                 }
             }
-            // Textures other than the base colour and emission are not read yet.
-            if has_texture && (base.is_none() && emissive.is_none() || other_textures(&m)) {
+            // Normal, occlusion and transmission textures are not read.
+            if other_textures(&m) {
                 textured.push(label);
             }
             self.materials.push(material);
         }
         if let Some(first) = textured.first() {
             let w = format!(
-                "textures other than the base colour and emission are ignored ({} material(s) use them, first {first}); their constant factors are used",
+                "normal, occlusion and transmission textures are ignored ({} material(s) use them, first {first}); their constant factors are used",
                 textured.len()
             );
             self.warn(w);
@@ -1137,13 +1219,49 @@ pub fn phong_exponent(roughness: f64) -> f64 {
     (2.0 / (alpha * alpha) - 2.0).clamp(1.0, MAX_PHONG_EXPONENT)
 }
 
+impl PbrParams {
+    /// Base colour, metallic and roughness as the mapping uses them: clamped to [0, 1], and
+    /// glTF's defaults where non-finite (out-of-range JSON numbers).
+    pub fn unit(&self) -> (Rgb, f64, f64) {
+        let finite_or = |x: f64, d: f64| if x.is_finite() { x.clamp(0.0, 1.0) } else { d };
+        let base = self.base.to_array().map(|c| finite_or(c, 1.0)).into();
+        (
+            base,
+            finite_or(self.metallic, 1.0),
+            finite_or(self.roughness, 1.0),
+        )
+    }
+}
+
+/// The Lambertian corner of the mapping: a rough dielectric (m ≤ 0.05, r ≥ 0.9).
+#[inline]
+fn is_lambertian(metallic: f64, roughness: f64) -> bool {
+    metallic <= 0.05 && roughness >= 0.9
+}
+
+/// The glossy model's albedos and Phong exponent for base colour `base`, metallic `metallic` and
+/// roughness `roughness` (the module table's rows below transmission): in the Lambertian corner
+/// `kd` = base and `ks` = 0; elsewhere `kd` = base·(1 − m), `ks` = mix(0.04, base, m), scaled down
+/// where `kd + ks` exceeds 1, and n = [`phong_exponent`]`(r)`. Metallic and roughness are clamped
+/// to [0, 1], the base colour to ≥ 0. Used at load for constant materials ([`map_pbr`]) and at
+/// each hit for materials with a metallic-roughness texture ([`MetallicRoughness::bsdf`]).
+#[inline]
+pub fn pbr_lobes(base: Rgb, metallic: f64, roughness: f64) -> (Rgb, Rgb, f64) {
+    let (m, r) = (metallic.clamp(0.0, 1.0), roughness.clamp(0.0, 1.0));
+    // Float base-colour texels may be negative.
+    let base = base.max(Rgb::ZERO);
+    let (mut kd, mut ks) = if is_lambertian(m, r) {
+        (base, Rgb::ZERO)
+    } else {
+        (base * (1.0 - m), Rgb::splat(0.04).lerp(base, m))
+    };
+    conserve_energy(&mut kd, &mut ks);
+    (kd, ks, phong_exponent(r))
+}
+
 /// Maps metallic-roughness parameters onto the material model (the module table).
 pub fn map_pbr(name: &str, p: &PbrParams) -> Material {
-    // Non-finite factors (out-of-range JSON numbers) fall back to glTF's defaults.
-    let finite_or = |x: f64, d: f64| if x.is_finite() { x.clamp(0.0, 1.0) } else { d };
-    let base = p.base.to_array().map(|c| finite_or(c, 1.0)).into();
-    let m = finite_or(p.metallic, 1.0);
-    let r = finite_or(p.roughness, 1.0);
+    let (base, m, r) = p.unit();
     let emission = if p.emission.is_finite() {
         p.emission.max(Rgb::ZERO)
     } else {
@@ -1154,13 +1272,10 @@ pub fn map_pbr(name: &str, p: &PbrParams) -> Material {
             ior: p.ior,
             tint: base,
         }
-    } else if m <= 0.05 && r >= 0.9 {
+    } else if is_lambertian(m, r) {
         Bsdf::Diffuse { kd: base }
     } else {
-        let mut kd = base * (1.0 - m);
-        let mut ks = Rgb::splat(0.04).lerp(base, m);
-        conserve_energy(&mut kd, &mut ks);
-        let exponent = phong_exponent(r);
+        let (kd, ks, exponent) = pbr_lobes(base, m, r);
         if exponent >= MAX_PHONG_EXPONENT {
             Bsdf::Mirror { kd, ks }
         } else {
@@ -1183,24 +1298,20 @@ fn rgb3(c: [f32; 3]) -> Rgb {
     Rgb::new(c[0] as f64, c[1] as f64, c[2] as f64)
 }
 
-/// Whether `m` uses a texture other than the base colour and emission (not read yet).
+/// Whether `m` uses a texture that is not read (normal, occlusion, transmission).
 fn other_textures(m: &::gltf::Material) -> bool {
-    m.pbr_metallic_roughness()
-        .metallic_roughness_texture()
-        .is_some()
-        || m.normal_texture().is_some()
+    m.normal_texture().is_some()
         || m.occlusion_texture().is_some()
         || m.transmission()
             .is_some_and(|t| t.transmission_texture().is_some())
 }
 
-/// Converts a glTF material: the material, its warnings, and whether it uses any texture.
-fn convert_material(m: &::gltf::Material, label: &str) -> (Material, Vec<String>, bool) {
+/// The numbers of `m` that the mapping uses, and warnings about them.
+fn pbr_params(m: &::gltf::Material) -> (PbrParams, Vec<String>) {
     let mut warnings = Vec::new();
     let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, alpha] = pbr.base_color_factor();
+    let [r, g, b, _] = pbr.base_color_factor();
     let strength = m.emissive_strength().unwrap_or(1.0) as f64;
-    let transmission = m.transmission();
     let ior = match m.ior() {
         None => 1.5,
         Some(n) if n.is_finite() && n >= 1.0 => n as f64,
@@ -1214,19 +1325,19 @@ fn convert_material(m: &::gltf::Material, label: &str) -> (Material, Vec<String>
         metallic: pbr.metallic_factor() as f64,
         roughness: pbr.roughness_factor() as f64,
         emission: rgb3(m.emissive_factor()) * strength,
-        transmission: transmission
+        transmission: m
+            .transmission()
             .as_ref()
             .map_or(0.0, |t| t.transmission_factor() as f64),
         ior,
     };
-    let has_texture = pbr.base_color_texture().is_some()
-        || pbr.metallic_roughness_texture().is_some()
-        || m.emissive_texture().is_some()
-        || m.normal_texture().is_some()
-        || m.occlusion_texture().is_some()
-        || transmission
-            .as_ref()
-            .is_some_and(|t| t.transmission_texture().is_some());
+    (params, warnings)
+}
+
+/// Converts a glTF material: the material and its warnings.
+fn convert_material(m: &::gltf::Material, label: &str) -> (Material, Vec<String>) {
+    let (params, warnings) = pbr_params(m);
+    let alpha = m.pbr_metallic_roughness().base_color_factor()[3];
     let name = m.name().map_or_else(|| label.to_string(), str::to_string);
     let mut material = map_pbr(&name, &params);
     // Coverage: the base colour's alpha (factor times texel, set with the texture).
@@ -1243,7 +1354,7 @@ fn convert_material(m: &::gltf::Material, label: &str) -> (Material, Vec<String>
         channel: 3,
         mode,
     });
-    (material, warnings, has_texture)
+    (material, warnings)
 }
 
 #[cfg(test)]
@@ -1353,6 +1464,100 @@ mod tests {
         let m = map_pbr("l", &p);
         assert_eq!(m.bsdf, Bsdf::Black);
         assert_eq!(m.emission, Rgb::splat(4.0));
+    }
+
+    fn glossy(b: &Bsdf) -> (Rgb, Rgb, f64) {
+        match b {
+            Bsdf::Glossy { kd, ks, exponent } => (*kd, *ks, *exponent),
+            other => panic!("not glossy: {other:?}"),
+        }
+    }
+
+    fn close(a: Rgb, b: Rgb) -> bool {
+        (a - b).abs().max_element() < 1e-12
+    }
+
+    fn mr(metallic: f64, roughness: f64) -> MetallicRoughness {
+        MetallicRoughness {
+            map: TextureRef {
+                texture: 0,
+                factor: Rgb::ONE,
+                wrap: (Wrap::Repeat, Wrap::Repeat),
+                transform: UvTransform::default(),
+            },
+            metallic,
+            roughness,
+            base: Rgb::splat(0.8),
+        }
+    }
+
+    /// Per hit, roughness is the texel's G channel times `roughnessFactor` and metallic its B
+    /// channel times `metallicFactor`; R and A are not read. The values are the table's formulas
+    /// written out by hand.
+    #[test]
+    fn gltf_metallic_roughness_texel_reads_g_and_b_times_the_factors() {
+        let base = Rgb::splat(0.8);
+        // G = 0.5, B = 0.25: r = 0.5 (α = 0.25, n = 2/0.0625 − 2 = 30), m = 0.25:
+        // kd = 0.8 · 0.75 = 0.6, ks = 0.04 · 0.75 + 0.8 · 0.25 = 0.23.
+        let (kd, ks, n) = glossy(&mr(1.0, 1.0).bsdf(base, [0.9, 0.5, 0.25, 0.1]));
+        assert!(
+            close(kd, Rgb::splat(0.6)) && close(ks, Rgb::splat(0.23)),
+            "{kd:?} {ks:?}"
+        );
+        assert!((n - 30.0).abs() < 1e-9, "{n}");
+        // R and A do not matter; R and B swapped would.
+        let other = mr(1.0, 1.0).bsdf(base, [0.0, 0.5, 0.25, 1.0]);
+        assert_eq!(glossy(&other), (kd, ks, n));
+        assert_ne!(
+            glossy(&mr(1.0, 1.0).bsdf(base, [0.25, 0.5, 0.9, 1.0])).0,
+            kd
+        );
+        // The factors multiply: metallic 0.5 × B 0.5, roughness 0.625 × G 0.8 give the same.
+        let (kd2, ks2, n2) = glossy(&mr(0.5, 0.625).bsdf(base, [0.0, 0.8, 0.5, 0.0]));
+        assert!(close(kd2, kd) && close(ks2, ks) && (n2 - n).abs() < 1e-9);
+        // r = 0.6 × 1: α = 0.36, n = 2/0.1296 − 2.
+        let (_, _, n3) = glossy(&mr(0.0, 0.6).bsdf(base, [0.0, 1.0, 1.0, 0.0]));
+        assert!((n3 - (2.0 / 0.1296 - 2.0)).abs() < 1e-9, "{n3}");
+        // The base colour given per hit (a base-colour texel) is the one used.
+        let (kd4, ks4, _) =
+            glossy(&mr(1.0, 1.0).bsdf(Rgb::new(0.4, 0.2, 0.0), [0.0, 0.5, 1.0, 0.0]));
+        assert!(close(kd4, Rgb::ZERO) && close(ks4, Rgb::new(0.4, 0.2, 0.0)));
+    }
+
+    /// The ends of the mapping stay of the glossy kind: the Lambertian corner (m ≤ 0.05, r ≥ 0.9)
+    /// has ks = 0 and kd = base, as [`map_pbr`]'s Lambertian; r = 0 is the lobe of the largest
+    /// exponent with ks = base for a metal, where [`map_pbr`] makes a mirror of reflectance base.
+    /// Between them the texel gives what [`map_pbr`] gives for the same constants.
+    #[test]
+    fn gltf_metallic_roughness_texels_stay_glossy_at_the_limits() {
+        let base = Rgb::splat(0.8);
+        let (kd, ks, _) = glossy(&mr(1.0, 1.0).bsdf(base, [0.0, 1.0, 0.0, 1.0]));
+        assert_eq!((kd, ks), (base, Rgb::ZERO));
+        assert_eq!(
+            map_pbr("a", &pbr(0.8, 0.0, 1.0)).bsdf,
+            Bsdf::Diffuse { kd: base }
+        );
+        let (kd, ks, n) = glossy(&mr(1.0, 1.0).bsdf(base, [0.0, 0.0, 1.0, 1.0]));
+        assert_eq!((kd, ks, n), (Rgb::ZERO, base, MAX_PHONG_EXPONENT));
+        assert_eq!(
+            map_pbr("a", &pbr(0.8, 1.0, 0.0)).bsdf,
+            Bsdf::Mirror {
+                kd: Rgb::ZERO,
+                ks: base
+            }
+        );
+        for (m, r) in [(0.3, 0.7), (0.0, 0.5), (1.0, 0.2), (0.06, 0.95)] {
+            let texel = glossy(&mr(1.0, 1.0).bsdf(base, [0.0, r, m, 1.0]));
+            let constant = glossy(&map_pbr("a", &pbr(0.8, m, r)).bsdf);
+            assert!(
+                close(texel.0, constant.0) && close(texel.1, constant.1),
+                "{m} {r}"
+            );
+            assert!((texel.2 / constant.2 - 1.0).abs() < 1e-12, "{m} {r}");
+        }
+        // White base, no metal: kd + ks = 1.04 is scaled down, as at load.
+        let (kd, ks, _) = glossy(&mr(1.0, 1.0).bsdf(Rgb::ONE, [0.0, 0.5, 0.0, 1.0]));
+        assert!(((kd + ks).max_element() - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -62,6 +62,9 @@ pub struct Maps {
     /// Replaces the emitted radiance (glTF `emissiveTexture`, MTL `map_Ke`); the factor holds the
     /// material's emission.
     pub emission: Option<TextureRef>,
+    /// Metallic and roughness read per hit (glTF `metallicRoughnessTexture`): the whole glossy
+    /// model is rebuilt from them at each hit ([`MetallicRoughness`]).
+    pub metallic_roughness: Option<MetallicRoughness>,
     /// Where the surface is cut out: rays pass through it there ([`Alpha`]).
     pub alpha: Option<Alpha>,
 }
@@ -97,6 +100,7 @@ impl Maps {
         self.base_color.is_some()
             || self.specular.is_some()
             || self.emission.is_some()
+            || self.metallic_roughness.is_some()
             || self.alpha.as_ref().is_some_and(|a| a.map.is_some())
     }
 }
@@ -126,6 +130,42 @@ impl Alpha {
             AlphaMode::Mask { cutoff } => !(a >= cutoff),
             AlphaMode::Stochastic => !(xi < a),
         }
+    }
+}
+
+/// glTF's metallic-roughness texture: at each hit, roughness r = `roughness` × the texel's G
+/// channel and metallic m = `metallic` × its B channel (both read as stored, linear, and clamped to
+/// [0, 1]) give the glossy model through the loader's metallic-roughness mapping
+/// ([`crate::scene::gltf::pbr_lobes`]): `kd` = base·(1 − m), `ks` = mix(0.04, base, m), Phong
+/// exponent n(r), with base the base colour (the material's base-colour texel times
+/// `baseColorFactor` where it has one, else `base`).
+///
+/// A material with this map is always [`Bsdf::Glossy`], whatever its factors alone would give, so
+/// that its kind (and with it the kernel's effects and `--explain`) covers every texel: a texel in
+/// the Lambertian corner of the mapping (m ≤ 0.05, r ≥ 0.9) gives `ks` = 0, which scatters exactly
+/// as the Lambertian model, and one at the mirror limit a lobe of the largest exponent
+/// ([`crate::scene::gltf::MAX_PHONG_EXPONENT`]), never a Dirac mirror.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MetallicRoughness {
+    /// The texture (its factor is unused: the factors are below).
+    pub map: TextureRef,
+    /// `metallicFactor`, clamped to [0, 1].
+    pub metallic: f64,
+    /// `roughnessFactor`, clamped to [0, 1].
+    pub roughness: f64,
+    /// `baseColorFactor`'s RGB, clamped to [0, 1], for materials without a base-colour texture.
+    pub base: Rgb,
+}
+
+impl MetallicRoughness {
+    /// The model at a hit whose metallic-roughness texel is `texel` (RGBA, linear) and whose base
+    /// colour is `base`.
+    #[inline]
+    pub fn bsdf(&self, base: Rgb, texel: [f64; 4]) -> Bsdf {
+        let roughness = self.roughness * texel[1];
+        let metallic = self.metallic * texel[2];
+        let (kd, ks, exponent) = crate::scene::gltf::pbr_lobes(base, metallic, roughness);
+        Bsdf::Glossy { kd, ks, exponent }
     }
 }
 

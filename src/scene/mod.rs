@@ -594,8 +594,15 @@ impl Scene {
 
     /// The scattering model at a hit of a material with textures: its albedos replaced by the
     /// texels (base colour × its factor for `kd`, specular × its factor for `ks`, bilinear at the
-    /// interpolated texture coordinate); `None` for materials without, which keep their own.
-    /// Scenes without textures return at the first test.
+    /// interpolated texture coordinate), or with a metallic-roughness map the whole glossy model
+    /// rebuilt from the texels ([`MetallicRoughness::bsdf`]); `None` for materials without,
+    /// which keep their own. Scenes without textures return at the first test.
+    ///
+    /// The model returned is of the material's own kind, so the kernel's choice of effects holds
+    /// for it; its Phong exponent may differ from the material's (flatland then computes the
+    /// lobe's normalisation for it: `Space::textured_lobe`).
+    ///
+    /// [`MetallicRoughness::bsdf`]: crate::scene::material::MetallicRoughness::bsdf
     #[inline(always)]
     pub fn textured_bsdf(&self, hit: &Hit) -> Option<Bsdf> {
         if !self.features.textures {
@@ -610,7 +617,8 @@ impl Scene {
     fn texel_bsdf(&self, hit: &Hit) -> Option<Bsdf> {
         let m = &self.materials[hit.material as usize];
         let (base, spec) = (m.maps.base_color.as_ref(), m.maps.specular.as_ref());
-        if base.is_none() && spec.is_none() {
+        let mr = m.maps.metallic_roughness.as_ref();
+        if base.is_none() && spec.is_none() && mr.is_none() {
             return None;
         }
         let uv = self.hit_uv(hit.prim, hit.bary);
@@ -618,6 +626,12 @@ impl Scene {
             let [r, g, b, _] = t.texel(&self.textures.textures[t.texture as usize], uv);
             t.factor * Rgb::new(r, g, b)
         };
+        if let Some(mr) = mr {
+            let texel = mr
+                .map
+                .texel(&self.textures.textures[mr.map.texture as usize], uv);
+            return Some(mr.bsdf(base.map_or(mr.base, colour), texel));
+        }
         Some(m.bsdf.with_albedos(base.map(colour), spec.map(colour)))
     }
 

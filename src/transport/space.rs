@@ -75,6 +75,9 @@ impl Space for Sphere {
     }
 
     #[inline(always)]
+    fn textured_lobe(_: &Bsdf, _: &()) {}
+
+    #[inline(always)]
     fn intersect(scene: &Scene, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
         scene.intersect(o, d, tmax)
     }
@@ -192,6 +195,15 @@ impl Space for Flatland {
     fn scatter(scene: &Scene, m: u32) -> (&Bsdf, &PhongLobe) {
         let fb = &scene.flat().bsdfs[m as usize];
         (&fb.bsdf, &fb.lobe)
+    }
+
+    /// The normalisations for a texel's exponent, in closed form ([`PhongLobe::at`]).
+    #[inline]
+    fn textured_lobe(bsdf: &Bsdf, own: &PhongLobe) -> PhongLobe {
+        match bsdf {
+            Bsdf::Glossy { exponent, .. } if *exponent != own.exponent => PhongLobe::at(*exponent),
+            _ => *own,
+        }
     }
 
     #[inline(always)]

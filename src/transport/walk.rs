@@ -101,12 +101,12 @@ pub fn walk_counted<K: Kernel>(
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
         // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
-        let bsdf = match scene.textured_bsdf(&hit) {
+        let (bsdf, lobe) = match scene.textured_bsdf(&hit) {
             Some(b) => {
-                textured = b;
-                &textured
+                textured = (K::Space::textured_lobe(&b, lobe), b);
+                (&textured.1, &textured.0)
             }
-            None => bsdf,
+            None => (bsdf, lobe),
         };
         let sampled = bsdf.sample_in(sp, lobe, -d, hit.ng, hit.ns, u_lobe, u, s, Mode::Importance);
         let Some(bs) = sampled else {
@@ -336,12 +336,12 @@ pub fn radiance_mis<K: Kernel>(
         let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
         // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
-        let bsdf = match scene.textured_bsdf(&hit) {
+        let (bsdf, lobe) = match scene.textured_bsdf(&hit) {
             Some(b) => {
-                textured = b;
-                &textured
+                textured = (K::Space::textured_lobe(&b, lobe), b);
+                (&textured.1, &textured.0)
             }
-            None => bsdf,
+            None => (bsdf, lobe),
         };
         let wo = -d;
         // Next-event estimation on surfaces with a non-delta lobe.
