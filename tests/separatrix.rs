@@ -532,7 +532,7 @@ const BAND: [f64; 4] = [-2.45, -0.15, 0.25, 0.75];
 /// The fraction of the shadow boundary (in [`SHADOW_REGION`]) that must be drawn. The step of σ
 /// across it changes sign along it (σ is larger on the lit side near the occluder, smaller
 /// farther down), and where it passes through zero there is nothing to extract: at 512 samples
-/// per cell σ steps by 4 standard errors over 55–90 % of the line (the runs of the sweep below,
+/// per cell σ steps by 4 standard errors over 59–73 % of the line (the runs of the sweep below,
 /// seeds 1–20 at both resolutions), and the extraction drew 53–84 % of it.
 const SHADOW_MIN_COVERAGE: f64 = 0.5;
 
