@@ -50,16 +50,35 @@
 //! two detectors, and the choice is made per place:
 //!
 //! - **jump**: maxima of the jump strength along the gradient (Canny's non-maximum
-//!   suppression), where it is ≥ τ at z ≥ Z (hysteresis down to τ/2 and Z − 1, along
-//!   neighbours whose normal turns by less than 45°);
+//!   suppression), where it is ≥ τ at z ≥ Z (hysteresis down to τ/2 and Z − 1, to neighbours
+//!   that lie along the line rather than across it and whose normal turns by less than 45°);
 //! - **ridge** (height ridges of |∇²_ω σ|, eq. 13 itself): maxima of the strength along its
 //!   direction, same thresholds, except within 2·scale + 1.5 cells of a jump line (where the
 //!   Hessian only shows the flanks of that jump).
 //!
-//! Chains of fewer than [`MIN_LINE_CELLS`] cells are dropped. Lines are located to a fraction of a
-//! cell: a jump line where the second derivative across it vanishes (one Newton step from the
-//! cell centre, −σ_nn/σ_nnn along the gradient), a ridge by a parabola through the maximum and its
-//! two neighbours across the line.
+//! # From line cells to polylines: what noise can and cannot draw
+//!
+//! The filtered field's noise is correlated over about ±2·scale cells, so one noise excursion
+//! makes a short maximum line, and a real line that fades into the noise ends in a hook along
+//! whatever smooth structure is next to it. So the linked chains are refined, all in units of the
+//! scale:
+//!
+//! - a chain is cut where it turns by more than 45° within ⌈scale⌉ + 1 cells on either side (a
+//!   junction, or a hook);
+//! - each piece is trimmed back to its first and last *strong* cell (τ and Z): weak cells join
+//!   strong ones, they do not prolong a line where its own significance is gone;
+//! - pieces shorter than max(3, ⌈4·scale⌉) cells are dropped ([`MIN_LINE_CELLS`] is the floor);
+//! - ends of two lines of one kind are joined across a gap of at most 2·⌈3·scale⌉ cells (one
+//!   filter support) when each end lies within 1.5 cells of the other's tangent and the tangents
+//!   agree within 30°; the points laid across carry strength and z 0 (bridged, not measured).
+//!
+//! Where the step across a line passes through zero (a shadow boundary whose step changes sign
+//! along it) nothing is drawn: there is no discontinuity to find at that noise level, and the
+//! bridge does not guess across more than one filter support.
+//!
+//! Lines are located to a fraction of a cell: a jump line where the second derivative across it
+//! vanishes (one Newton step from the cell centre, −σ_nn/σ_nnn along the gradient), a ridge by a
+//! parabola through the maximum and its two neighbours across the line.
 //!
 //! Cells whose filter support (± ⌈3·scale⌉ cells) holds an invalid cell are left out (strength and
 //! z 0, never marked). At the grid's borders σ is continued by point reflection (σ(−k) = 2σ(0) −
@@ -71,7 +90,8 @@ use glam::DVec3;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Shortest chain of line cells kept as a polyline.
+/// Shortest chain of line cells kept as a polyline at any scale (the scale-relative minimum is
+/// max(this, ⌈4·scale⌉); see the module docs).
 pub const MIN_LINE_CELLS: usize = 3;
 
 /// Candidate default scales, in cells.
@@ -974,8 +994,9 @@ fn thin(
             offset[c] = [t * di as f64, t * dj as f64];
         }
     }
-    // Hysteresis: weak cells 8-connected to kept ones, with a normal within 45° of theirs (so that
-    // a line does not wander off where its contrast fades and the normals turn).
+    // Hysteresis: weak cells 8-connected to kept ones along their line, with a normal within 45°
+    // of theirs (so that a line does not wander off where its contrast fades and the normals
+    // turn).
     let unit = |c: usize| {
         let l = normal[c][0].hypot(normal[c][1]);
         if l > 0.0 {
@@ -995,7 +1016,13 @@ fn thin(
                     && !keep[k]
                     && {
                         let (a, b) = (unit(c), unit(k));
-                        (a[0] * b[0] + a[1] * b[1]).abs() >= std::f64::consts::FRAC_1_SQRT_2
+                        // Along the line, not across it: the step to the neighbour makes at least
+                        // 45° with the normal (so a parallel response beside the line is not
+                        // joined to it).
+                        let along = (di as f64 * a[0] + dj as f64 * a[1]).abs()
+                            <= std::f64::consts::FRAC_1_SQRT_2 * (di as f64).hypot(dj as f64);
+                        along
+                            && (a[0] * b[0] + a[1] * b[1]).abs() >= std::f64::consts::FRAC_1_SQRT_2
                     }
                 {
                     keep[k] = true;
@@ -1076,6 +1103,179 @@ fn walk_back(nb: &dyn Fn(usize) -> Vec<usize>, used: &mut [bool], start: usize) 
     out
 }
 
+/// The points of a chain of cells (cell centres moved by their sub-cell offsets).
+fn chain_points(dims: [usize; 3], chain: &[usize], off: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    chain
+        .iter()
+        .map(|&c| {
+            let (i, j) = (c % dims[0], c / dims[0]);
+            [i as f64 + 0.5 + off[c][0], j as f64 + 0.5 + off[c][1]]
+        })
+        .collect()
+}
+
+/// The shortest line kept at `scale` (see the module docs): the filtered field's noise is
+/// correlated over about ±2·scale, so a chain no longer than 4·scale can be one noise excursion.
+fn min_line_cells(scale: f64) -> usize {
+    ((4.0 * scale).ceil() as usize).max(MIN_LINE_CELLS)
+}
+
+/// Cuts chains where they turn by more than 45° over ⌈scale⌉ + 1 cells on either side (two lines
+/// met at a junction, or a line hooking off), trims each piece back to its first and last strong
+/// cell (weak cells join strong ones, they do not extend a line where its contrast fades), then
+/// drops the pieces shorter than [`min_line_cells`].
+fn refine_chains(
+    dims: [usize; 3],
+    chains: Vec<Vec<usize>>,
+    off: &[[f64; 2]],
+    scale: f64,
+    strong: &dyn Fn(usize) -> bool,
+) -> Vec<Vec<usize>> {
+    let k = (scale.ceil() as usize + 1).max(2);
+    let min_len = min_line_cells(scale);
+    let mut out = Vec::new();
+    for chain in chains {
+        let p = chain_points(dims, &chain, off);
+        let n = p.len();
+        let cos_turn = |i: usize| {
+            let a = [p[i][0] - p[i - k][0], p[i][1] - p[i - k][1]];
+            let b = [p[i + k][0] - p[i][0], p[i + k][1] - p[i][1]];
+            let l = a[0].hypot(a[1]) * b[0].hypot(b[1]);
+            if l > 0.0 {
+                (a[0] * b[0] + a[1] * b[1]) / l
+            } else {
+                1.0
+            }
+        };
+        let cos: Vec<f64> = (0..n)
+            .map(|i| {
+                if i >= k && i + k < n {
+                    cos_turn(i)
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let mut start = 0;
+        for i in 0..n {
+            let local_min =
+                (i == 0 || cos[i] <= cos[i - 1]) && (i + 1 == n || cos[i] <= cos[i + 1]);
+            if cos[i] < std::f64::consts::FRAC_1_SQRT_2 && local_min {
+                out.push(chain[start..i].to_vec());
+                start = i + 1;
+            }
+        }
+        out.push(chain[start..].to_vec());
+    }
+    out.into_iter()
+        .filter_map(|c| {
+            let first = c.iter().position(|&x| strong(x))?;
+            let last = c.iter().rposition(|&x| strong(x))?;
+            let c = c[first..=last].to_vec();
+            (c.len() >= min_len).then_some(c)
+        })
+        .collect()
+}
+
+/// Unit tangent at one end of a polyline, pointing out of it, from the point `k` back.
+fn end_tangent(p: &[[f64; 2]], head: bool, k: usize) -> Option<[f64; 2]> {
+    let n = p.len();
+    let k = k.min(n.checked_sub(1)?);
+    let (a, b) = if head {
+        (p[k], p[0])
+    } else {
+        (p[n - 1 - k], p[n - 1])
+    };
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l = d[0].hypot(d[1]);
+    (l > 0.0).then(|| [d[0] / l, d[1] / l])
+}
+
+/// Joins lines of one kind across gaps along their own direction: an end of one and an end of
+/// another at most 2·⌈3·scale⌉ cells apart (one filter support, over which one noise excursion can
+/// hide a line), each lying within 1.5 cells of the other's tangent line and the two tangents
+/// within 30° of each other. Nearest pairs first. The points laid across a gap (one a cell) carry
+/// strength and z 0: they are bridged, not measured.
+fn bridge(mut lines: Vec<Polyline>, scale: f64) -> Vec<Polyline> {
+    let max_gap = 2.0 * (3.0 * scale).ceil();
+    let k = (scale.ceil() as usize + 1).max(2);
+    let cos30 = 0.75f64.sqrt();
+    loop {
+        let mut best: Option<(f64, usize, bool, usize, bool)> = None;
+        for a in 0..lines.len() {
+            for b in 0..lines.len() {
+                if a == b || lines[a].kind != lines[b].kind {
+                    continue;
+                }
+                for a_head in [false, true] {
+                    for b_head in [false, true] {
+                        let (pa, pb) = (&lines[a].points, &lines[b].points);
+                        let ea = if a_head { pa[0] } else { pa[pa.len() - 1] };
+                        let eb = if b_head { pb[0] } else { pb[pb.len() - 1] };
+                        let (Some(ta), Some(tb)) =
+                            (end_tangent(pa, a_head, k), end_tangent(pb, b_head, k))
+                        else {
+                            continue;
+                        };
+                        let g = [eb[0] - ea[0], eb[1] - ea[1]];
+                        let d = g[0].hypot(g[1]);
+                        if !(d > 0.0 && d <= max_gap) {
+                            continue;
+                        }
+                        // The tangents point out of their lines: towards each other, opposed.
+                        let along_a = g[0] * ta[0] + g[1] * ta[1];
+                        let along_b = -(g[0] * tb[0] + g[1] * tb[1]);
+                        let lat_a = (g[0] * ta[1] - g[1] * ta[0]).abs();
+                        let lat_b = (g[0] * tb[1] - g[1] * tb[0]).abs();
+                        let opposed = -(ta[0] * tb[0] + ta[1] * tb[1]);
+                        if along_a > 0.0
+                            && along_b > 0.0
+                            && lat_a <= 1.5
+                            && lat_b <= 1.5
+                            && opposed >= cos30
+                            && best.is_none_or(|b| d < b.0)
+                        {
+                            best = Some((d, a, a_head, b, b_head));
+                        }
+                    }
+                }
+            }
+        }
+        let Some((d, a, a_head, b, b_head)) = best else {
+            return lines;
+        };
+        let (hi, lo) = (a.max(b), a.min(b));
+        let lb = lines.remove(hi);
+        let la = lines.remove(lo);
+        let (mut la, mut lb) = if a > b { (lb, la) } else { (la, lb) };
+        // Orient: la ends at the gap, lb starts at it.
+        let rev = |l: &mut Polyline| {
+            l.points.reverse();
+            l.strength.reverse();
+            l.z.reverse();
+        };
+        if a_head {
+            rev(&mut la);
+        }
+        if !b_head {
+            rev(&mut lb);
+        }
+        let (ea, eb) = (la.points[la.points.len() - 1], lb.points[0]);
+        let steps = d.ceil() as usize;
+        for s in 1..steps {
+            let t = s as f64 / steps as f64;
+            la.points
+                .push([ea[0] + t * (eb[0] - ea[0]), ea[1] + t * (eb[1] - ea[1])]);
+            la.strength.push(0.0);
+            la.z.push(0.0);
+        }
+        la.points.extend(lb.points);
+        la.strength.extend(lb.strength);
+        la.z.extend(lb.z);
+        lines.push(la);
+    }
+}
+
 fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]], jump_offset: &[[f64; 2]]) {
     let dims = sep.dims;
     let n = grads.len();
@@ -1092,10 +1292,9 @@ fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]], jump_offset: &[[f64; 
     };
     let (jkeep, _) = thin(dims, jump, grads, &jump_ok);
     let joff = jump_offset;
-    let jchains: Vec<Vec<usize>> = link(dims, &jkeep)
-        .into_iter()
-        .filter(|c| c.len() >= MIN_LINE_CELLS)
-        .collect();
+    let jchains = refine_chains(dims, link(dims, &jkeep), joff, sep.scale, &|c| {
+        jump_ok(c, true)
+    });
     let mut jump_cells = vec![false; n];
     for c in jchains.iter().flatten() {
         jump_cells[*c] = true;
@@ -1133,10 +1332,9 @@ fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]], jump_offset: &[[f64; 
     };
     let normals: Vec<[f64; 2]> = dir.iter().map(|d| [d[0], d[1]]).collect();
     let (rkeep, roff) = thin(dims, st, &normals, &ridge_ok);
-    let rchains: Vec<Vec<usize>> = link(dims, &rkeep)
-        .into_iter()
-        .filter(|c| c.len() >= MIN_LINE_CELLS)
-        .collect();
+    let rchains = refine_chains(dims, link(dims, &rkeep), &roff, sep.scale, &|c| {
+        ridge_ok(c, true)
+    });
     let mut lines = Vec::new();
     let mut line = vec![0u8; n];
     for (kind, chains, off, val, zv) in [
@@ -1162,7 +1360,7 @@ fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]], jump_offset: &[[f64; 
         }
     }
     sep.line = line;
-    sep.lines = lines;
+    sep.lines = bridge(lines, sep.scale);
 }
 
 // ------------------------------------------------------------------------------------------------
