@@ -5,8 +5,7 @@
 //! checks the walks, the radiance paths and their shadow rays alike; the ray and point queries are
 //! also checked one by one where the answer is known exactly.
 
-use ftpd3d::ftpd::moments::Moments;
-use ftpd3d::ftpd::{Params, Weighting, sample_point};
+use ftpd3d::ftpd::{Params, Weighting};
 use ftpd3d::math::Rgb;
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::material::{Alpha, AlphaMode, Material, TextureRef};
@@ -185,36 +184,12 @@ fn z_scores(mode: AlphaMode) -> Vec<(String, f64)> {
         for ix in 0..6 {
             for iz in 0..4 {
                 let x = DVec3::new(-0.25 + 0.3 * ix as f64, 0.55, 0.3 + 0.5 * iz as f64);
-                let cells: Vec<(f64, f64, f64, f64)> = scenes
-                    .iter()
-                    .enumerate()
-                    .map(|(k, sc)| {
-                        let mut s = Sampler::new(11 + k as u64, ix * 4 + iz, weighting as u64);
-                        let mut m = Moments::default();
-                        let (mut f, mut f2) = (0.0, 0.0);
-                        for _ in 0..n {
-                            let smp = sample_point(sc, x, &p, &mut s);
-                            m.add_sample(smp.c, smp.delta, smp.weight);
-                            let w = ftpd3d::math::luminance(smp.weight);
-                            f += w;
-                            f2 += w * w;
-                        }
-                        let v = m.finalize();
-                        let mean = f / n as f64;
-                        let se = ((f2 / n as f64 - mean * mean).max(0.0) / (n - 1) as f64).sqrt();
-                        (v.sigma, v.stderr, mean, se)
-                    })
-                    .collect();
-                let (a, b) = (cells[0], cells[1]);
-                let z = |x: f64, sx: f64, y: f64, sy: f64| {
-                    let se = (sx * sx + sy * sy).sqrt();
-                    if se > 0.0 { (x - y) / se } else { 0.0 }
+                let est = |k: u64| {
+                    let s = Sampler::new(11 + k, ix * 4 + iz, weighting as u64);
+                    crate::support::point_estimate(&scenes[k as usize], x, &p, s, n)
                 };
                 let at = format!("{weighting:?} at {:.2},{:.2}", x.x, x.z);
-                out.push((format!("σ {at}"), z(a.0, a.1, b.0, b.1)));
-                if weighting == Weighting::Radiance {
-                    out.push((format!("fluence {at}"), z(a.2, a.3, b.2, b.3)));
-                }
+                crate::support::push_z_scores(&mut out, &at, weighting, est(0), est(1));
             }
         }
     }

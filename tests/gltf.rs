@@ -1060,8 +1060,7 @@ fn mr_two_texel_scene(dir: &Path, textured: bool) -> Scene {
 /// the two constant quads, with independent seeds: the difference of each pair over its combined
 /// standard error.
 fn mr_z_scores(flatland: bool) -> Vec<(String, f64)> {
-    use ftpd3d::ftpd::moments::Moments;
-    use ftpd3d::ftpd::{Params, Weighting, sample_point};
+    use ftpd3d::ftpd::{Params, Weighting};
     use ftpd3d::rng::Sampler;
     let dir = temp_dir(if flatland { "mr_flat" } else { "mr_3d" });
     let mut scenes = [
@@ -1091,37 +1090,13 @@ fn mr_z_scores(flatland: bool) -> Vec<(String, f64)> {
         for (ix, x) in [0.1, 0.25, 0.4, 0.6, 0.75, 0.9].into_iter().enumerate() {
             for (iz, height) in [0.3, 0.7, 1.3, 1.8].into_iter().enumerate() {
                 let at = DVec3::new(x, 0.5, height);
-                let cells: Vec<(f64, f64, f64, f64)> = scenes
-                    .iter()
-                    .enumerate()
-                    .map(|(k, sc)| {
-                        let cell = (ix * 4 + iz) as u64;
-                        let mut s = Sampler::new(21 + k as u64, cell, weighting as u64);
-                        let mut m = Moments::default();
-                        let (mut f, mut f2) = (0.0, 0.0);
-                        for _ in 0..n {
-                            let smp = sample_point(sc, at, &p, &mut s);
-                            m.add_sample(smp.c, smp.delta, smp.weight);
-                            let w = ftpd3d::math::luminance(smp.weight);
-                            f += w;
-                            f2 += w * w;
-                        }
-                        let v = m.finalize();
-                        let mean = f / n as f64;
-                        let se = ((f2 / n as f64 - mean * mean).max(0.0) / (n - 1) as f64).sqrt();
-                        (v.sigma, v.stderr, mean, se)
-                    })
-                    .collect();
-                let (a, b) = (cells[0], cells[1]);
-                let z = |x: f64, sx: f64, y: f64, sy: f64| {
-                    let se = (sx * sx + sy * sy).sqrt();
-                    if se > 0.0 { (x - y) / se } else { 0.0 }
+                let cell = (ix * 4 + iz) as u64;
+                let est = |k: u64| {
+                    let s = Sampler::new(21 + k, cell, weighting as u64);
+                    crate::support::point_estimate(&scenes[k as usize], at, &p, s, n)
                 };
                 let name = format!("{weighting:?} at {x:.2},{height:.2}");
-                out.push((format!("σ {name}"), z(a.0, a.1, b.0, b.1)));
-                if weighting == Weighting::Radiance {
-                    out.push((format!("fluence {name}"), z(a.2, a.3, b.2, b.3)));
-                }
+                crate::support::push_z_scores(&mut out, &name, weighting, est(0), est(1));
             }
         }
     }

@@ -104,3 +104,46 @@ pub fn assert_consistent(what: &str, zs: &[(String, f64)]) {
         zs.len()
     );
 }
+
+/// σ, its standard error, the mean luminance of the weight (the fluence for radiance weighting)
+/// and its standard error, from `n` samples at `at` drawn with `s`.
+pub fn point_estimate(
+    scene: &ftpd3d::scene::Scene,
+    at: glam::DVec3,
+    p: &ftpd3d::ftpd::Params,
+    mut s: ftpd3d::rng::Sampler,
+    n: usize,
+) -> (f64, f64, f64, f64) {
+    let mut m = ftpd3d::ftpd::moments::Moments::default();
+    let (mut f, mut f2) = (0.0, 0.0);
+    for _ in 0..n {
+        let smp = ftpd3d::ftpd::sample_point(scene, at, p, &mut s);
+        m.add_sample(smp.c, smp.delta, smp.weight);
+        let w = ftpd3d::math::luminance(smp.weight);
+        f += w;
+        f2 += w * w;
+    }
+    let v = m.finalize();
+    let mean = f / n as f64;
+    let se = ((f2 / n as f64 - mean * mean).max(0.0) / (n as f64 - 1.0).max(1.0)).sqrt();
+    (v.sigma, v.stderr, mean, se)
+}
+
+/// Appends the z-scores of two independent point estimates (`point_estimate`) of the same
+/// quantities: σ always, the fluence too under radiance weighting.
+pub fn push_z_scores(
+    out: &mut Vec<(String, f64)>,
+    name: &str,
+    weighting: ftpd3d::ftpd::Weighting,
+    a: (f64, f64, f64, f64),
+    b: (f64, f64, f64, f64),
+) {
+    let z = |x: f64, sx: f64, y: f64, sy: f64| {
+        let se = (sx * sx + sy * sy).sqrt();
+        if se > 0.0 { (x - y) / se } else { 0.0 }
+    };
+    out.push((format!("σ {name}"), z(a.0, a.1, b.0, b.1)));
+    if weighting == ftpd3d::ftpd::Weighting::Radiance {
+        out.push((format!("fluence {name}"), z(a.2, a.3, b.2, b.3)));
+    }
+}
