@@ -470,6 +470,15 @@ fn fit_lines(
     fit
 }
 
+/// How [`check_lines`] judges: the region (x0, x1, y0, y1 in scene coordinates), the fractions
+/// of each line and of its stepped part that must be drawn, and whether stray lines may be drawn.
+struct Judge {
+    region: [f64; 4],
+    min_coverage: f64,
+    min_stepped_coverage: f64,
+    strays_allowed: bool,
+}
+
 /// Extracts at the default settings and checks the fit to the expected lines (scene
 /// coordinates, each a → b): every polyline that follows one stays within 1.5 cells of it over
 /// its whole length in the region, no polyline in the region follows none (unless
@@ -483,11 +492,14 @@ fn check_lines(
     field: &Field,
     plane: &Plane,
     expected: &[([f64; 2], [f64; 2])],
-    region: [f64; 4],
-    min_coverage: f64,
-    min_stepped_coverage: f64,
-    strays_allowed: bool,
+    judge: Judge,
 ) {
+    let Judge {
+        region,
+        min_coverage,
+        min_stepped_coverage,
+        strays_allowed,
+    } = judge;
     let (sep, placement) = separatrix::of_field(field, label, &SepParams::default()).unwrap();
     if let Ok(dir) = std::env::var("SEPARATRIX_DEBUG_DIR") {
         // Look at what the test sees: the field, its lines and the overlay.
@@ -560,10 +572,12 @@ fn shadow_boundary_of_a_point_light_in_a_slice_at_two_resolutions() {
             &field,
             &plane,
             &[([-0.5, 1.0], [-1.5, 0.0])],
-            SHADOW_REGION,
-            SHADOW_MIN_COVERAGE,
-            0.0,
-            false,
+            Judge {
+                region: SHADOW_REGION,
+                min_coverage: SHADOW_MIN_COVERAGE,
+                min_stepped_coverage: 0.0,
+                strays_allowed: false,
+            },
         );
     }
 }
@@ -639,10 +653,12 @@ fn shadow_boundary_seen_in_a_mirror_at_two_resolutions() {
             &field,
             &plane,
             &MIRROR_LINES,
-            [-0.45, 0.4, 0.25, 0.75],
-            MIRROR_MIN_COVERAGE,
-            0.0,
-            true,
+            Judge {
+                region: [-0.45, 0.4, 0.25, 0.75],
+                min_coverage: MIRROR_MIN_COVERAGE,
+                min_stepped_coverage: 0.0,
+                strays_allowed: true,
+            },
         );
     }
 }
@@ -664,10 +680,12 @@ fn light_separatrix_past_a_corner_in_flatland() {
         &field,
         &plane,
         &[([-0.5, 1.0], [-1.5, 0.0])],
-        BAND,
-        0.0,
-        0.9,
-        false,
+        Judge {
+            region: BAND,
+            min_coverage: 0.0,
+            min_stepped_coverage: 0.9,
+            strays_allowed: false,
+        },
     );
 }
 
