@@ -3,6 +3,7 @@
 //! of the light (a "virtual light"), which the radiance estimate can sample directly
 //! (`crate::transport::mirror`). Scenes without them keep an empty [`Mirrors`] and never look.
 
+use crate::scene::light::PowerCdf;
 use crate::scene::material::{Bsdf, Material};
 use glam::DVec3;
 
@@ -43,8 +44,8 @@ impl MirrorPlane {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mirrors {
     pub planes: Vec<MirrorPlane>,
-    /// Cumulative choice probabilities (last one 1).
-    cdf: Vec<f64>,
+    /// The choice of a plane, in proportion to its weight (the lights' choice, reused).
+    choice: PowerCdf,
     /// Each plane's triangles' bounding box, widened by a margin: a point of the plane outside it
     /// is no mirror point, without a ray.
     bounds: Vec<(DVec3, DVec3)>,
@@ -186,20 +187,10 @@ impl Mirrors {
                 }
             }
         }
-        let total: f64 = keep.iter().map(|k| k.1).sum();
-        let mut acc = 0.0;
-        let mut cdf: Vec<f64> = keep
-            .iter()
-            .map(|k| {
-                acc += k.1;
-                acc / total
-            })
-            .collect();
-        *cdf.last_mut().expect("not empty") = 1.0;
         Mirrors {
             planes: keep.iter().map(|k| k.0).collect(),
             bounds: keep.iter().map(|k| k.2).collect(),
-            cdf,
+            choice: PowerCdf::new(keep.iter().map(|k| k.1)),
             plane_of_prim,
             triangles,
         }
@@ -252,7 +243,7 @@ impl Mirrors {
     /// True when the scene has no planar mirror (then nothing looks further).
     #[inline(always)]
     pub fn is_empty(&self) -> bool {
-        self.cdf.is_empty()
+        self.choice.is_empty()
     }
 
     /// The plane of triangle `prim`, if it is one of a planar mirror.
@@ -267,22 +258,13 @@ impl Mirrors {
     /// Probability of choosing plane `k`.
     #[inline]
     pub fn prob(&self, k: usize) -> f64 {
-        let lo = if k == 0 { 0.0 } else { self.cdf[k - 1] };
-        self.cdf[k] - lo
+        self.choice.prob(k)
     }
 
     /// The plane that `u` ∈ [0, 1) chooses, with its probability.
     #[inline]
     pub fn pick(&self, u: f64) -> Option<(usize, f64)> {
-        if self.is_empty() {
-            return None;
-        }
-        let k = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
-        let p = self.prob(k);
-        (p > 0.0).then_some((k, p))
+        self.choice.pick(u)
     }
 
     /// True when the point `q` (of plane `k`) lies in the bounding box of that plane's triangles;
