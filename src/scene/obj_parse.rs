@@ -532,6 +532,11 @@ fn latin1(bytes: &[u8]) -> String {
 /// Parses one chunk of whole lines. With `known`, the counts before the chunk are known and face
 /// references are checked against them exactly (the slow path that names the first bad line).
 fn parse_chunk(c: &mut Chunk, bytes: &[u8], strict: bool, known: Option<Base>) {
+    parse_lines(c, bytes, strict, known, known.is_none());
+}
+
+/// [`parse_chunk`], with the byte-level path for the lines of real files when `fast`.
+fn parse_lines(c: &mut Chunk, bytes: &[u8], strict: bool, known: Option<Base>, fast: bool) {
     c.reset();
     let mut owned: String;
     let mut start = 0;
@@ -544,7 +549,7 @@ fn parse_chunk(c: &mut Chunk, bytes: &[u8], strict: bool, known: Option<Base>) {
         // The lines of real files first, byte by byte; whatever they do not take (and every line
         // when the counts before the chunk are known, to name the first bad one) goes through
         // `statement`.
-        if known.is_none() && fast_statement(raw, c).is_some() {
+        if fast && fast_statement(raw, c).is_some() {
             continue;
         }
         let line: &str = match std::str::from_utf8(raw) {
@@ -1141,6 +1146,148 @@ mod tests {
             assert_eq!(d.tri_texcoords[2 + 2 * q], [t, t + 2, 0]);
             assert_eq!(d.texcoords[t as usize + 2], Vec2::new(q as f32, 2.0));
         }
+    }
+
+    /// A random statement of the kinds the byte-level path looks at (`v`, `vn`, `vt`, `f`). Most
+    /// are well formed, in the spellings of real files and others (signs, exponents, long
+    /// mantissas, tabs, `\r`, `v/vt/vn` corner forms, relative indices); one in eight is drawn
+    /// from malformed pieces (missing, extra or bad numbers, zero and huge indices, comments,
+    /// other statements, bytes that are not UTF-8), which the byte-level path must leave to
+    /// [`statement`].
+    fn random_line(rng: &mut rand_pcg::Pcg64Mcg) -> Vec<u8> {
+        use rand_core::Rng;
+        let mut pick = |n: usize| rng.next_u32() as usize % n;
+        const GOOD_NUMBERS: [&str; 16] = [
+            "0",
+            "-0",
+            "1",
+            "-1.5",
+            "0.25",
+            ".5",
+            "5.",
+            "+2",
+            "1e3",
+            "-2.5E-3",
+            "16777217",
+            "3.14159265358979",
+            "0.1234567890123",
+            "123456789012",
+            "1e-45",
+            "-7.000001",
+        ];
+        const BAD_NUMBERS: [&str; 9] = [
+            "1e",
+            "1.2.3",
+            "nan",
+            "inf",
+            "0x10",
+            "1,5",
+            "x",
+            "99999999999999999999e-20",
+            "--1",
+        ];
+        const GOOD_INDICES: [&str; 6] = ["1", "2", "3", "7", "-1", "-2"];
+        const BAD_INDICES: [&str; 8] = [
+            "0",
+            "",
+            "a",
+            "4294967296",
+            "12345678901234567890",
+            "+1",
+            "1.0",
+            "-99",
+        ];
+        const SPACES: [&str; 5] = [" ", " ", "  ", "\t", " \t "];
+        let good = pick(8) != 0;
+        let number = |pick: &mut dyn FnMut(usize) -> usize| {
+            if good || pick(2) == 0 {
+                GOOD_NUMBERS[pick(GOOD_NUMBERS.len())]
+            } else {
+                BAD_NUMBERS[pick(BAD_NUMBERS.len())]
+            }
+        };
+        let index = |pick: &mut dyn FnMut(usize) -> usize| {
+            if good || pick(2) == 0 {
+                GOOD_INDICES[pick(GOOD_INDICES.len())]
+            } else {
+                BAD_INDICES[pick(BAD_INDICES.len())]
+            }
+        };
+        let mut line = String::new();
+        let (keyword, count) = match pick(if good { 5 } else { 8 }) {
+            0 | 1 => ("v", 3),
+            2 => ("vn", 3),
+            3 => ("vt", 2),
+            4 => ("f", 3 + pick(3)),
+            5 => ("#", 2),
+            6 => ("usemtl", 1),
+            _ => ("vp", 2),
+        };
+        let count = if good { count } else { pick(6) };
+        line.push_str(keyword);
+        // Corner form of the whole face: v, v/vt, v//vn or v/vt/vn.
+        let form = pick(4);
+        for _ in 0..count {
+            line.push_str(SPACES[if good && pick(2) == 0 { 0 } else { pick(5) }]);
+            if keyword != "f" {
+                line.push_str(number(&mut pick));
+                continue;
+            }
+            line.push_str(index(&mut pick));
+            let form = if good { form } else { pick(4) };
+            if form == 1 || form == 3 {
+                line.push('/');
+                line.push_str(index(&mut pick));
+            }
+            if form == 2 {
+                line.push('/');
+            }
+            if form >= 2 {
+                line.push('/');
+                line.push_str(index(&mut pick));
+            }
+        }
+        if pick(8) == 0 {
+            line.push_str(SPACES[pick(5)]);
+        }
+        let mut bytes = line.into_bytes();
+        match pick(16) {
+            0 => bytes.push(b'\r'),
+            1 if !good => bytes.insert(pick(bytes.len() + 1), 0xE9),
+            _ => {}
+        }
+        bytes
+    }
+
+    /// The byte-level path takes a line only where [`statement`] gives the same result: chunks of
+    /// random lines parse to the same data, indices, needs and first error with and without it.
+    #[test]
+    fn byte_level_path_agrees_with_the_statement_parser() {
+        use rand_core::SeedableRng;
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(13);
+        let (mut fast, mut slow) = (Chunk::default(), Chunk::default());
+        let mut taken = 0;
+        for _ in 0..3000 {
+            let mut bytes = Vec::new();
+            for _ in 0..1 + (rand_core::Rng::next_u32(&mut rng) % 12) {
+                bytes.extend(random_line(&mut rng));
+                bytes.push(b'\n');
+            }
+            for strict in [false, true] {
+                parse_lines(&mut fast, &bytes, strict, None, true);
+                parse_lines(&mut slow, &bytes, strict, None, false);
+                let state = |c: &Chunk| format!("{:?}", (&c.data, &c.relative, c.need, &c.error));
+                assert_eq!(
+                    state(&fast),
+                    state(&slow),
+                    "{}",
+                    String::from_utf8_lossy(&bytes)
+                );
+                taken += fast.data.positions.len() + fast.data.triangles.len();
+            }
+        }
+        // The lines are not all refused: both parsers take many of them.
+        assert!(taken > 10_000, "{taken}");
     }
 
     #[test]
