@@ -20,7 +20,6 @@ use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::{Rgb, luminance};
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::{Material, Scene};
-use ftpd3d::transport::bsdf::Bsdf;
 use glam::{DVec3, Vec3};
 use std::f64::consts::{PI, TAU};
 
