@@ -39,6 +39,7 @@ fn main() -> anyhow::Result<()> {
             t1: None,
             angle_deg: 2.0,
             max_bounces: 32,
+            radiance_bounces: None,
         }
         .resolve(&scene)?;
         let plane = Plane::axis_slice(

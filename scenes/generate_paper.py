@@ -22,7 +22,8 @@ are reconstructions of what its captions and section 5 describe, not copies:
   Fig. 4  flatland: (a) the two-mirror system with glossy reflectors (Phong 2000 left, 200 right);
           (c) point-lit patches of Phong 37, 112, 1029 and a mirror between diffuse strips
   Fig. 5  flatland: a glass cylinder over a floor lit by a small area light; the radiance paths
-          are capped at 6 segments (--max-bounces 5) and the integrated radiance (fluence) is shown
+          are capped at 6 segments (--radiance-bounces 5; the FTPD walks keep the default cap, as
+          the paper's are not limited) and the integrated radiance (fluence) is shown
   Fig. 6  3D slices: (a) a U-shaped room lit by an area light, (b) a door scene after Veach's:
           a point light in one room, a door ajar into the next, (c) a canal lit by a point
           light, open and blocked by an obstacle
@@ -281,7 +282,7 @@ GALLERY = [
     ('fig5_glass', '5', 'flatland glass cylinder, radiance paths of at most 6 segments; '
      'radiance-weighted, with the integrated radiance',
      '--scene scenes/paper/fig5_glass.obj --slice z=0 --window -1.5,0,1.5,2.6 --flatland '
-     '--max-bounces 5 --res 200 --spp 1024'),
+     '--radiance-bounces 5 --res 200 --spp 1024'),
     ('fig6a_u_room', '6a', '3D U-shaped room, area light; slice y = 1.2, radiance-weighted',
      '--scene scenes/paper/fig6a_u_room.obj --slice y=1.2 --res 200 --spp 512'),
     ('fig6b_door', '6b', '3D door scene, point light, door ajar; slice y = 1.2, '

@@ -285,9 +285,42 @@ pub struct Accel {
 }
 
 /// Decides whether a candidate hit on a cut-out triangle is rejected (the ray goes on): the
-/// triangle's index among the cut-out ones, the hit's barycentric (u, v), and a number in [0, 1)
-/// hashed from the ray and the triangle for stochastic coverage. Must not panic.
-pub type CutTest = dyn Fn(u32, [f32; 2], f64) -> bool + Send + Sync;
+/// triangle's index among the cut-out ones, the hit's barycentric (u, v), and the candidate
+/// ([`CutRay`]), whose hash only stochastic coverage draws. Must not panic.
+pub type CutTest = dyn Fn(u32, [f32; 2], &CutRay) -> bool + Send + Sync;
+
+/// The ray (origin, direction, as Embree holds them) and the triangle of a candidate hit on a
+/// cut-out triangle: the key of the number in [0, 1) that stochastic coverage compares with α.
+/// It is hashed only when asked for ([`CutRay::xi`]), so that deterministic cuts (glTF `MASK`)
+/// cost no hash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CutRay {
+    words: [u32; 7],
+}
+
+impl CutRay {
+    /// The ray's origin and direction and the triangle's index (in the buffer given to
+    /// [`Accel::with_cutouts`]).
+    pub fn new(origin: [f32; 3], dir: [f32; 3], triangle: u32) -> CutRay {
+        CutRay {
+            words: [
+                origin[0].to_bits(),
+                origin[1].to_bits(),
+                origin[2].to_bits(),
+                dir[0].to_bits(),
+                dir[1].to_bits(),
+                dir[2].to_bits(),
+                triangle,
+            ],
+        }
+    }
+
+    /// A number in [0, 1) hashed from the ray and the triangle: the same for the same candidate.
+    #[inline]
+    pub fn xi(&self) -> f64 {
+        crate::rng::hash_unit(&self.words)
+    }
+}
 
 /// The two geometries' triangles and numbers, and the cut-out test.
 struct Cutouts {
@@ -333,16 +366,12 @@ unsafe extern "C" fn cutout_filter(args: *const sys::RTCFilterFunctionNArguments
             let prim = word(hit, 5).to_bits();
             let bary = [word(hit, 3), word(hit, 4)];
             let global = cut.cut.get(prim as usize).copied().unwrap_or(u32::MAX);
-            let xi = crate::rng::hash_unit(&[
-                word(ray, 0).to_bits(),
-                word(ray, 1).to_bits(),
-                word(ray, 2).to_bits(),
-                word(ray, 4).to_bits(),
-                word(ray, 5).to_bits(),
-                word(ray, 6).to_bits(),
+            let candidate = CutRay::new(
+                [word(ray, 0), word(ray, 1), word(ray, 2)],
+                [word(ray, 4), word(ray, 5), word(ray, 6)],
                 global,
-            ]);
-            if test(prim, bary, xi) {
+            );
+            if test(prim, bary, &candidate) {
                 *args.valid.add(i) = 0;
             }
         }

@@ -262,9 +262,14 @@ struct EstimatorFlags {
     /// Half-angle of the cone the second direction is drawn from, degrees (0 < angle < 90).
     #[arg(long, default_value_t = EstimatorArgs::default().angle_deg, allow_negative_numbers = true)]
     angle: f64,
-    /// Cap on scattering events per walk and per radiance path.
-    #[arg(long, default_value_t = EstimatorArgs::default().max_bounces)]
+    /// Cap on scattering events per walk, and per radiance path unless --radiance-bounces is given.
+    #[arg(long, default_value_t = EstimatorArgs::default().max_bounces, allow_negative_numbers = true)]
     max_bounces: u32,
+    /// Cap on scattering events per radiance path alone (radiance weighting, fluence, a camera's
+    /// beauty image): paths of at most N + 1 segments from the point to the light; the walks keep
+    /// --max-bounces [default: --max-bounces].
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    radiance_bounces: Option<u32>,
 }
 
 impl EstimatorFlags {
@@ -291,6 +296,7 @@ impl EstimatorFlags {
             t1: self.t1,
             angle_deg: self.angle,
             max_bounces: self.max_bounces,
+            radiance_bounces: self.radiance_bounces,
         }
     }
 }
@@ -740,7 +746,7 @@ fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
 /// The estimator and light flags of this process's command line ([`EstimatorFlags`]) with their
 /// values, as given: what `converge --baseline` passes on to both binaries.
 fn estimator_flags_as_given() -> Vec<String> {
-    const FLAGS: [&str; 8] = [
+    const FLAGS: [&str; 9] = [
         "--point-light",
         "--sun",
         "--sky",
@@ -749,6 +755,7 @@ fn estimator_flags_as_given() -> Vec<String> {
         "--t1",
         "--angle",
         "--max-bounces",
+        "--radiance-bounces",
     ];
     let mut out = Vec::new();
     let mut args = std::env::args().skip(1);

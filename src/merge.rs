@@ -238,6 +238,7 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> anyhow::Result<Merged> {
         t1: one.t1,
         angle_deg: one.angle_deg,
         max_bounces: one.max_bounces,
+        radiance_bounces: one.radiance_cap(),
         features: one.features.clone(),
         point_lights: one.point_lights.clone(),
         sun: one.sun.clone(),

@@ -25,6 +25,8 @@ pub struct EstimatorArgs {
     /// Perturbation half-angle in degrees.
     pub angle_deg: f64,
     pub max_bounces: u32,
+    /// Cap on scattering events of radiance paths alone (`None`: `max_bounces`).
+    pub radiance_bounces: Option<u32>,
 }
 
 impl Default for EstimatorArgs {
@@ -36,6 +38,7 @@ impl Default for EstimatorArgs {
             t1: None,
             angle_deg: 2.0,
             max_bounces: 32,
+            radiance_bounces: None,
         }
     }
 }
@@ -59,6 +62,11 @@ pub enum ParamError {
     /// Radiance weighting in a scene without lights.
     #[error("radiance weighting: {scene} has no lights ({ways})")]
     NoLights { scene: String, ways: &'static str },
+    /// A cap on radiance paths for a run that traces none (unweighted).
+    #[error(
+        "a radiance-path cap of {bounces} scattering events for a {weighting} run, which traces no radiance paths"
+    )]
+    RadianceCapUnused { bounces: u32, weighting: Weighting },
     /// Flatland radiance weighting, and no light meets the plane.
     #[error("flatland radiance weighting: no light of {scene} meets the slice plane {plane}")]
     NoLightInPlane { scene: String, plane: String },
@@ -125,6 +133,14 @@ impl EstimatorArgs {
                 angle_deg: self.angle_deg,
             });
         }
+        if let Some(bounces) = self.radiance_bounces
+            && self.weighting == Weighting::Unweighted
+        {
+            return Err(ParamError::RadianceCapUnused {
+                bounces,
+                weighting: self.weighting,
+            });
+        }
         if self.weighting == Weighting::Radiance && scene.lights.is_empty() {
             return Err(ParamError::NoLights {
                 scene: scene.source.display().to_string(),
@@ -137,6 +153,7 @@ impl EstimatorArgs {
             theta_max: self.angle_deg.to_radians(),
             weighting: self.weighting,
             max_bounces: self.max_bounces,
+            radiance_bounces: self.radiance_bounces,
             flat: None,
         })
     }
@@ -246,6 +263,7 @@ pub fn describe_run(
         t1: Some(params.t1),
         angle_deg: Some(params.theta_max.to_degrees()),
         max_bounces: Some(params.max_bounces),
+        radiance_bounces: Some(params.radiance_cap()),
         seed: Some(opts.seed),
         spp: Some(if opts.budget.cap_spp {
             CellCount::Each(opts.spp as u64)

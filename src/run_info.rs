@@ -21,6 +21,7 @@
 //! | `weighting` | [`Weighting`] | `radiance`, `unweighted`, `importance` |
 //! | `t0`, `t1` | run lengths | `{:e}` (`1.5e0`) |
 //! | `angle_deg`, `max_bounces` | cone half-angle, bounce cap | decimal |
+//! | `radiance_bounces` | bounce cap of radiance paths (absent: `max_bounces`, as before it was written) | decimal |
 //! | `features`, `kernel` | feature set, kernel | text |
 //! | `point_lights` | command-line point lights | `x,y,z:r,g,b;…` |
 //! | `sun` | command-line suns | `x,y,z:r,g,b:diameter;…` |
@@ -228,6 +229,10 @@ pub struct RunInfo {
     pub t1: Option<f64>,
     pub angle_deg: Option<f64>,
     pub max_bounces: Option<u32>,
+    /// The radiance paths' cap ([`crate::ftpd::Params::radiance_cap`]); files written before it
+    /// was recorded have none, and capped radiance paths at `max_bounces`
+    /// ([`RunInfo::radiance_cap`]).
+    pub radiance_bounces: Option<u32>,
     /// The scene's feature set, as `--explain` prints it.
     pub features: Option<String>,
     /// Command-line point lights: position, radiant intensity.
@@ -292,6 +297,7 @@ const KNOWN: &[&str] = &[
     "t1",
     "angle_deg",
     "max_bounces",
+    "radiance_bounces",
     "features",
     "point_lights",
     "sun",
@@ -340,6 +346,7 @@ pub const ESTIMATE_KEYS: &[&str] = &[
     "t1",
     "angle_deg",
     "max_bounces",
+    "radiance_bounces",
     "features",
     "point_lights",
     "sun",
@@ -503,6 +510,7 @@ impl RunInfo {
             t1: r.get("t1", "a number", number)?,
             angle_deg: r.get("angle_deg", "a number", number)?,
             max_bounces: r.get("max_bounces", "a whole number", |s| s.parse().ok())?,
+            radiance_bounces: r.get("radiance_bounces", "a whole number", |s| s.parse().ok())?,
             features: r.text("features"),
             point_lights: r
                 .get("point_lights", "x,y,z:r,g,b;…", |s| {
@@ -632,6 +640,7 @@ impl RunInfo {
         put("t1", self.t1.map(|t| format!("{t:e}")));
         put("angle_deg", shown(&self.angle_deg));
         put("max_bounces", shown(&self.max_bounces));
+        put("radiance_bounces", shown(&self.radiance_bounces));
         put("features", text(&self.features));
         if !self.point_lights.is_empty() {
             let lights: Vec<String> = self
@@ -673,6 +682,12 @@ impl RunInfo {
         m
     }
 
+    /// The radiance paths' cap: `radiance_bounces`, or for files written before it was recorded
+    /// `max_bounces` (which then capped them).
+    pub fn radiance_cap(&self) -> Option<u32> {
+        self.radiance_bounces.or(self.max_bounces)
+    }
+
     /// Whether passes from the third on were allocated adaptively (`adaptive` other than `off`).
     pub fn is_adaptive(&self) -> bool {
         self.adaptive.as_deref().is_some_and(|a| a != "off")
@@ -705,6 +720,7 @@ impl RunInfo {
                 "t1" => a.t1 == b.t1,
                 "angle_deg" => a.angle_deg == b.angle_deg,
                 "max_bounces" => a.max_bounces == b.max_bounces,
+                "radiance_bounces" => a.radiance_cap() == b.radiance_cap(),
                 "features" => a.features == b.features,
                 "point_lights" => a.point_lights == b.point_lights,
                 "sun" => a.sun == b.sun,

@@ -179,6 +179,7 @@ fn z_scores(mode: AlphaMode) -> Vec<(String, f64)> {
             theta_max: 0.15,
             weighting,
             max_bounces: 8,
+            radiance_bounces: None,
             flat: None,
         };
         for ix in 0..6 {

@@ -36,6 +36,7 @@ fn cornell(res: usize) -> Setup {
         t1: None,
         angle_deg: 2.0,
         max_bounces: 32,
+        radiance_bounces: None,
     }
     .resolve(&scene)
     .unwrap();

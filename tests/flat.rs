@@ -29,7 +29,7 @@ use std::path::Path;
 const N_SE: f64 = 4.0;
 
 /// The plane z = 0 spanned by x and y (what `--slice z=0` gives).
-fn z0() -> Flatland {
+pub(crate) fn z0() -> Flatland {
     Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y)
 }
 
@@ -45,12 +45,12 @@ fn in_plane_2d(pl: &Flatland, x: f64, y: f64) -> DVec3 {
 }
 
 /// A 2D polyline: its points, whether it is closed, its material.
-type Path2 = (Vec<(f64, f64)>, bool, u32);
+pub(crate) type Path2 = (Vec<(f64, f64)>, bool, u32);
 
 /// A scene of 2D polylines extruded along the normal of `pl` over [−1, 1]: each path is
 /// (points, closed, material); every segment a → b becomes a quad facing to the right of a → b
 /// (outward for counter-clockwise polygons, inward for clockwise ones).
-fn extruded(pl: &Flatland, paths: &[Path2], materials: Vec<Material>) -> Scene {
+pub(crate) fn extruded(pl: &Flatland, paths: &[Path2], materials: Vec<Material>) -> Scene {
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
     let mut tri_material = Vec::new();
@@ -142,6 +142,7 @@ fn params(weighting: Weighting, flat: Flatland) -> Params {
         theta_max: 0.05,
         weighting,
         max_bounces: 32,
+        radiance_bounces: None,
         flat: Some(flat),
     }
 }
@@ -300,7 +301,7 @@ fn empty_flatland_gives_exactly_zero() {
 
 /// A closed regular 64-gon, extruded, facing inward, every wall emitting `le` and reflecting
 /// diffusely with albedo `a`.
-fn furnace(le: Rgb, a: f64) -> Scene {
+pub(crate) fn furnace(le: Rgb, a: f64) -> Scene {
     let k = 64;
     // Clockwise, so that the walls face inward.
     let pts: Vec<(f64, f64)> = (0..k)
@@ -975,6 +976,7 @@ fn flatland_mirror_is_an_isometry() {
         theta_max: 5f64.to_radians(),
         weighting: Weighting::Unweighted,
         max_bounces: 32,
+        radiance_bounces: None,
         flat: Some(z0()),
     };
     let mut s = Sampler::new(11, 0, 0);

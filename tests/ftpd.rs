@@ -20,6 +20,7 @@ fn unweighted(t0: f64, t1: f64, angle_deg: f64) -> Params {
         theta_max: angle_deg.to_radians(),
         weighting: Weighting::Unweighted,
         max_bounces: 32,
+        radiance_bounces: None,
         flat: None,
     }
 }
@@ -198,6 +199,7 @@ fn small_run(seed: u64, threads: usize) -> Field {
         theta_max: 0.05,
         weighting: Weighting::Radiance,
         max_bounces: 16,
+        radiance_bounces: None,
         flat: None,
     };
     run_plane(&scene, &plane, &p, &opts(16, seed, threads))
@@ -269,6 +271,7 @@ fn camera_image_of_an_empty_scene_is_zero_and_beauty_sees_the_light() {
         theta_max: 0.1,
         weighting: Weighting::Importance,
         max_bounces: 8,
+        radiance_bounces: None,
         flat: None,
     };
     // Empty: the only geometry is 10 km behind the camera.

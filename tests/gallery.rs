@@ -157,6 +157,9 @@ fn every_gallery_run_works_at_a_tiny_size() {
         if let Some(cap) = value_of(&e.args, "--max-bounces") {
             assert_eq!(attr("max_bounces"), cap, "{}", e.name);
         }
+        if let Some(cap) = value_of(&e.args, "--radiance-bounces") {
+            assert_eq!(attr("radiance_bounces"), cap, "{}", e.name);
+        }
         for suffix in ["png", "sep.png", "sep.vtp", "sep.svg"] {
             let f = out.with_extension(suffix);
             assert!(f.is_file(), "{}: no {}", e.name, f.display());

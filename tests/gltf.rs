@@ -1085,6 +1085,7 @@ fn mr_z_scores(flatland: bool) -> Vec<(String, f64)> {
             theta_max: 0.15,
             weighting,
             max_bounces: 8,
+            radiance_bounces: None,
             flat: flatland.then_some(plane),
         };
         for (ix, x) in [0.1, 0.25, 0.4, 0.6, 0.75, 0.9].into_iter().enumerate() {

@@ -115,6 +115,7 @@ fn params() -> Params {
         theta_max: 0.2,
         weighting: Weighting::Radiance,
         max_bounces: 8,
+        radiance_bounces: None,
         flat: None,
     }
 }
@@ -223,6 +224,7 @@ fn flatland_mirror_images_agree_with_the_estimator_without_them() {
         theta_max: 0.1,
         weighting: Weighting::Radiance,
         max_bounces: 16,
+        radiance_bounces: None,
         flat: Some(plane),
     };
     let lo = with.bounds.min;

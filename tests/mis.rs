@@ -48,6 +48,7 @@ fn mis_radiance_weighting_matches_the_reference() {
         theta_max: 0.2,
         weighting: Weighting::Radiance,
         max_bounces: 12,
+        radiance_bounces: None,
         flat: None,
     };
     let points = [
@@ -96,6 +97,7 @@ fn mis_radiance_weighting_matches_the_reference_under_sky_sun_and_spot() {
         theta_max: 0.2,
         weighting: Weighting::Radiance,
         max_bounces: 12,
+        radiance_bounces: None,
         flat: None,
     };
     let points = [at(0.3, 0.5, 0.5), at(0.6, 0.8, 0.3)].map(|x| scene.off_surfaces(x));
@@ -196,6 +198,7 @@ fn mis_emission_texture_agrees_with_the_reference() {
         theta_max: 0.1,
         weighting: Weighting::Radiance,
         max_bounces: 4,
+        radiance_bounces: None,
         flat: None,
     };
     let points = [

@@ -363,6 +363,7 @@ fn fluence_under_sky_and_sun_matches_the_closed_form() {
             theta_max: 0.1,
             weighting: Weighting::Radiance,
             max_bounces: 16,
+            radiance_bounces: None,
             flat: flat.then_some(pl),
         };
         let mut s = Sampler::new(19, 0, 0);

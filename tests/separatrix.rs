@@ -331,6 +331,7 @@ fn params(flat: Option<Flatland>) -> Params {
         theta_max: 0.05,
         weighting: Weighting::Radiance,
         max_bounces: 8,
+        radiance_bounces: None,
         flat,
     }
 }

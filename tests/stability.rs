@@ -140,6 +140,7 @@ fn params(weighting: Weighting, t0: f64, t1: f64, angle_deg: f64, max_bounces: u
         theta_max: angle_deg.to_radians(),
         weighting,
         max_bounces,
+        radiance_bounces: None,
         flat: None,
     }
 }

@@ -247,7 +247,7 @@ fn inward_icosphere(subdiv: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 
 /// The furnace: a closed inward-facing icosphere (1280 triangles) of diffuse albedo `a` whose walls
 /// emit `le` towards the inside.
-fn furnace(a: f64, le: f64) -> Scene {
+pub(crate) fn furnace(a: f64, le: f64) -> Scene {
     let (p, t) = inward_icosphere(3);
     // Exactly closed: every directed edge appears once, and its reverse once.
     let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
@@ -913,6 +913,7 @@ fn valid_unweighted_ftpd_at_a_diffuse_plane_matches_quadrature() {
         theta_max: setup.theta_max,
         weighting: Weighting::Unweighted,
         max_bounces: 64, // walks bounce at most once here: the cap is never reached
+        radiance_bounces: None,
         flat: None,
     };
     let started = std::time::Instant::now();
@@ -1000,6 +1001,7 @@ fn valid_glossy_sigma_falls_with_the_exponent_towards_its_mirror_limit() {
         theta_max: setup.theta_max,
         weighting: Weighting::Unweighted,
         max_bounces: 64,
+        radiance_bounces: None,
         flat: None,
     };
     let run = |bsdf: Bsdf, seed: u64| {

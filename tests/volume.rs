@@ -31,6 +31,7 @@ fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> J
             t1: None,
             angle_deg: 2.0,
             max_bounces: 32,
+            radiance_bounces: None,
         },
         render: RenderOptions {
             spp,

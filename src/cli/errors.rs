@@ -70,6 +70,11 @@ pub fn param(e: &ParamError) -> String {
              X,Y,Z:R,G,B (position and radiant intensity), --sun X,Y,Z:R,G,B (direction and \
              irradiance), --sky R,G,B or --env FILE, or use --weight unweighted"
         ),
+        ParamError::RadianceCapUnused { bounces, weighting } => format!(
+            "--radiance-bounces {bounces}: caps the radiance paths of radiance weighting and of a \
+             camera's beauty image; a --weight {weighting} run traces none (use --max-bounces to \
+             cap its walks)"
+        ),
         ParamError::NoLightInPlane { scene, plane } => format!(
             "--flatland --weight radiance: no light of {scene} meets the slice plane {plane} \
              (emissive triangles must cross it, point lights lie in it); use --weight unweighted \

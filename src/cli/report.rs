@@ -23,6 +23,10 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
     } else {
         String::new()
     };
+    let radiance_cap = match params.radiance_bounces {
+        Some(n) if n != params.max_bounces => format!(" (radiance paths: {n})"),
+        _ => String::new(),
+    };
     let total = field.total_samples();
     let earlier = if total > stats.samples {
         format!(" ({total} in the field with the resumed ones)")
@@ -32,7 +36,7 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
     format!(
         "stopped after {} passes ({}): {} samples in {:.2} s{earlier}, {:.3e} samples/s, \
          {:.3e} rays/s; relative error mean {:.4}, p95 {:.4}{unestimated}; {} pairs hit the \
-         bounce cap ({}), {} non-finite samples dropped",
+         bounce cap ({}){radiance_cap}, {} non-finite samples dropped",
         stats.passes,
         stats.stop,
         stats.samples,

@@ -57,8 +57,11 @@ pub struct Params {
     /// Half-angle θmax of the perturbation cone, radians, in (0, π/2).
     pub theta_max: f64,
     pub weighting: Weighting,
-    /// Cap on scattering events per walk and per radiance path.
+    /// Cap on scattering events per walk, and per radiance path unless `radiance_bounces` is set.
     pub max_bounces: u32,
+    /// Cap on scattering events per radiance path alone (`None`: `max_bounces`); see
+    /// [`Params::radiance_cap`].
+    pub radiance_bounces: Option<u32>,
     /// Flatland runs only: the slice plane every direction is confined to. The scene must have been
     /// prepared for the same plane ([`Scene::prepare_flatland`]) and the kernel must be a flatland
     /// one (its [`Space`] the plane).
@@ -66,6 +69,21 @@ pub struct Params {
 }
 
 impl Params {
+    /// The most scattering events N a radiance path may have: the paths of the radiance weight, the
+    /// fluence and the camera's beauty image have at most N + 1 segments from the point to the
+    /// light (the paper's Fig. 5 limits them to 6 segments: N = 5). With the path's surface
+    /// vertices v1, v2, … in order from the point, every strategy keeps to the same cap, so that
+    /// MIS stays consistent: emission seen at v(k+1) (found by hitting it after k scattering
+    /// events) and a light sampled at vk (next-event estimation, or a light's mirror image, whose
+    /// mirror counts as one more scattering event) are both paths of k scattering events and
+    /// k + 1 segments. So the last vertex that scatters, vN, still samples the lights (that
+    /// connection is the path's (N+1)-th and last segment), and v(N+1) only adds the emission it
+    /// shows; N = 0 keeps the light seen directly. The FTPD walks keep `max_bounces`.
+    #[inline]
+    pub fn radiance_cap(&self) -> u32 {
+        self.radiance_bounces.unwrap_or(self.max_bounces)
+    }
+
     /// `1 − cos θmax`, written so that tiny angles keep their precision.
     fn one_minus_cos_max(&self) -> f64 {
         2.0 * (0.5 * self.theta_max).sin().powi(2)
@@ -308,7 +326,7 @@ pub fn sample_at<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler
     let u_cone = s.next_2d();
     let mut rays = 0;
     let (omega, weight) = if K::RADIANCE && p.weighting == Weighting::Radiance {
-        radiance_direction::<K>(scene, x, p.max_bounces, s, &mut rays)
+        radiance_direction::<K>(scene, x, p.radiance_cap(), s, &mut rays)
     } else {
         (K::Space::of(scene).uniform(s.next_2d()), Rgb::ONE)
     };
@@ -333,7 +351,7 @@ pub fn sample_camera<K: Kernel>(
     let mut out = pair_from::<K>(scene, eye, omega, t, u_cone, Rgb::ONE, p, s);
     if K::RADIANCE {
         let mut st = RadianceStats::default();
-        out.weight = radiance::<K>(scene, eye, omega, p.max_bounces, s, &mut st).total();
+        out.weight = radiance::<K>(scene, eye, omega, p.radiance_cap(), s, &mut st).total();
         out.rays += st.rays;
     } else {
         out.weight = Rgb::ZERO;

@@ -26,7 +26,7 @@ pub fn sample_reference(
 ) -> Vec<(f64, f64, Rgb)> {
     let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
     let omega = sample_uniform_sphere(s.next_2d());
-    let l = radiance_plain(scene, x, -omega, p.max_bounces, s);
+    let l = radiance_plain(scene, x, -omega, p.radiance_cap(), s);
     let mut out = Vec::new();
     let smp = pair_from::<Plain3D>(
         scene,
@@ -44,7 +44,7 @@ pub fn sample_reference(
             let smp = pair_from::<Plain3D>(scene, x, -wi, t, s.next_2d(), w, p, s);
             out.push((smp.c, smp.delta, smp.weight));
         }
-        if p.max_bounces >= 1 {
+        if p.radiance_cap() >= 1 {
             for (wi, w) in delta_light_mirrored(scene, light, x, |_| x) {
                 let smp = pair_from::<Plain3D>(scene, x, -wi, t, s.next_2d(), w, p, s);
                 out.push((smp.c, smp.delta, smp.weight));

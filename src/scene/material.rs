@@ -116,10 +116,16 @@ impl Alpha {
             }
     }
 
-    /// True when the surface is absent at texture coordinate `uv` (v up) for a ray whose hash is
-    /// `xi` ∈ [0, 1).
+    /// True when the surface is absent at texture coordinate `uv` (v up) for a ray whose hash in
+    /// [0, 1) `xi` gives: stochastic coverage draws it, a mask (glTF `MASK`) decides by α alone
+    /// and never calls it.
     #[inline]
-    pub fn cut(&self, textures: &[std::sync::Arc<Texture>], uv: [f64; 2], xi: f64) -> bool {
+    pub fn cut(
+        &self,
+        textures: &[std::sync::Arc<Texture>],
+        uv: [f64; 2],
+        xi: impl FnOnce() -> f64,
+    ) -> bool {
         let mut a = self.factor;
         if let Some(map) = &self.map
             && let Some(t) = textures.get(map.texture as usize)
@@ -128,7 +134,10 @@ impl Alpha {
         }
         match self.mode {
             AlphaMode::Mask { cutoff } => !(a >= cutoff),
-            AlphaMode::Stochastic => !(xi < a),
+            // Coverage 0 or 1 (most texels of a leaf mask) decides without the hash.
+            AlphaMode::Stochastic if a >= 1.0 => false,
+            AlphaMode::Stochastic if a <= 0.0 => true,
+            AlphaMode::Stochastic => !(xi() < a),
         }
     }
 }
@@ -255,5 +264,43 @@ pub fn conserve_energy(kd: &mut Rgb, ks: &mut Rgb) -> bool {
         true
     } else {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn alpha(factor: f64, mode: AlphaMode) -> Alpha {
+        Alpha {
+            factor,
+            map: None,
+            channel: 3,
+            mode,
+        }
+    }
+
+    /// A mask decides by α and the cutoff alone (it never asks for the ray's hash); stochastic
+    /// coverage asks for it exactly where α is strictly between 0 and 1.
+    #[test]
+    fn only_fractional_stochastic_coverage_draws_the_hash() {
+        let no_hash = || -> f64 { panic!("the hash was drawn") };
+        let mask = AlphaMode::Mask { cutoff: 0.5 };
+        assert!(alpha(0.3, mask).cut(&[], [0.0; 2], no_hash));
+        assert!(!alpha(0.5, mask).cut(&[], [0.0; 2], no_hash));
+        assert!(alpha(f64::NAN, mask).cut(&[], [0.0; 2], no_hash));
+        assert!(!alpha(1.0, AlphaMode::Stochastic).cut(&[], [0.0; 2], no_hash));
+        assert!(alpha(0.0, AlphaMode::Stochastic).cut(&[], [0.0; 2], no_hash));
+        let drawn = &std::cell::Cell::new(0);
+        let xi = |v: f64| {
+            move || {
+                drawn.set(drawn.get() + 1);
+                v
+            }
+        };
+        assert!(!alpha(0.4, AlphaMode::Stochastic).cut(&[], [0.0; 2], xi(0.39)));
+        assert!(alpha(0.4, AlphaMode::Stochastic).cut(&[], [0.0; 2], xi(0.4)));
+        assert!(alpha(f64::NAN, AlphaMode::Stochastic).cut(&[], [0.0; 2], xi(0.1)));
+        assert_eq!(drawn.get(), 3);
     }
 }

@@ -484,8 +484,32 @@ impl Scene {
             cut_materials,
             accel,
         };
-        scene.install_cut_test(&cutout);
+        // Installed once: here when the coverage reads no texture, else when the textures (and
+        // for glTF the texture coordinates) arrive (`attach_textures`, `set_textures`).
+        if !scene.cut_reads_textures() {
+            scene.install_cut_test(&cutout);
+        }
         Ok(scene)
+    }
+
+    /// True when some cut-out material's coverage reads a texture, so its cut-out test waits for
+    /// the textures ([`Scene::attach_textures`]).
+    fn cut_reads_textures(&self) -> bool {
+        self.materials
+            .iter()
+            .zip(&self.cut_materials)
+            .any(|(m, &cut)| cut && m.maps.alpha.as_ref().is_some_and(|a| a.map.is_some()))
+    }
+
+    /// The cut-out test of a scene whose coverage reads textures, once they are attached (or
+    /// known to be ignored): [`Scene::build`] left it out.
+    fn install_textured_cut_test(&mut self) {
+        if self.accel.has_cutouts() && self.cut_reads_textures() {
+            let cutout: Vec<u32> = (0..self.triangles.len() as u32)
+                .filter(|&t| self.cut_materials[self.tri_material[t as usize] as usize])
+                .collect();
+            self.install_cut_test(&cutout);
+        }
     }
 
     /// Gives the acceleration structure the cut-out test of triangles `cutout` (their materials'
@@ -519,9 +543,9 @@ impl Scene {
             })
             .collect();
         let textures = self.textures.textures.clone();
-        self.accel.set_cut_test(Box::new(move |k, bary, xi| {
+        self.accel.set_cut_test(Box::new(move |k, bary, ray| {
             table.get(k as usize).is_some_and(|&(m, uv)| {
-                alphas[m as usize].cut(&textures, interpolate_uv(uv, bary), xi)
+                alphas[m as usize].cut(&textures, interpolate_uv(uv, bary), || ray.xi())
             })
         }));
     }
@@ -541,12 +565,14 @@ impl Scene {
         let q = closest_point_on_triangle(p, a, b, c);
         let bary = barycentric(q, a, b, c).map(|x| x as f32);
         let uv = self.hit_uv(prim, bary);
-        let xi = crate::rng::hash_unit(&[
-            (p.x as f32).to_bits(),
-            (p.y as f32).to_bits(),
-            (p.z as f32).to_bits(),
-            prim,
-        ]);
+        let xi = || {
+            crate::rng::hash_unit(&[
+                (p.x as f32).to_bits(),
+                (p.y as f32).to_bits(),
+                (p.z as f32).to_bits(),
+                prim,
+            ])
+        };
         alpha.cut(&self.textures.textures, uv, xi)
     }
 
@@ -569,6 +595,9 @@ impl Scene {
         if used && uvs.len() == self.positions.len() {
             self.uvs = TexCoords::PerVertex(uvs);
             self.attach_textures(textures);
+        } else {
+            // Without textures the coverage is its factor alone.
+            self.install_textured_cut_test();
         }
     }
 
@@ -584,12 +613,7 @@ impl Scene {
                 .iter()
                 .any(|m| m.maps.emission.is_some() && m.emission != Rgb::ZERO);
         }
-        if self.accel.has_cutouts() {
-            let cutout: Vec<u32> = (0..self.triangles.len() as u32)
-                .filter(|&t| self.cut_materials[self.tri_material[t as usize] as usize])
-                .collect();
-            self.install_cut_test(&cutout);
-        }
+        self.install_textured_cut_test();
     }
 
     /// The scattering model at a hit of a material with textures: its albedos replaced by the
