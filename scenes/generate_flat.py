@@ -8,7 +8,7 @@ A flatland scene is a 2D scene (a profile in the x-y plane) extruded along z
 over z in [-1, 1], so that the slice z = 0 lies in the middle and every
 surface it crosses has its normal in the slice plane, as `--flatland` requires
 (ftpd3d --scene scenes/flat_mirrors.obj --slice z=0 --flatland). The scenes
-follow the paper's flatland figures (Zirr et al. 2015, Fig. 3 a/b).
+follow the paper's flatland figures (its Fig. 3 a/b).
 
 Conventions are those of generate.py (whose helpers this script uses):
 metres, y up, counter-clockwise winding = front side, closed solids face

@@ -12,8 +12,8 @@ It (re)writes, deterministically (re-running leaves `git diff` empty):
                           ftpd3d arguments; scripts/gallery.sh renders them and tests/gallery.rs
                           runs each at a tiny size
 
-The paper is Zirr, Ament and Dachsbacher, "Visualization of Coherent Structures of Light
-Transport" (CGF 34(3), 2015). Its figures show scenes it does not give coordinates for; these
+The paper is "Visualization of Coherent Structures of Light Transport" (Computer Graphics
+Forum 34(3), 2015). Its figures show scenes it does not give coordinates for; these
 are reconstructions of what its captions and section 5 describe, not copies:
 
   Fig. 3  flatland, radiance-weighted: (a) the stair wall, (b) a light reaching two boxes only
@@ -24,7 +24,7 @@ are reconstructions of what its captions and section 5 describe, not copies:
   Fig. 5  flatland: a glass cylinder over a floor lit by a small area light; the radiance paths
           are capped at 6 segments (--radiance-bounces 5; the FTPD walks keep the default cap, as
           the paper's are not limited) and the integrated radiance (fluence) is shown
-  Fig. 6  3D slices: (a) a U-shaped room lit by an area light, (b) a door scene after Veach's:
+  Fig. 6  3D slices: (a) a U-shaped room lit by an area light, (b) a "door ajar" scene:
           a point light in one room, a door ajar into the next, (c) a canal lit by a point
           light, open and blocked by an obstacle
   Fig. 7  (a) flatland, unweighted: a room with an arrow, a square, a mirror and a glass prism;
@@ -168,7 +168,7 @@ def fig6():
     write('fig6a_u_room', 'Fig. 6a: U-shaped room lit by an area light; slice y = 1.2',
           [room, part, lamp], {'white': g.diffuse(0.7), 'light': g.light(10, 10, 10)})
 
-    # (b) A door scene after Veach's: two rooms split by a wall at x = 0 with a door opening
+    # (b) A "door ajar" scene, as in classic light-transport tests: two rooms split by a wall at x = 0 with a door opening
     # (z in [-0.5, 0.4], up to y = 2), its door turned 30 degrees into the right room about a
     # hinge at its +z end, so the point light in the left room reaches the right one through the
     # slot between the door's free edge and the frame.
@@ -187,7 +187,7 @@ def fig6():
     # The box's local z axis (its width) along d: rot_y(a) sends +z to (sin a, 0, cos a).
     door = g.box('door', 'door', centre, (0.04, 1.98, width),
                  yaw_deg=math.degrees(math.atan2(d[0], d[1])))
-    write('fig6b_door', 'Fig. 6b: door scene after Veach: a point light (fig6b_door.toml), a door '
+    write('fig6b_door', 'Fig. 6b: door-ajar scene: a point light (fig6b_door.toml), a door '
           'ajar into the next room; slice y = 1.2',
           [room, wall_a, wall_b, lintel, door],
           {'white': g.diffuse(0.7), 'door': g.diffuse(0.5)})

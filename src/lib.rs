@@ -1,6 +1,6 @@
 //! ftpd3d: Finite-Time Path Deflection (FTPD) fields of 3D scenes by path-space Monte Carlo
-//! integration through Embree, after Zirr, Ament and Dachsbacher, "Visualization of Coherent
-//! Structures of Light Transport", Computer Graphics Forum 34(3), 2015 (sections 5 and 6).
+//! integration through Embree, after the paper "Visualization of Coherent Structures of Light
+//! Transport", Computer Graphics Forum 34(3), 2015 (sections 5 and 6).
 //!
 //! Modules import one way (checked by `tests/layers.rs`): [`math`], [`rng`] → [`accel`] (Embree) →
 //! [`scene`] (data: geometry, materials, lights, flatland preparation) → [`kernel`] (the four

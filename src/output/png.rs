@@ -1,6 +1,6 @@
 //! PNG previews of a scalar field on a slice: the field itself, histogram-equalised and colour-coded
 //! along a CIELAB ramp, and its Sobel gradient with direction as chromaticity and magnitude as
-//! lightness (the two views of section 6.2 of Zirr, Ament and Dachsbacher 2015).
+//! lightness (the two views of the paper's section 6.2).
 //!
 //! Conventions shared by every function here:
 //! - A field is `width * height` values stored row by row; **row 0 is the bottom row** of the slice

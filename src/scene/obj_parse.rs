@@ -888,8 +888,8 @@ const POW10: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10
 /// `s` as an f32, bit for bit what `str::parse::<f32>` gives, with a fast path for the short
 /// decimals of real files (`-0.123456`): with at most 2^24 as the digits' integer and at most 10
 /// of them after the point, both that integer and the power of ten are exact in f32, so one
-/// correctly rounded division gives the correctly rounded value (Clinger's fast path, which the
-/// standard library's parser takes for them too). Everything else goes to the standard parser.
+/// correctly rounded division gives the correctly rounded value (the classic exact fast path of
+/// decimal conversion, which the standard library's parser takes for them too). Everything else goes to the standard parser.
 #[inline]
 fn real_number(b: &[u8]) -> Option<f32> {
     let slow = || std::str::from_utf8(b).ok()?.parse().ok();

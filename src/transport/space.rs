@@ -1,8 +1,8 @@
 //! The space of directions, 3D or flatland: the dimension policy of light transport.
 //!
-//! Flatland is light transport confined to the slice plane, as in the paper's 2D figures (Zirr et al.
-//! 2015, section 5.5 and 6, after Jarosz, Schönefeld, Kobbelt and Jensen, "Theory, analysis and
-//! applications of 2D global illumination", ACM TOG 31(5), 2012).
+//! Flatland is light transport confined to the slice plane, as in the paper's 2D figures (its
+//! sections 5.5 and 6, after "Theory, analysis and applications of 2D global illumination", ACM TOG
+//! 31(5), 2012).
 //!
 //! A flatland scene is a 3D scene extruded along the normal of the slice plane; every direction lies
 //! in the plane, so rays never leave it and the extruded geometry acts as its 2D cross-section.
