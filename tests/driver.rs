@@ -642,13 +642,13 @@ const Z_VAR_RANGE: std::ops::RangeInclusive<f64> = 0.8..=1.25;
 /// The per-cell standard error predicts the error against a 16× reference (Cornell box, z = 0,
 /// 24² cells, independent seeds), with the QMC sampler (unweighted) and passes of 8 samples (the
 /// default's 64 spp in 8 passes): the variance of the z-scores is 1 within three of its standard
-/// errors and inside [`Z_VAR_RANGE`] (measured 1.18 ± 0.09). With longer passes see
+/// errors and inside [`Z_VAR_RANGE`] (measured 1.16 ± 0.09). With longer passes see
 /// `qmc_stderr_z_variance_with_64_point_sequences`.
 ///
 /// Radiance-weighted, the contributions are heavy-tailed (rare paths carry 100× the mean), so a
 /// cell's error estimate rests on few effective samples; the skewness correction of the standard
-/// error ([`ftpd3d::ftpd::moments::Moments::stderr`]) keeps the z-scores' variance near 1: 1.18 ±
-/// 0.09 at 128 spp and 1.06 ± 0.07 at 512 (without it 1.42 ± 0.10 and 1.15 ± 0.08; 8ae9f4f's
+/// error ([`ftpd3d::ftpd::moments::Moments::stderr`]) keeps the z-scores' variance near 1: 1.16 ±
+/// 0.09 at 128 spp and 1.06 ± 0.07 at 512 (per-sample, without it: 1.42 ± 0.10 and 1.15 ± 0.08; 8ae9f4f's
 /// estimator gave 1.67 and 1.27, the spread of σ over batches of 8 before it 5.0). Here the test
 /// asserts that it does not grow with the samples (by more than three standard errors of the
 /// difference), stays below 2, and stays above 1 − 3 se (the error is not overestimated); that it
@@ -675,7 +675,7 @@ fn stderr_predicts_the_error_against_a_16x_reference() {
 
 /// The QMC sampler with passes of 64 samples: each pass of a cell is 8 groups of 8 points, each
 /// group its own scrambled Sobol' sequence and one independent unit of the standard error.
-/// Measured: z variance 1.20 ± 0.09 (unweighted, 128 spp, 24² cells). When a pass was one sequence
+/// Measured: z variance 1.18 ± 0.09 (unweighted, 128 spp, 24² cells). When a pass was one sequence
 /// of 64 points and every sample a unit, the error bars were about 1.2× too wide (0.68 ± 0.05): the
 /// points of one sequence are stratified against each other, not independent.
 #[test]
@@ -688,7 +688,7 @@ fn qmc_stderr_z_variance_with_64_point_sequences() {
 }
 
 /// Issue 13's goal for radiance weighting: the z variance against a 16× reference in
-/// [`Z_VAR_RANGE`] at 128 and 512 spp (measured 1.18 ± 0.09 and 1.06 ± 0.07; see the test above).
+/// [`Z_VAR_RANGE`] at 128 and 512 spp (measured 1.16 ± 0.09 and 1.06 ± 0.07; see the test above).
 #[test]
 fn radiance_stderr_z_variance_in_range() {
     let mut s = cornell(24);

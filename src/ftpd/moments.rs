@@ -254,14 +254,18 @@ impl Moments {
     /// has not met them yet has both a low σ̂ and a low estimate of its error. To second order
     /// (the Edgeworth expansion of the studentized mean; Hall, "The Bootstrap and Edgeworth
     /// Expansion", 1992, section 2.6) the variance of (σ̂ − σ)/se is 1 + (2 + 7γ²/4)/G, with γ the
-    /// skewness of ψ; the returned error includes that factor, with γ estimated from the triple
-    /// product sums in [`Moments::cube`] (Σψᵢ³) and bounded by the largest skewness G values can
-    /// have (√G). So the error is wider than Var σ̂ alone where few units hold a skewed
+    /// skewness of ψ. Its 1 + 2/G is the first-order part of the variance of Student's t with
+    /// G − 1 degrees of freedom, (G − 1)/(G − 3), exact for normal ψ; the returned error includes
+    /// the factor (G − 1)/(G − 3) + 7γ²/(4G) (3 below four units, where the t variance is
+    /// infinite: its value at four), which at 8 groups (64 spp) brought the z variance closer to 1
+    /// than 1 + (2 + 7γ²/4)/G (Cornell box: 1.29 against 1.40 radiance-weighted, 1.50 against
+    /// 1.67 unweighted). γ is estimated from the triple product sums in [`Moments::cube`] (Σψᵢ³)
+    /// and bounded by the largest skewness G values can have (√G). So the error is wider than Var σ̂ alone where few units hold a skewed
     /// contribution, and tends to it as units accumulate. The sample's γ understates a heavy
     /// tail's, so at few units the factor removes part of the excess, not all: half of it at 64
     /// samples of an exponential contribution (the test
     /// `skewness_factor_brings_z_variance_towards_one_at_few_samples`), and on the Cornell box the
-    /// z variance against a 16× reference fell from 1.42 to 1.18 at 128 spp (radiance weighting).
+    /// z variance against a 16× reference fell from 1.42 to 1.16 at 128 spp (radiance weighting).
     ///
     /// √v has an infinite derivative at v = 0 (where Δ barely varies): when the standard error of
     /// v itself, s_v, exceeds 4v, the linearisation of √v is no longer valid and the estimate is
@@ -314,7 +318,8 @@ impl Moments {
             };
             let gamma2 = if gamma2.is_finite() { gamma2 } else { g };
             let factor = if skewness_factor {
-                1.0 + (2.0 + 1.75 * gamma2) / g
+                let t = if g > 3.0 { (g - 1.0) / (g - 3.0) } else { 3.0 };
+                t + 1.75 * gamma2 / g
             } else {
                 1.0
             };
@@ -468,7 +473,8 @@ mod tests {
     /// Checks the estimated variance of σ̂ against the variance of σ̂ over independent replicates,
     /// each within three of its own standard errors (computed from the replicates), and that the
     /// z-scores against the true σ have unit variance, within three standard errors. (The estimate
-    /// includes the skewness factor 1 + (2 + 7γ²/4)/n, which at these n adds 1-5 %.)
+    /// includes the factor (n − 1)/(n − 3) + 7γ²/(4n) of [`Moments::stderr`], which at these n
+    /// adds 1-5 %.)
     fn check_stderr_against_replicates(what: &str, reps: &[(f64, f64)], sigma_true: f64) {
         let sig: Vec<f64> = reps.iter().map(|r| r.0).collect();
         let est: Vec<f64> = reps.iter().map(|r| r.1 * r.1).collect();
