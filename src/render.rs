@@ -30,8 +30,8 @@
 use crate::domain::Tile;
 use crate::field::Field;
 use crate::ftpd::Sample;
-use crate::ftpd::moments::Moments;
-use crate::rng::Sampler;
+use crate::ftpd::moments::{GroupSums, Moments};
+use crate::rng::{QMC_GROUP, Sampler};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::fmt;
@@ -410,8 +410,9 @@ pub fn error_stats(cells: &[Moments]) -> ErrorStats {
 /// which dilute that contribution), so S/n is not an unbiased mean, and σ, a nonlinear function of
 /// ratios of sums, is biased at finite n in any run. Both biases shrink as the samples grow; the
 /// driver tests compare the mean of σ over a slice with that of a uniform run of four times the
-/// samples. Each unit is a batch of the same size as a uniform pass's; the standard error comes
-/// from per-sample sums, so it does not depend on how samples are grouped.
+/// samples. Each unit is a batch of the same size as a uniform pass's, taken in groups of
+/// [`QMC_GROUP`] samples (one scrambled sequence each) like a uniform pass, and the standard error
+/// comes from sums over those groups, so it does not depend on how many units a cell gets.
 pub fn allocate(cells: &[Moments], unit: u32, budget: u64, max_share: u32) -> Vec<u32> {
     let unit = unit.max(1) as f64;
     let kmax = max_share.max(1) as f64;
@@ -598,15 +599,26 @@ where
                         continue;
                     }
                     let mut s = Sampler::new(seed, pass as u64, idx as u64);
-                    for batch in 0..batches {
+                    // Groups of QMC_GROUP samples (the last of a batch may be shorter), numbered
+                    // over the pass: each is its own scrambled sequence and one independent unit
+                    // of the standard error.
+                    let mut group = 0;
+                    for _ in 0..batches {
                         let mut b = Moments::default();
+                        let mut sums = GroupSums::default();
                         for i in 0..spp {
-                            s.begin_sample(batch, i);
+                            let k = i % QMC_GROUP;
+                            s.begin_sample(group, k);
                             let smp = kernel(idx, &mut s);
                             r += smp.rays as u64;
                             cap += smp.capped as u64;
                             cl += smp.clamped as u64;
-                            b.add_sample(smp.c, smp.delta, smp.weight);
+                            sums.add(b.add_to_sums(smp.c, smp.delta, smp.weight));
+                            if k + 1 == QMC_GROUP || i + 1 == spp {
+                                b.add_group(&sums);
+                                sums = GroupSums::default();
+                                group += 1;
+                            }
                         }
                         cell.add_batch(&b);
                     }

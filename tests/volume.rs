@@ -103,6 +103,7 @@ fn vti_read_by_vtkio_equals_the_field() {
             "valid",
             "samples",
             "batches",
+            "groups",
             "exact.sum.w",
             "exact.sum.wd",
             "exact.sum.wd2",
@@ -115,6 +116,16 @@ fn vti_read_by_vtkio_equals_the_field() {
             "exact.sum.wd.wd",
             "exact.sum.wd.wd2",
             "exact.sum.wd2.wd2",
+            "exact.sum3.w.w.w",
+            "exact.sum3.w.w.wd",
+            "exact.sum3.w.w.wd2",
+            "exact.sum3.w.wd.wd",
+            "exact.sum3.w.wd.wd2",
+            "exact.sum3.w.wd2.wd2",
+            "exact.sum3.wd.wd.wd",
+            "exact.sum3.wd.wd.wd2",
+            "exact.sum3.wd.wd2.wd2",
+            "exact.sum3.wd2.wd2.wd2",
             "exact.sum.w.comp",
             "exact.sum.wd.comp",
             "exact.sum.wd2.comp",
@@ -216,21 +227,32 @@ fn vti_header_of_a_2x2x2_volume_is_exactly_this() {
         <DataArray type="UInt8" Name="valid" format="appended" offset="532"></DataArray>
         <DataArray type="UInt32" Name="samples" format="appended" offset="556"></DataArray>
         <DataArray type="UInt32" Name="batches" format="appended" offset="612"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.w" format="appended" offset="668"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd" format="appended" offset="764"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd2" format="appended" offset="860"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.fluence.R" format="appended" offset="956"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.fluence.G" format="appended" offset="1052"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.fluence.B" format="appended" offset="1148"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.w.w" format="appended" offset="1244"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.w.wd" format="appended" offset="1340"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.w.wd2" format="appended" offset="1436"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd.wd" format="appended" offset="1532"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd.wd2" format="appended" offset="1628"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd2.wd2" format="appended" offset="1724"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.w.comp" format="appended" offset="1820"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd.comp" format="appended" offset="1916"></DataArray>
-        <DataArray type="Float64" Name="exact.sum.wd2.comp" format="appended" offset="2012"></DataArray>
+        <DataArray type="UInt32" Name="groups" format="appended" offset="668"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w" format="appended" offset="724"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd" format="appended" offset="820"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd2" format="appended" offset="916"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.fluence.R" format="appended" offset="1012"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.fluence.G" format="appended" offset="1108"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.fluence.B" format="appended" offset="1204"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.w" format="appended" offset="1300"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.wd" format="appended" offset="1396"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.wd2" format="appended" offset="1492"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd.wd" format="appended" offset="1588"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd.wd2" format="appended" offset="1684"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd2.wd2" format="appended" offset="1780"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.w.w.w" format="appended" offset="1876"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.w.w.wd" format="appended" offset="1972"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.w.w.wd2" format="appended" offset="2068"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.w.wd.wd" format="appended" offset="2164"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.w.wd.wd2" format="appended" offset="2260"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.w.wd2.wd2" format="appended" offset="2356"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.wd.wd.wd" format="appended" offset="2452"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.wd.wd.wd2" format="appended" offset="2548"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.wd.wd2.wd2" format="appended" offset="2644"></DataArray>
+        <DataArray type="Float64" Name="exact.sum3.wd2.wd2.wd2" format="appended" offset="2740"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.w.comp" format="appended" offset="2836"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd.comp" format="appended" offset="2932"></DataArray>
+        <DataArray type="Float64" Name="exact.sum.wd2.comp" format="appended" offset="3028"></DataArray>
       </PointData>
     </Piece>
   </ImageData>
@@ -239,8 +261,8 @@ fn vti_header_of_a_2x2x2_volume_is_exactly_this() {
     assert_eq!(header, expected);
     // The appended block holds exactly the announced characters, then closes the document.
     let tail = &text[header.len()..];
-    assert_eq!(tail.find('\n'), Some(2012 + 96));
-    assert_eq!(&tail[2012 + 96..], "\n  </AppendedData>\n</VTKFile>\n");
+    assert_eq!(tail.find('\n'), Some(3028 + 96));
+    assert_eq!(&tail[3028 + 96..], "\n  </AppendedData>\n</VTKFile>\n");
     // An empty voxel: byte count 32 (UInt64 LE) then 8 zero floats.
     assert_eq!(
         &tail[..56],
@@ -457,7 +479,7 @@ fn small_volume(out: &Path) -> Job {
     job
 }
 
-fn bits(field: &Field) -> Vec<[u64; 17]> {
+fn bits(field: &Field) -> Vec<[u64; 28]> {
     field.cells.iter().map(|m| m.bit_pattern()).collect()
 }
 

@@ -12,7 +12,7 @@
 //! | `ftpd`                       | f32  | σ (eq. 14); 0 where `valid` = 0                          |
 //! | `R`, `G`, `B`                | f32  | σ again, as grey: what readers that know only colour images show (FreeImage) |
 //! | `ftpd.mean`, `ftpd.m2`       | f32  | weighted mean and second moment of Δ                     |
-//! | `ftpd.stderr`, `ftpd.relerr` | f32  | standard error of σ (delta method over the samples), /σ |
+//! | `ftpd.stderr`, `ftpd.relerr` | f32  | standard error of σ (delta method over independent groups of samples, skewness-corrected), /σ |
 //! | `weight`                     | f32  | mean contribution weight ΣP / samples                    |
 //! | `fluence.R/G/B`              | f32  | incident radiance integrated over the sphere (radiance weighting only) |
 //! | `radiance.R/G/B`             | f32  | camera images: a path-traced beauty image along the same pixel rays |
@@ -24,8 +24,8 @@
 //!
 //! | channel                      | type | meaning                                                  |
 //! |------------------------------|------|----------------------------------------------------------|
-//! | `samples`, `batches`         | u32  | the exact counts                                         |
-//! | `exact.<sum>.hi/.lo`         | u32  | the exact f64 bits of every sum (ΣP, ΣPΔ, ΣPΔ², their compensations, fluence, product sums `sum.w.w` … `sum.wd2.wd2`) |
+//! | `samples`, `batches`, `groups` | u32 | the exact counts (groups: the independent groups of samples the standard error is taken over) |
+//! | `exact.<sum>.hi/.lo`         | u32  | the exact f64 bits of every sum (ΣP, ΣPΔ, ΣPΔ², their compensations, fluence, product sums over groups `sum.w.w` … `sum.wd2.wd2`, triple product sums `sum3.w.w.w` … `sum3.wd2.wd2.wd2`) |
 //!
 //! Image rows run top to bottom, so the first row is the plane's largest v.
 
@@ -133,6 +133,13 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
         order
             .iter()
             .map(|&k| field.cells[k].batches.min(u32::MAX as u64) as u32)
+            .collect(),
+    );
+    u32ch(
+        "groups".into(),
+        order
+            .iter()
+            .map(|&k| field.cells[k].groups as u32)
             .collect(),
     );
     let bits_of = |get: &dyn Fn(&Moments) -> f64| -> Vec<u64> {
@@ -245,6 +252,8 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
             path.display()
         );
     }
+    // Written before the standard error was taken over groups of samples: see `legacy_groups`.
+    let legacy = !has("groups");
     let chan = |name: &str| -> anyhow::Result<&FlatSamples> {
         find_channel(&image, name, |d| matches!(d, FlatSamples::U32(_))).with_context(|| {
             format!(
@@ -268,7 +277,17 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
     for (e, n) in u32s("batches")?.into_iter().enumerate() {
         field.cells[idx(e)].batches = n as u64;
     }
+    if legacy {
+        crate::output::legacy_groups(&mut field);
+    } else {
+        for (e, n) in u32s("groups")?.into_iter().enumerate() {
+            field.cells[idx(e)].groups = n as u64;
+        }
+    }
     for (name, _, set) in EXACT {
+        if legacy && crate::output::is_triple_sum(name) {
+            continue;
+        }
         let hi = u32s(&format!("exact.{name}.hi"))?;
         let lo = u32s(&format!("exact.{name}.lo"))?;
         for e in 0..w * h {

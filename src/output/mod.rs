@@ -188,7 +188,7 @@ pub fn write_previews(
 }
 
 /// The sums every output keeps exactly (EXR as hi/lo u32 pairs, VTI as Float64), by name, with
-/// accessors: with the sample and batch counts they are a cell's whole [`Moments`], so fields read
+/// accessors: with the sample, batch and group counts they are a cell's whole [`Moments`], so fields read
 /// back merge bit for bit.
 pub(crate) type Getter = fn(&Moments) -> f64;
 pub(crate) type Setter = fn(&mut Moments, f64);
@@ -205,7 +205,33 @@ pub(crate) const EXACT: &[(&str, Getter, Setter)] = &[
     ("sum.wd.wd", |m| m.cross[3], |m, v| m.cross[3] = v),
     ("sum.wd.wd2", |m| m.cross[4], |m, v| m.cross[4] = v),
     ("sum.wd2.wd2", |m| m.cross[5], |m, v| m.cross[5] = v),
+    ("sum3.w.w.w", |m| m.cube[0], |m, v| m.cube[0] = v),
+    ("sum3.w.w.wd", |m| m.cube[1], |m, v| m.cube[1] = v),
+    ("sum3.w.w.wd2", |m| m.cube[2], |m, v| m.cube[2] = v),
+    ("sum3.w.wd.wd", |m| m.cube[3], |m, v| m.cube[3] = v),
+    ("sum3.w.wd.wd2", |m| m.cube[4], |m, v| m.cube[4] = v),
+    ("sum3.w.wd2.wd2", |m| m.cube[5], |m, v| m.cube[5] = v),
+    ("sum3.wd.wd.wd", |m| m.cube[6], |m, v| m.cube[6] = v),
+    ("sum3.wd.wd.wd2", |m| m.cube[7], |m, v| m.cube[7] = v),
+    ("sum3.wd.wd2.wd2", |m| m.cube[8], |m, v| m.cube[8] = v),
+    ("sum3.wd2.wd2.wd2", |m| m.cube[9], |m, v| m.cube[9] = v),
 ];
+
+/// Whether an exact sum is one of the triple product sums, which files written before the
+/// standard error was taken over groups of samples lack: such files read with every sample as its
+/// own group and these sums 0 (no skewness correction for their part; [`legacy_groups`]).
+pub(crate) fn is_triple_sum(name: &str) -> bool {
+    name.starts_with("sum3.")
+}
+
+/// A field read from a file without group counts: each sample was its own unit of the standard
+/// error (the product sums were per sample), and the triple product sums are unknown (0).
+pub(crate) fn legacy_groups(field: &mut crate::field::Field) {
+    for c in &mut field.cells {
+        c.groups = c.n;
+        c.cube = [0.0; 10];
+    }
+}
 
 /// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).
 pub fn f32_of(x: f64) -> f32 {

@@ -15,16 +15,16 @@
 //! | array                          | type          | meaning                                         |
 //! |--------------------------------|---------------|-------------------------------------------------|
 //! | `ftpd` (the active scalars)    | Float32       | σ (eq. 14); 0 where `valid` = 0                 |
-//! | `ftpd.stderr`, `ftpd.relerr`   | Float32       | standard error of σ (delta method over the samples), and /σ |
+//! | `ftpd.stderr`, `ftpd.relerr`   | Float32       | standard error of σ (delta method over independent groups of samples, skewness-corrected), and /σ |
 //! | `ftpd.mean`, `ftpd.m2`         | Float32       | weighted mean and second moment of Δ            |
 //! | `weight`                       | Float32       | mean contribution weight ΣP / samples           |
 //! | `fluence`                      | Float32 × 3   | incident radiance integrated over the sphere (RGB); zeros unless radiance-weighted |
 //! | `grad.mag`                     | Float32       | ‖∇σ‖ in σ per scene unit (central differences, one-sided at borders and next to invalid voxels; 0 at invalid voxels) |
 //! | `valid`                        | UInt8         | 1 where σ is defined (ΣP > 0)                   |
-//! | `samples`, `batches`           | UInt32        | samples taken; batches (passes) that sampled it |
-//! | `exact.<sum>`                  | Float64       | the raw f64 sums, bit for bit: `exact.sum.w`, `exact.sum.wd`, `exact.sum.wd2`, `exact.sum.fluence.R/G/B`, the product sums `exact.sum.w.w` … `exact.sum.wd2.wd2` |
+//! | `samples`, `batches`, `groups` | UInt32        | samples taken; batches (passes) that sampled it; independent groups of samples (for the standard error) |
+//! | `exact.<sum>`                  | Float64       | the raw f64 sums, bit for bit: `exact.sum.w`, `exact.sum.wd`, `exact.sum.wd2`, `exact.sum.fluence.R/G/B`, the product sums over groups `exact.sum.w.w` … `exact.sum.wd2.wd2`, the triple product sums `exact.sum3.w.w.w` … `exact.sum3.wd2.wd2.wd2` |
 //!
-//! With `samples` and `batches`, the `exact.*` arrays are each voxel's whole accumulator, so
+//! With `samples`, `batches` and `groups`, the `exact.*` arrays are each voxel's whole accumulator, so
 //! [`read_vti`] gives back the field exactly and volumes merge by addition like EXR fields.
 //!
 //! The run's description (`field.meta`, the attributes of [`crate::run_info::RunInfo`]) is kept as
@@ -353,6 +353,13 @@ pub fn write_vti_with(
                 b.extend_from_slice(&(cells[i].batches.min(u32::MAX as u64) as u32).to_le_bytes())
             }),
         },
+        Array {
+            name: "groups".into(),
+            ty: "UInt32",
+            comps: 1,
+            size: 4,
+            put: Box::new(|i, b| b.extend_from_slice(&(cells[i].groups as u32).to_le_bytes())),
+        },
     ];
     for &(name, get, _) in EXACT {
         arrays.push(Array {
@@ -580,6 +587,8 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
             path.display()
         );
     }
+    // Written before the standard error was taken over groups of samples: see `legacy_groups`.
+    let legacy = !offsets.contains_key("groups");
     let block = |name: &str, ty: &str, size: usize| -> anyhow::Result<Vec<u8>> {
         let (t, off) = offsets
             .get(name)
@@ -609,7 +618,17 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
     for (i, c) in block("batches", "UInt32", 4)?.chunks_exact(4).enumerate() {
         field.cells[i].batches = u32::from_le_bytes(c.try_into().expect("4 bytes")) as u64;
     }
+    if legacy {
+        crate::output::legacy_groups(&mut field);
+    } else {
+        for (i, c) in block("groups", "UInt32", 4)?.chunks_exact(4).enumerate() {
+            field.cells[i].groups = u32::from_le_bytes(c.try_into().expect("4 bytes")) as u64;
+        }
+    }
     for &(name, _, set) in EXACT {
+        if legacy && crate::output::is_triple_sum(name) {
+            continue;
+        }
         let b = block(&format!("exact.{name}"), "Float64", 8)?;
         for (i, c) in b.chunks_exact(8).enumerate() {
             set(
