@@ -2,7 +2,7 @@
 //! does not depend on the thread count or the tile order, and merged runs never reuse numbers.
 //!
 //! The first [`QMC_DIMS`] numbers of a sample may come from an Owen-scrambled Sobol' sequence
-//! (Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020, through `sobol_burley`)
+//! ("Practical Hash-based Owen Scrambling", JCGT 9(4), 2020, through `sobol_burley`)
 //! instead of the random stream ([`Sampler::begin_sample`]); the numbers after them are the random
 //! stream's (padding). A cell's pass takes its samples in groups of [`QMC_GROUP`]; each group is
 //! its own scrambled sequence, scrambled by a hash of (seed, pass, cell, group): groups are

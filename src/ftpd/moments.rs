@@ -252,8 +252,8 @@ impl Moments {
     /// The error over this estimate is not of unit variance when ψ is skewed (rare large
     /// contributions: radiance paths carrying 100× the mean, pairs split by an edge): a cell that
     /// has not met them yet has both a low σ̂ and a low estimate of its error. To second order
-    /// (the Edgeworth expansion of the studentized mean; Hall, "The Bootstrap and Edgeworth
-    /// Expansion", 1992, section 2.6) the variance of (σ̂ − σ)/se is 1 + (2 + 7γ²/4)/G, with γ the
+    /// (the Edgeworth expansion of the studentized mean; "The Bootstrap and Edgeworth
+    /// Expansion", Springer 1992, section 2.6) the variance of (σ̂ − σ)/se is 1 + (2 + 7γ²/4)/G, with γ the
     /// skewness of ψ. Its 1 + 2/G is the first-order part of the variance of Student's t with
     /// G − 1 degrees of freedom, (G − 1)/(G − 3), exact for normal ψ; the returned error includes
     /// the factor (G − 1)/(G − 3) + 7γ²/(4G) (3 below four units, where the t variance is
