@@ -370,30 +370,14 @@ fn radiance_bounces_on_the_command_line() {
 
     let merged = dir.join("merged.exr");
     let m = merged.to_str().unwrap();
-    let r = ftpd3d(
-        None,
-        &[
-            "merge",
-            capped.to_str().unwrap(),
-            capped2.to_str().unwrap(),
-            "-o",
-            m,
-            "--no-png",
-        ],
-    );
+    let merge = |a: &std::path::Path, b: &std::path::Path| {
+        let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+        ftpd3d(None, &["merge", a, b, "-o", m, "--no-png"])
+    };
+    let r = merge(&capped, &capped2);
     assert!(r.ok, "{}", r.err);
     assert_eq!(attr(&merged, "radiance_bounces").as_deref(), Some("3"));
-    let r = ftpd3d(
-        None,
-        &[
-            "merge",
-            capped.to_str().unwrap(),
-            plain.to_str().unwrap(),
-            "-o",
-            m,
-            "--no-png",
-        ],
-    );
+    let r = merge(&capped, &plain);
     assert!(!r.ok);
     assert!(
         r.err.contains("radiance_bounces = 32 differs from") && r.err.contains("'s 3"),
