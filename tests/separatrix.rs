@@ -682,9 +682,9 @@ const MIRROR_LINES: [([f64; 2], [f64; 2]); 2] = [
 /// check asserted, strays included. Over seeds 1–10 × both resolutions every run covered both
 /// lines wholly, every point of the lines that follow them within 1.5 cells (worst 0.90–1.04
 /// cells at 48, 1.28–1.40 at 72), and no stray line was drawn in 19 of 20 (seed 10 at 72 cells:
-/// one line of 10 points, 3–4 cells inside the V beside the mirror image, with z up to 9: structure of
-/// σ next to that large step, not noise). With lines shorter than 6 scales kept, 6 of the 10 runs
-/// at 72 cells drew such short lines.
+/// one line of 18 points (11 in the region), 3–4 cells inside the V beside the mirror image, with
+/// z up to 9: structure of σ next to that large step, not noise). With lines shorter than 6
+/// scales kept, 6 of the 10 runs at 72 cells drew short lines there.
 #[test]
 fn shadow_boundary_seen_in_a_mirror_at_two_resolutions() {
     let scene = mirror_floor_scene();
@@ -713,7 +713,7 @@ fn shadow_boundary_seen_in_a_mirror_at_two_resolutions() {
 /// [`BAND`], where σ steps by 4 standard errors over only 28 % of it: at least 90 % of that part
 /// must be drawn (this seed draws 94 %). One seed only: over seeds 1–10 at 72 and 104 cells
 /// (`SWEEP_FLAT=1`) σ steps over 18–40 % of the line and 50–100 % of that part is drawn, at
-/// least 90 % in only 7 of 20 runs; no stray line in any; within 1.5 cells in 19 of 20 (1.54).
+/// least 90 % in only 8 of 20 runs; no stray line in any; every point within 0.98 cells.
 #[test]
 fn light_separatrix_past_a_corner_in_flatland() {
     let fl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
