@@ -70,7 +70,16 @@
 //! - pieces shorter than max(3, ⌈4·scale⌉) cells are dropped ([`MIN_LINE_CELLS`] is the floor);
 //! - ends of two lines of one kind are joined across a gap of at most 2·⌈3·scale⌉ cells (one
 //!   filter support) when each end lies within 1.5 cells of the other's tangent and the tangents
-//!   agree within 30°; the points laid across carry strength and z 0 (bridged, not measured).
+//!   agree within 30°; the points laid across carry strength and z 0 (bridged, not measured);
+//! - lines shorter than [`LINE_MIN_SCALES`] = 6 scales, measured along their points and not
+//!   across the bridged gaps, are dropped: that is the length noise does not reach. On fields of
+//!   pure noise (no separatrix, τ = 0, Z = 3, scales 1–2, flat or with a ramp under it), a floor
+//!   of 4 scales let noise draw about 50 lines per 10⁶ cells, almost all 2–5 scales long; at 6
+//!   scales, 1–4 per 10⁶ remain (the test `pure_noise_draws_few_lines` asserts under 10 per 10⁶,
+//!   i.e. under 0.05 stray lines in a window of 4 000 cells). Along a line the filtered noise has
+//!   the correlation exp(−d²/(4·scale²)) (the Gaussian factor of every filter, convolved with
+//!   itself), 10⁻⁴ at 6 scales: a line that long is significant at two places whose noise is
+//!   independent, which one noise excursion is not.
 //!
 //! Where the step across a line passes through zero (a shadow boundary whose step changes sign
 //! along it) nothing is drawn: there is no discontinuity to find at that noise level, and the
@@ -90,9 +99,12 @@ use glam::DVec3;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Shortest chain of line cells kept as a polyline at any scale (the scale-relative minimum is
-/// max(this, ⌈4·scale⌉); see the module docs).
+/// Shortest chain of line cells kept as a polyline at any scale (see [`LINE_MIN_SCALES`]).
 pub const MIN_LINE_CELLS: usize = 3;
+
+/// Shortest line kept, in scales, measured along its points (see the module docs: the length
+/// that lines drawn by noise alone do not reach).
+pub const LINE_MIN_SCALES: f64 = 6.0;
 
 /// Candidate default scales, in cells.
 const SCALES: &[f64] = &[1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0];
@@ -1114,16 +1126,31 @@ fn chain_points(dims: [usize; 3], chain: &[usize], off: &[[f64; 2]]) -> Vec<[f64
         .collect()
 }
 
-/// The shortest line kept at `scale` (see the module docs): the filtered field's noise is
-/// correlated over about ±2·scale, so a chain no longer than 4·scale can be one noise excursion.
-fn min_line_cells(scale: f64) -> usize {
+/// The shortest piece of a chain kept for bridging at `scale`: max([`MIN_LINE_CELLS`],
+/// ⌈4·scale⌉) cells (the filtered noise is correlated over about ±2·scale).
+fn min_piece_cells(scale: f64) -> usize {
     ((4.0 * scale).ceil() as usize).max(MIN_LINE_CELLS)
+}
+
+/// Whether a bridged line is long enough to be kept at `scale` (see the module docs): at least
+/// [`LINE_MIN_SCALES`] scales measured along it, not counting the segments laid across gaps
+/// (whose points carry z 0).
+fn long_enough(line: &Polyline, scale: f64) -> bool {
+    let arc: f64 = line
+        .points
+        .windows(2)
+        .zip(line.z.windows(2))
+        .filter(|(_, z)| z[0] > 0.0 && z[1] > 0.0)
+        .map(|(w, _)| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    arc >= LINE_MIN_SCALES * scale
 }
 
 /// Cuts chains where they turn by more than 45° over ⌈scale⌉ + 1 cells on either side (two lines
 /// met at a junction, or a line hooking off), trims each piece back to its first and last strong
 /// cell (weak cells join strong ones, they do not extend a line where its contrast fades), then
-/// drops the pieces shorter than [`min_line_cells`].
+/// drops the pieces shorter than [`min_piece_cells`] (whole lines are judged by [`long_enough`]
+/// after bridging).
 fn refine_chains(
     dims: [usize; 3],
     chains: Vec<Vec<usize>>,
@@ -1132,7 +1159,7 @@ fn refine_chains(
     strong: &dyn Fn(usize) -> bool,
 ) -> Vec<Vec<usize>> {
     let k = (scale.ceil() as usize + 1).max(2);
-    let min_len = min_line_cells(scale);
+    let min_len = min_piece_cells(scale);
     let mut out = Vec::new();
     for chain in chains {
         let p = chain_points(dims, &chain, off);
@@ -1196,7 +1223,7 @@ fn end_tangent(p: &[[f64; 2]], head: bool, k: usize) -> Option<[f64; 2]> {
 /// hide a line), each lying within 1.5 cells of the other's tangent line and the two tangents
 /// within 30° of each other. Nearest pairs first. The points laid across a gap (one a cell) carry
 /// strength and z 0: they are bridged, not measured.
-fn bridge(mut lines: Vec<Polyline>, scale: f64) -> Vec<Polyline> {
+fn bridge(mut lines: Vec<(Polyline, Vec<usize>)>, scale: f64) -> Vec<(Polyline, Vec<usize>)> {
     let max_gap = 2.0 * (3.0 * scale).ceil();
     let k = (scale.ceil() as usize + 1).max(2);
     let cos30 = 0.75f64.sqrt();
@@ -1204,12 +1231,12 @@ fn bridge(mut lines: Vec<Polyline>, scale: f64) -> Vec<Polyline> {
         let mut best: Option<(f64, usize, bool, usize, bool)> = None;
         for a in 0..lines.len() {
             for b in 0..lines.len() {
-                if a == b || lines[a].kind != lines[b].kind {
+                if a == b || lines[a].0.kind != lines[b].0.kind {
                     continue;
                 }
                 for a_head in [false, true] {
                     for b_head in [false, true] {
-                        let (pa, pb) = (&lines[a].points, &lines[b].points);
+                        let (pa, pb) = (&lines[a].0.points, &lines[b].0.points);
                         let ea = if a_head { pa[0] } else { pa[pa.len() - 1] };
                         let eb = if b_head { pb[0] } else { pb[pb.len() - 1] };
                         let (Some(ta), Some(tb)) =
@@ -1245,9 +1272,11 @@ fn bridge(mut lines: Vec<Polyline>, scale: f64) -> Vec<Polyline> {
             return lines;
         };
         let (hi, lo) = (a.max(b), a.min(b));
-        let lb = lines.remove(hi);
-        let la = lines.remove(lo);
+        let (lb, cb) = lines.remove(hi);
+        let (la, ca) = lines.remove(lo);
         let (mut la, mut lb) = if a > b { (lb, la) } else { (la, lb) };
+        let mut cells = ca;
+        cells.extend(cb);
         // Orient: la ends at the gap, lb starts at it.
         let rev = |l: &mut Polyline| {
             l.points.reverse();
@@ -1272,7 +1301,7 @@ fn bridge(mut lines: Vec<Polyline>, scale: f64) -> Vec<Polyline> {
         la.points.extend(lb.points);
         la.strength.extend(lb.strength);
         la.z.extend(lb.z);
-        lines.push(la);
+        lines.push((la, cells));
     }
 }
 
@@ -1349,18 +1378,27 @@ fn trace_lines(sep: &mut Separatrices, grads: &[[f64; 2]], jump_offset: &[[f64; 
                 z: Vec::with_capacity(chain.len()),
             };
             for &c in chain {
-                line[c] = if kind == LineKind::Jump { 1 } else { 2 };
                 let (i, j) = (c % dims[0], c / dims[0]);
                 p.points
                     .push([i as f64 + 0.5 + off[c][0], j as f64 + 0.5 + off[c][1]]);
                 p.strength.push(val[c]);
                 p.z.push(zv[c]);
             }
-            lines.push(p);
+            lines.push((p, chain.clone()));
+        }
+    }
+    let scale = sep.scale;
+    let kept: Vec<(Polyline, Vec<usize>)> = bridge(lines, scale)
+        .into_iter()
+        .filter(|(l, _)| long_enough(l, scale))
+        .collect();
+    for (l, cells) in &kept {
+        for &c in cells {
+            line[c] = if l.kind == LineKind::Jump { 1 } else { 2 };
         }
     }
     sep.line = line;
-    sep.lines = bridge(lines, sep.scale);
+    sep.lines = kept.into_iter().map(|(l, _)| l).collect();
 }
 
 // ------------------------------------------------------------------------------------------------
