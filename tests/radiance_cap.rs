@@ -245,15 +245,31 @@ fn point_light_in_a_closed_cube_is_sampled_at_the_last_vertex() {
     };
     let (coarse, fine) = (reflected(4, 8), reflected(8, 16));
     assert!((coarse - fine).abs() < 1e-9 * fine, "{coarse} vs {fine}");
-    for (k, expected) in [(0, direct), (1, direct + fine)] {
-        let p = params(Weighting::Radiance, Some(k), false);
-        let mut s = Sampler::new(81, k as u64, 0);
-        let fluence = estimate(40_000, || sample_point(&scene, x, &p, &mut s).weight.x);
-        check(
-            &format!("point light in a cube, cap {k}: fluence"),
-            fluence,
-            expected,
-        );
+    fluence_by_cap(
+        "point light in a cube",
+        &scene,
+        x,
+        false,
+        81,
+        [(0, direct), (1, direct + fine)],
+    );
+}
+
+/// The fluence at `x` (40 000 samples, stream `seed`) with each radiance cap k against its
+/// expected value.
+fn fluence_by_cap(
+    label: &str,
+    scene: &Scene,
+    x: DVec3,
+    flat: bool,
+    seed: u64,
+    cases: [(u32, f64); 2],
+) {
+    for (k, expected) in cases {
+        let p = params(Weighting::Radiance, Some(k), flat);
+        let mut s = Sampler::new(seed, k as u64, 0);
+        let fluence = estimate(40_000, || sample_point(scene, x, &p, &mut s).weight.x);
+        check(&format!("{label}, cap {k}: fluence"), fluence, expected);
     }
 }
 
@@ -298,16 +314,14 @@ fn point_light_in_a_flatland_box_is_sampled_at_the_last_vertex() {
         }
     }
     let reflected = rho / 2.0 * intensity * edges;
-    for (k, expected) in [(0, direct), (1, direct + reflected)] {
-        let p = params(Weighting::Radiance, Some(k), true);
-        let mut s = Sampler::new(82, k as u64, 0);
-        let fluence = estimate(40_000, || sample_point(&scene, x, &p, &mut s).weight.x);
-        check(
-            &format!("point light in a flatland box, cap {k}: fluence"),
-            fluence,
-            expected,
-        );
-    }
+    fluence_by_cap(
+        "point light in a flatland box",
+        &scene,
+        x,
+        true,
+        82,
+        [(0, direct), (1, direct + reflected)],
+    );
 }
 
 fn attr(path: &std::path::Path, key: &str) -> Option<String> {
