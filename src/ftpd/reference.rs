@@ -88,10 +88,8 @@ fn delta_light_mirrored(
         if scene.mirrors.plane_of(hit.prim) != Some(k as u32) {
             continue;
         }
-        let bsdf = scene
-            .textured_bsdf(&hit)
-            .unwrap_or_else(|| scene.material(&hit).bsdf.clone());
-        let crate::scene::material::Bsdf::Mirror { ks, .. } = bsdf else {
+        let bsdf = scene.bsdf_at(&hit, &scene.material(&hit).bsdf);
+        let crate::scene::material::Bsdf::Mirror { ks, .. } = &*bsdf else {
             continue;
         };
         if scene.visible(hit.spawn_origin(wi_image), target) {
@@ -193,15 +191,7 @@ pub fn radiance_plain(
         if depth == max_bounces {
             break;
         }
-        let own = &scene.material(&hit).bsdf;
-        let textured;
-        let bsdf = match scene.textured_bsdf(&hit) {
-            Some(b) => {
-                textured = b;
-                &textured
-            }
-            None => own,
-        };
+        let bsdf = scene.bsdf_at(&hit, &scene.material(&hit).bsdf);
         for light in &scene.lights.lights {
             // The shadow ray leaves on the side the light lies.
             let towards = match light {

@@ -635,6 +635,16 @@ impl Scene {
         self.texel_bsdf(hit)
     }
 
+    /// The BSDF at `hit`: the one its texels give ([`textured_bsdf`](Self::textured_bsdf)) where
+    /// they change it, else `own` (the material's model, or the flatland one made of it).
+    #[inline(always)]
+    pub fn bsdf_at<'a>(&self, hit: &Hit, own: &'a Bsdf) -> std::borrow::Cow<'a, Bsdf> {
+        match self.textured_bsdf(hit) {
+            Some(b) => std::borrow::Cow::Owned(b),
+            None => std::borrow::Cow::Borrowed(own),
+        }
+    }
+
     /// [`textured_bsdf`](Self::textured_bsdf) in a scene with textures: kept out of line, so
     /// that the hit code of scenes without stays as small as it was.
     #[inline(never)]

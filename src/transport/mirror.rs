@@ -99,16 +99,9 @@ pub fn connect_virtual<K: Kernel>(
     if mirrors.plane_of(hit.prim) != Some(vs.plane as u32) {
         return None;
     }
-    let (bsdf, _) = K::Space::scatter(scene, hit.material);
-    let textured;
-    let bsdf = match scene.textured_bsdf(&hit) {
-        Some(b) => {
-            textured = b;
-            &textured
-        }
-        None => bsdf,
-    };
-    let Bsdf::Mirror { ks, .. } = bsdf else {
+    let (own, _) = K::Space::scatter(scene, hit.material);
+    let bsdf = scene.bsdf_at(&hit, own);
+    let Bsdf::Mirror { ks, .. } = &*bsdf else {
         return None;
     };
     let out = mirrors.planes[vs.plane].reflect_dir(vs.wi);
