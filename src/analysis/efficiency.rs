@@ -104,10 +104,31 @@ pub fn fit_time(levels: &[Level], err: impl Fn(&Errors) -> f64) -> Option<Fit> {
     fit_line(&pts)
 }
 
-/// Seconds at which the line `fit` reaches `target` (its ln-ln extrapolation); `None` for a line
-/// that does not fall.
+/// Two-sided 95 % quantile of Student's t with `df` degrees of freedom (1.96 beyond 30).
+pub fn t95(df: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    match df {
+        0 => f64::INFINITY,
+        1..=30 => T[df - 1],
+        _ => 1.96,
+    }
+}
+
+/// Where the line `fit` reaches `target` (its ln-ln extrapolation); `None` for a line that does
+/// not fall, or whose fall is not significant: with three or more levels the slope must lie below
+/// zero by its 95 % confidence half-width (Student's t over the levels' scatter). An error that
+/// barely moves over the levels (e.g. a 95th percentile stuck near 1 while most cells have not yet
+/// seen a deflected pair) would otherwise extrapolate to absurd times.
 pub fn time_to(fit: &Fit, target: f64) -> Option<f64> {
-    (fit.slope < 0.0 && target > 0.0).then(|| ((target.ln() - fit.intercept) / fit.slope).exp())
+    let half_width = fit
+        .slope_se
+        .map_or(0.0, |se| t95(fit.points.saturating_sub(2)) * se);
+    (fit.slope + half_width < 0.0 && target > 0.0)
+        .then(|| ((target.ln() - fit.intercept) / fit.slope).exp())
 }
 
 /// The comparison of one error measure between the baseline and the candidate.
@@ -378,5 +399,40 @@ mod tests {
         assert!((s.ratio().unwrap() - 4.0).abs() < 1e-9, "{s:?}");
         assert!((s.base_seconds.unwrap() - 0.32).abs() < 1e-9, "{s:?}");
         assert!((s.base_slope.unwrap() + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_error_that_barely_falls_gives_no_time() {
+        // The stair wall's radiance-weighted 95th percentiles of `efficiency.sh --long` (128²,
+        // 16..512 spp): 1 until the last level. Their fitted slopes (about −0.01 and −0.003)
+        // extrapolated the baseline's 0.951 to 2·10⁶ s; the fall is within the levels' scatter.
+        let spp = [16, 32, 64, 128, 256, 512];
+        let lv = |p95: &[f64]| -> Vec<Level> {
+            spp.iter()
+                .zip(p95)
+                .map(|(&n, &e)| Level {
+                    spp: n,
+                    seconds: 0.007 * f64::from(n),
+                    errors: Errors {
+                        p95_rel: e,
+                        ..Default::default()
+                    },
+                })
+                .collect()
+        };
+        let base = lv(&[1.0, 1.0, 1.0, 1.0, 1.0, 0.9514359910296352]);
+        let new = lv(&[1.0, 1.0, 1.0, 1.0, 1.0, 0.9847834382088951]);
+        let s = speedup(&base, &new, |e| e.p95_rel);
+        assert_eq!(
+            (s.base_seconds, s.new_seconds, s.ratio()),
+            (None, None, None),
+            "{s:?}"
+        );
+        // A line with the same scatter about a real fall keeps its time.
+        let noisy = lv(&[0.5, 0.36, 0.24, 0.18, 0.12, 0.09]);
+        assert!(speedup(&noisy, &noisy, |e| e.p95_rel).ratio().is_some());
+        assert_eq!(t95(0), f64::INFINITY);
+        assert_eq!(t95(4), 2.776);
+        assert_eq!(t95(100), 1.96);
     }
 }
