@@ -58,12 +58,15 @@ const QMC_MAX_POINTS: u32 = 1 << 16;
 /// Sets of four dimensions of a point ([`QMC_DIMS`] rounded up to whole sets).
 const QMC_SETS: usize = QMC_DIMS.div_ceil(4) as usize;
 
+/// The XORed direction vectors of one set of four dimensions for each value of an index byte.
+type ByteVectors = [[[u32; 4]; 256]; 2];
+
 /// For each set of four dimensions, the XOR of the (bit-reversed) Sobol' direction vectors of each
 /// value of the shuffled index's top byte (`[0]`) and second byte (`[1]`): `sobol_int4_rev`
 /// XORs one vector per set bit of those 16 bits, so two lookups give the same result without
 /// its loop (about 60 instructions per set on the 16-bit indices scrambling gives). Built from
 /// `sobol_int4_rev` itself.
-static SOBOL_BYTES: LazyLock<Box<[[[[u32; 4]; 256]; 2]; QMC_SETS]>> = LazyLock::new(|| {
+static SOBOL_BYTES: LazyLock<Box<[ByteVectors; QMC_SETS]>> = LazyLock::new(|| {
     let mut t = Box::new([[[[0u32; 4]; 256]; 2]; QMC_SETS]);
     for (set, bytes) in t.iter_mut().enumerate() {
         for b in 0..256u32 {
