@@ -1090,9 +1090,8 @@ fn sweep_shadow_boundary_over_seeds() {
                 separatrix::of_field(field, "sweep", &SepParams::default()).unwrap();
             let (known, region) = if mirror {
                 (MIRROR_LINES.to_vec(), [-0.45, 0.4, 0.25, 0.75])
-            } else if flat.is_some() {
-                (vec![([-0.5, 1.0], [-1.5, 0.0])], SHADOW_REGION)
             } else {
+                // 3D and flatland: the same line and region.
                 (vec![([-0.5, 1.0], [-1.5, 0.0])], SHADOW_REGION)
             };
             let fit = fit_lines(&sep, field, &reference, &plane, &known, region);
