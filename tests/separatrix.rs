@@ -397,10 +397,10 @@ fn to_cells(plane: &Plane, p: [f64; 2]) -> [f64; 2] {
 struct LineFit {
     /// Per known line: the fraction of it (in the region) drawn within 1.5 cells.
     coverage: Vec<f64>,
-    /// Per known line: the fraction of it where σ steps across it (σ 2–4 cells to either side
-    /// differs by at least 4 standard errors), and the coverage of that part.
-    stepped: Vec<f64>,
-    stepped_coverage: Vec<f64>,
+    /// Per known line: the fraction of it where its step is detectable (see [`detectable`]), and
+    /// the coverage of that part.
+    detectable: Vec<f64>,
+    detectable_coverage: Vec<f64>,
     /// The largest distance (cells) from its known line of any point of a polyline that mostly
     /// (more than half of its points) follows one.
     worst: f64,
@@ -409,9 +409,61 @@ struct LineFit {
     other_points: usize,
 }
 
+/// The mean σ of other runs of the same scene and grid (independent seeds): a reference whose
+/// noise is 1/√k of one run's.
+fn mean_sigma(fields: &[&Field]) -> Vec<f64> {
+    let k = fields.len().max(1) as f64;
+    let mut m = vec![0.0; fields[0].values().len()];
+    for f in fields {
+        for (m, v) in m.iter_mut().zip(f.values()) {
+            *m += if v.sigma.is_finite() { v.sigma } else { 0.0 } / k;
+        }
+    }
+    m
+}
+
+/// Where the step across a line is detectable in `field`, decided by the noise model and not
+/// by a picked step size: the extraction is run (at `sep`'s scale, τ and Z) on the reference σ
+/// (other seeds' mean, `reference`) with this field's own standard errors, which gives the jump
+/// strength and the z this field would show without its own noise. A cell is detectable where
+/// that strength is ≥ τ and that z is ≥ Z + [`DETECTABLE_MARGIN`].
+///
+/// The margin: a field's z scatters about the noiseless one by about 1 (the step's component
+/// of d is a unit normal; the other three components add little once d is large), so at
+/// Z + m a cell passes the strong threshold Z with probability Φ(m) and the hysteresis one,
+/// Z − 1, with Φ(m + 1). The tests demand that 90 % of the detectable part be drawn
+/// ([`MIN_DETECTABLE_COVERAGE`]), so each of its cells must be drawn with a probability above
+/// that: m = 2 (0.977 strong, 0.999 weak); m = 1 (0.84) is below it. Measured on the sweep
+/// (seeds 1–20, 72 and 104 cells, reference the other 19 seeds): flatland runs with 90 % of the
+/// detectable part drawn, 37 of 40 at m = 1 and 39 of 40 at m = 2; shadow boundary 38 of 40 at
+/// both. The reference's own noise (1/√k of the field's, k the seeds averaged) adds about 4/k to
+/// the expected d² of the 4 third derivatives: at k = 3 (the tests) it moves the cut at z = 5 to
+/// a noiseless z of 4.87.
+fn detectable(field: &Field, reference: &[f64], sep: &Separatrices) -> Vec<bool> {
+    let cell = separatrix::Placement::of_field(field, "reference")
+        .unwrap()
+        .cell(sep.dims);
+    let mut grid = Grid::of_field(field, cell);
+    grid.sigma = reference.to_vec();
+    let p = SepParams {
+        scale: Some(sep.scale),
+        z: sep.z_threshold,
+        tau: Some(sep.tau),
+    };
+    let r = extract(&grid, &p).unwrap();
+    (0..r.jump.len())
+        .map(|c| {
+            r.defined[c]
+                && r.jump[c] >= sep.tau
+                && r.jump_z[c] >= sep.z_threshold + DETECTABLE_MARGIN
+        })
+        .collect()
+}
+
 fn fit_lines(
     sep: &Separatrices,
     field: &Field,
+    reference: &[f64],
     plane: &Plane,
     expected: &[([f64; 2], [f64; 2])],
     [x0, x1, y0, y1]: [f64; 4],
@@ -425,45 +477,32 @@ fn fit_lines(
         .iter()
         .map(|(a, b)| (to_cells(plane, *a), to_cells(plane, *b)))
         .collect();
-    // Where σ has a step across the known line, measured on the field: the mean σ of the cells 2
-    // to 4 cells to either side, against its standard error from the cells' own.
-    let vals = field.values();
+    let det = detectable(field, reference, sep);
     let (w, h) = (field.width as isize, field.height as isize);
-    let stepped = |q: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+    // A sample of the line is detectable where a detectable cell lies within 1.5 cells of it
+    // across the line (the distance the issue allows).
+    let detectable_at = |q: [f64; 2], a: [f64; 2], b: [f64; 2]| {
         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
         let l = dx.hypot(dy);
         let n = [-dy / l, dx / l];
-        let mut side = [(0.0, 0.0, 0usize); 2];
-        for (k, sgn) in [(0, -1.0), (1, 1.0)] {
-            for d in [2.0, 3.0, 4.0] {
-                let p = [q[0] + sgn * d * n[0], q[1] + sgn * d * n[1]];
-                let (i, j) = (p[0].floor() as isize, p[1].floor() as isize);
-                if i >= 0 && j >= 0 && i < w && j < h {
-                    let v = &vals[(i + w * j) as usize];
-                    side[k].0 += v.sigma;
-                    side[k].1 += v.stderr * v.stderr;
-                    side[k].2 += 1;
-                }
-            }
-        }
-        if side.iter().any(|s| s.2 == 0) {
-            return false;
-        }
-        let m = |s: (f64, f64, usize)| (s.0 / s.2 as f64, s.1 / (s.2 * s.2) as f64);
-        let ((m0, v0), (m1, v1)) = (m(side[0]), m(side[1]));
-        (m1 - m0).abs() >= 4.0 * (v0 + v1).sqrt()
+        (-3..=3).any(|k| {
+            let d = 0.5 * k as f64;
+            let p = [q[0] + d * n[0], q[1] + d * n[1]];
+            let (i, j) = (p[0].floor() as isize, p[1].floor() as isize);
+            i >= 0 && j >= 0 && i < w && j < h && det[(i + w * j) as usize]
+        })
     };
     let mut fit = LineFit {
         coverage: Vec::new(),
-        stepped: Vec::new(),
-        stepped_coverage: Vec::new(),
+        detectable: Vec::new(),
+        detectable_coverage: Vec::new(),
         worst: 0.0,
         others: 0,
         other_points: 0,
     };
     for (a, b) in &lines {
         fit.coverage.push(coverage(sep, *a, *b, 1.5, &region));
-        // The stepped fraction, sampled as `coverage` samples.
+        // The detectable fraction, sampled as `coverage` samples.
         let len = (b[0] - a[0]).hypot(b[1] - a[1]);
         let steps = (len * 2.0).ceil() as usize;
         let (mut inside, mut st) = (0, 0);
@@ -472,13 +511,15 @@ fn fit_lines(
             let q = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
             if region(q) {
                 inside += 1;
-                st += stepped(q, *a, *b) as usize;
+                st += detectable_at(q, *a, *b) as usize;
             }
         }
-        fit.stepped.push(st as f64 / inside.max(1) as f64);
-        fit.stepped_coverage.push(coverage(sep, *a, *b, 1.5, &|q| {
-            region(q) && stepped(q, *a, *b)
-        }));
+        fit.detectable.push(st as f64 / inside.max(1) as f64);
+        fit.detectable_coverage.push(if st == 0 {
+            1.0
+        } else {
+            coverage(sep, *a, *b, 1.5, &|q| region(q) && detectable_at(q, *a, *b))
+        });
     }
     for l in &sep.lines {
         let d: Vec<f64> = l
@@ -506,12 +547,12 @@ fn fit_lines(
 }
 
 /// How [`check_lines`] judges: the region (x0, x1, y0, y1 in scene coordinates), the fractions
-/// of each line and of its stepped part that must be drawn, whether stray lines may be drawn, and
+/// of each line and of its detectable part that must be drawn, whether stray lines may be drawn, and
 /// whether the 1.5-cell distance is asserted (`false`: reported only; see the shadow test).
 struct Judge {
     region: [f64; 4],
     min_coverage: f64,
-    min_stepped_coverage: f64,
+    min_detectable_coverage: f64,
     strays_allowed: bool,
     distance_asserted: bool,
 }
@@ -520,13 +561,14 @@ struct Judge {
 /// coordinates, each a → b): every polyline that follows one stays within 1.5 cells of it over
 /// its whole length in the region, no polyline in the region follows none (unless
 /// `strays_allowed`), and each line is drawn
-/// over at least `min_coverage` of its length in the region and `min_stepped_coverage` of the part
-/// where σ steps across it by 4 standard errors (the step changes sign along a shadow boundary,
-/// and where it passes through zero there is nothing to extract; see the callers for the
-/// fractions).
+/// over at least `min_coverage` of its length in the region and `min_detectable_coverage` of the
+/// part where its step is detectable in this field ([`detectable`], against `reference`, the
+/// other seeds' mean σ): the step changes sign along a shadow boundary, and where it passes
+/// through zero there is nothing to extract.
 fn check_lines(
     label: &str,
     field: &Field,
+    reference: &[f64],
     plane: &Plane,
     expected: &[([f64; 2], [f64; 2])],
     judge: Judge,
@@ -534,7 +576,7 @@ fn check_lines(
     let Judge {
         region,
         min_coverage,
-        min_stepped_coverage,
+        min_detectable_coverage,
         strays_allowed,
         distance_asserted,
     } = judge;
@@ -546,17 +588,17 @@ fn check_lines(
         separatrix::write_side_files(&path, field, &sep, &placement).unwrap();
     }
     eprintln!("{label}: {}", sep.summary());
-    let fit = fit_lines(&sep, field, plane, expected, region);
+    let fit = fit_lines(&sep, field, reference, plane, expected, region);
     eprintln!("{label}: {fit:?}");
     for (k, c) in fit.coverage.iter().enumerate() {
         assert!(
             *c >= min_coverage,
             "{label}: expected line {k} covered {c} < {min_coverage}"
         );
-        let sc = fit.stepped_coverage[k];
+        let sc = fit.detectable_coverage[k];
         assert!(
-            sc >= min_stepped_coverage,
-            "{label}: the stepped part of line {k} covered {sc} < {min_stepped_coverage}"
+            sc >= min_detectable_coverage,
+            "{label}: the detectable part of line {k} covered {sc} < {min_detectable_coverage}"
         );
     }
     assert!(
@@ -574,51 +616,72 @@ fn check_lines(
     assert!(p.z.abs() < 1e-12 && p.x >= o.x && p.x <= o.x + sz.0);
 }
 
+/// The seeds the ground-truth tests check.
+const SEEDS: [u64; 4] = [1, 2, 3, 4];
+
+/// The fields of [`SEEDS`] at 512 samples per cell.
+fn seeds_of(scene: &Scene, plane: &Plane, p: &Params) -> Vec<Field> {
+    SEEDS
+        .iter()
+        .map(|&seed| run_plane(scene, plane, p, &opts(512, seed)).unwrap().0)
+        .collect()
+}
+
+/// The reference σ for field `k`: the mean of the other seeds' fields (independent of it).
+fn reference_without(fields: &[Field], k: usize) -> Vec<f64> {
+    let others: Vec<&Field> = fields
+        .iter()
+        .enumerate()
+        .filter(|(o, _)| *o != k)
+        .map(|(_, f)| f)
+        .collect();
+    mean_sigma(&others)
+}
+
+/// The fraction of a line's detectable part (see [`detectable`]) that must be drawn: nearly all
+/// of it, leaving a cell or two at the ends of a stretch, where the step fades below Z + 2 and
+/// the drawn line stops where its own cells stop passing Z.
+const MIN_DETECTABLE_COVERAGE: f64 = 0.9;
+
+/// Standard errors above Z at which a cell counts as detectable (see [`detectable`]).
+const DETECTABLE_MARGIN: f64 = 2.0;
+
 /// The region of the shadow window where the lines are judged: 0.1 ≤ y ≤ 0.9, −2.5 < x < −0.1
 /// (next to floor and slab σ changes for other reasons).
 const SHADOW_REGION: [f64; 4] = [-2.5, -0.1, 0.1, 0.9];
 
-/// The narrower band 0.25 ≤ y ≤ 0.75, −2.45 < x < −0.15, farther from floor, slab and window edges
-/// than the filters reach (⌈3·scale⌉ cells, at most 0.2 here): for flatland, whose field near the
-/// floor has ridges of its own.
-const BAND: [f64; 4] = [-2.45, -0.15, 0.25, 0.75];
-
-/// The fraction of the shadow boundary (in [`SHADOW_REGION`]) that must be drawn. The step of σ
-/// across it changes sign along it (σ is larger on the lit side near the occluder, smaller
-/// farther down), and where it passes through zero there is nothing to extract: at 512 samples
-/// per cell σ steps by 4 standard errors over 59–73 % of the line (the runs of the sweep below,
-/// seeds 1–20 at both resolutions), and the extraction drew 53–84 % of it.
-const SHADOW_MIN_COVERAGE: f64 = 0.5;
-
 /// A point light and a straight edge in 3D: the shadow boundary in the slice, at two resolutions
-/// and the default settings, seeds 1–4. Over seeds 1–20 × both resolutions
-/// (`sweep_shadow_boundary_over_seeds`, with lines of at least 6 scales): coverage 0.50–0.84;
-/// no other line in 39 of 40 runs (the 40th: one point of a line along the floor, below the
-/// region); every line that follows the boundary within 1.5 cells in 37 of 40 (the others 1.63,
-/// 2.20, 2.31 cells: a line end bending away along the smooth change of σ next to it where the
-/// step fades, seed 4 at 72 cells and seed 3 at 104 among them). So coverage and strays are
-/// asserted for every run here, the distance at seed 1 and reported for the others: making line
-/// ends stop where the step fades is not done yet.
+/// and the default settings, seeds 1–4, each judged against the mean of the other three: at
+/// least 90 % of the part where the step is detectable ([`detectable`]) drawn, every point of
+/// the lines that follow the boundary within 1.5 cells, no other line. The step changes sign
+/// along the boundary, so only 39–49 % of it is detectable. Over seeds 1–20 × both resolutions
+/// (`sweep_shadow_boundary_over_seeds`, reference the other 19 seeds): 90 % of the detectable
+/// part drawn in 38 of 40 runs (the others 0.68: at 72 cells a stretch near the slab whose
+/// pieces stay shorter than the 6-scale floor), within 1.5 cells in 39 of 40 (seed 11 at 72
+/// cells: 2.21, a line end bending off along the smooth change of σ beside it where the step
+/// fades; not solved), no other line in any; 37 of 40 pass every check (judged at Z + 1, 37
+/// too, and 34 before the one-cell-wide thinning).
 #[test]
 fn shadow_boundary_of_a_point_light_in_a_slice_at_two_resolutions() {
     let scene = shadow_scene(Bsdf::Diffuse {
         kd: Rgb::splat(0.5),
     });
-    for seed in 1..=4 {
-        for res in [72, 104] {
-            let plane = window(res);
-            let (field, _) = run_plane(&scene, &plane, &params(None), &opts(512, seed)).unwrap();
+    for res in [72, 104] {
+        let plane = window(res);
+        let fields = seeds_of(&scene, &plane, &params(None));
+        for (k, field) in fields.iter().enumerate() {
             check_lines(
-                &format!("3D res {res} seed {seed}"),
-                &field,
+                &format!("3D res {res} seed {}", k + 1),
+                field,
+                &reference_without(&fields, k),
                 &plane,
                 &[([-0.5, 1.0], [-1.5, 0.0])],
                 Judge {
                     region: SHADOW_REGION,
-                    min_coverage: SHADOW_MIN_COVERAGE,
-                    min_stepped_coverage: 0.0,
+                    min_coverage: 0.0,
+                    min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
                     strays_allowed: false,
-                    distance_asserted: seed == 1,
+                    distance_asserted: true,
                 },
             );
         }
@@ -679,32 +742,31 @@ const MIRROR_LINES: [([f64; 2], [f64; 2]); 2] = [
 
 /// The two lines seen with a planar mirror (see [`mirror_floor_scene`]), at the default
 /// extraction settings and two resolutions, seeds 1–4: judged in 0.25 ≤ y ≤ 0.75, −0.45 < x < 0.4
-/// (right of the direct shadow boundary y = x + 1.5, which stays left of x = −0.6 there), coverage
-/// and distance asserted; other lines are reported, not asserted, because the ones drawn here are
-/// structure of σ beside the mirror image's large step, not noise (below; and with the standard
-/// error over groups of 8 samples, the fields of this test's 64-sample passes changed and seed 1 at
-/// 72 cells draws one such line of 12 points). Over seeds 1–10 × both resolutions every run covered both
-/// lines wholly, every point of the lines that follow them within 1.5 cells (worst 0.90–1.04
-/// cells at 48, 1.28–1.40 at 72), and no stray line was drawn in 19 of 20 (seed 10 at 72 cells:
-/// one line of 18 points (11 in the region), 3–4 cells inside the V beside the mirror image, with
-/// z up to 9: structure of σ next to that large step, not noise). With lines shorter than 6
-/// scales kept, 6 of the 10 runs at 72 cells drew short lines there.
+/// (right of the direct shadow boundary y = x + 1.5, which stays left of x = −0.6 there),
+/// coverage (90 % of each line and of its detectable part) and distance asserted; other lines
+/// are reported, not asserted, because the ones drawn here are structure of σ beside the mirror
+/// image's large step (z up to 9), not noise. Over seeds 1–20 × both resolutions every run
+/// covered both lines wholly (all of them detectable), every point of the lines that follow them
+/// within 1.5 cells (worst 0.92–1.05 cells at 48, 1.27–1.41 at 72), and no other line was drawn
+/// in 38 of 40 (seeds 3 and 8 at 72 cells: one line of 10 and 14 points inside the V beside the
+/// mirror image; before the one-cell-wide thinning 36 of 40).
 #[test]
 fn shadow_boundary_seen_in_a_mirror_at_two_resolutions() {
     let scene = mirror_floor_scene();
-    for seed in 1..=4 {
-        for res in [48, 72] {
-            let plane = mirror_window(res);
-            let (field, _) = run_plane(&scene, &plane, &mirror_params(), &opts(512, seed)).unwrap();
+    for res in [48, 72] {
+        let plane = mirror_window(res);
+        let fields = seeds_of(&scene, &plane, &mirror_params());
+        for (k, field) in fields.iter().enumerate() {
             check_lines(
-                &format!("mirror res {res} seed {seed}"),
-                &field,
+                &format!("mirror res {res} seed {}", k + 1),
+                field,
+                &reference_without(&fields, k),
                 &plane,
                 &MIRROR_LINES,
                 Judge {
                     region: [-0.45, 0.4, 0.25, 0.75],
                     min_coverage: MIRROR_MIN_COVERAGE,
-                    min_stepped_coverage: 0.0,
+                    min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
                     strays_allowed: true,
                     distance_asserted: true,
                 },
@@ -713,11 +775,15 @@ fn shadow_boundary_seen_in_a_mirror_at_two_resolutions() {
     }
 }
 
-/// Flatland: the light separatrix (the ray from the light past the slab's corner), judged in
-/// [`BAND`], where σ steps by 4 standard errors over only 28 % of it: at least 90 % of that part
-/// must be drawn (this seed draws 94 %). One seed only: over seeds 1–10 at 72 and 104 cells
-/// (`SWEEP_FLAT=1`) σ steps over 18–40 % of the line and 50–100 % of that part is drawn, at
-/// least 90 % in only 8 of 20 runs; no stray line in any; every point within 0.98 cells.
+/// Flatland: the light separatrix (the ray from the light past the slab's corner), at two
+/// resolutions, seeds 1–4, judged as the 3D shadow boundary is (region, detectable part against
+/// the other seeds' mean, distance, no other line). The step changes sign along it as in 3D; at
+/// scale 1.5 only 30–44 % of it is detectable. Over seeds 1–20 × both resolutions (`SWEEP_FLAT=1`):
+/// at 104 cells every run draws the whole detectable part; at 72 cells 14 of 20 draw 90 % of it
+/// (the others 0.32–0.70: the detectable stretch near the floor is 6–9 cells long, about the
+/// 6-scale floor of 9 cells, and is dropped); every point within 1.48 cells; no other line in
+/// any run. (Judged before in the band 0.25 ≤ y ≤ 0.75, against a step estimated from the field
+/// itself; there its detectable part is 5–11 % of the line, too little to judge.)
 #[test]
 fn light_separatrix_past_a_corner_in_flatland() {
     let fl = Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y);
@@ -725,21 +791,26 @@ fn light_separatrix_past_a_corner_in_flatland() {
         kd: Rgb::splat(0.5),
     });
     scene.prepare_flatland(fl, "z=0").unwrap();
-    let plane = window(104);
-    let (field, _) = run_plane(&scene, &plane, &params(Some(fl)), &opts(512, 5)).unwrap();
-    check_lines(
-        "flatland",
-        &field,
-        &plane,
-        &[([-0.5, 1.0], [-1.5, 0.0])],
-        Judge {
-            region: BAND,
-            min_coverage: 0.0,
-            min_stepped_coverage: 0.9,
-            strays_allowed: false,
-            distance_asserted: true,
-        },
-    );
+    for res in [72, 104] {
+        let plane = window(res);
+        let fields = seeds_of(&scene, &plane, &params(Some(fl)));
+        for (k, field) in fields.iter().enumerate() {
+            check_lines(
+                &format!("flatland res {res} seed {}", k + 1),
+                field,
+                &reference_without(&fields, k),
+                &plane,
+                &[([-0.5, 1.0], [-1.5, 0.0])],
+                Judge {
+                    region: SHADOW_REGION,
+                    min_coverage: 0.0,
+                    min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
+                    strays_allowed: false,
+                    distance_asserted: true,
+                },
+            );
+        }
+    }
 }
 
 /// An empty lit box (a point light inside a closed diffuse box): in the middle, away from the
@@ -983,49 +1054,61 @@ fn sweep_shadow_boundary_over_seeds() {
     };
     let resolutions = if mirror { [48usize, 72] } else { [72, 104] };
     for res in resolutions {
-        for seed in 1..=seeds {
-            let plane = if mirror {
-                mirror_window(res)
-            } else {
-                window(res)
-            };
-            let path = dir.join(format!("f{tag}_{res}_{seed}.exr"));
-            let field = if path.is_file() {
-                ftpd3d::output::exr::read_exr(&path).unwrap()
-            } else {
-                let p = if mirror {
-                    mirror_params()
+        let plane = if mirror {
+            mirror_window(res)
+        } else {
+            window(res)
+        };
+        let fields: Vec<Field> = (1..=seeds)
+            .map(|seed| {
+                let path = dir.join(format!("f{tag}_{res}_{seed}.exr"));
+                if path.is_file() {
+                    ftpd3d::output::exr::read_exr(&path).unwrap()
                 } else {
-                    params(flat)
-                };
-                let (f, _) = run_plane(&scene, &plane, &p, &opts(512, seed)).unwrap();
-                ftpd3d::output::write_outputs(&f, &path, false).unwrap();
-                f
-            };
+                    let p = if mirror {
+                        mirror_params()
+                    } else {
+                        params(flat)
+                    };
+                    let (f, _) = run_plane(&scene, &plane, &p, &opts(512, seed)).unwrap();
+                    ftpd3d::output::write_outputs(&f, &path, false).unwrap();
+                    f
+                }
+            })
+            .collect();
+        for (k, field) in fields.iter().enumerate() {
+            let seed = k + 1;
+            // The reference: the other seeds' mean.
+            let others: Vec<&Field> = fields
+                .iter()
+                .enumerate()
+                .filter(|(o, _)| *o != k)
+                .map(|(_, f)| f)
+                .collect();
+            let reference = mean_sigma(&others);
             let (sep, placement) =
-                separatrix::of_field(&field, "sweep", &SepParams::default()).unwrap();
+                separatrix::of_field(field, "sweep", &SepParams::default()).unwrap();
             let (known, region) = if mirror {
                 (MIRROR_LINES.to_vec(), [-0.45, 0.4, 0.25, 0.75])
-            } else if flat.is_some() {
-                (vec![([-0.5, 1.0], [-1.5, 0.0])], BAND)
             } else {
+                // 3D and flatland: the same line and region.
                 (vec![([-0.5, 1.0], [-1.5, 0.0])], SHADOW_REGION)
             };
-            let fit = fit_lines(&sep, &field, &plane, &known, region);
+            let fit = fit_lines(&sep, field, &reference, &plane, &known, region);
             println!(
-                "res {res} seed {seed:2}: scale {:.2} | coverage {:.2?} stepped {:.2?} \
-                 stepped coverage {:.2?} worst {:.2} others {} ({} points)",
+                "res {res} seed {seed:2}: scale {:.2} | coverage {:.2?} detectable {:.2?} \
+                 detectable coverage {:.2?} worst {:.2} others {} ({} points)",
                 sep.scale,
                 fit.coverage,
-                fit.stepped,
-                fit.stepped_coverage,
+                fit.detectable,
+                fit.detectable_coverage,
                 fit.worst,
                 fit.others,
                 fit.other_points
             );
             let dbg = dir.join(format!("s{tag}_{res}_{seed}.exr"));
-            ftpd3d::output::write_outputs_with(&field, &dbg, true, sep.arrays()).unwrap();
-            separatrix::write_side_files(&dbg, &field, &sep, &placement).unwrap();
+            ftpd3d::output::write_outputs_with(field, &dbg, true, sep.arrays()).unwrap();
+            separatrix::write_side_files(&dbg, field, &sep, &placement).unwrap();
         }
     }
 }
