@@ -1089,10 +1089,7 @@ fn one_cell_wide(dims: [usize; 3], keep: &mut [bool], strong: &[bool], value: &[
     ];
     for c in order {
         let (i, j) = ((c % dims[0]) as isize, (c / dims[0]) as isize);
-        let on: Vec<bool> = RING
-            .iter()
-            .map(|&(di, dj)| at(i + di, j + dj).is_some_and(|k| keep[k]))
-            .collect();
+        let on: [bool; 8] = RING.map(|(di, dj)| at(i + di, j + dj).is_some_and(|k| keep[k]));
         let side = on[0] || on[4];
         let above = on[2] || on[6];
         if !(side && above) {
