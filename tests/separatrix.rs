@@ -400,6 +400,8 @@ struct LineFit {
     /// Per known line: the fraction of it where its step is detectable (see [`detectable`]), and
     /// the coverage of that part.
     detectable: Vec<f64>,
+    /// Per known line: the length of its detectable part (cells).
+    detectable_cells: Vec<f64>,
     detectable_coverage: Vec<f64>,
     /// The largest distance (cells) from its known line of any point of a polyline that mostly
     /// (more than half of its points) follows one.
@@ -495,6 +497,7 @@ fn fit_lines(
     let mut fit = LineFit {
         coverage: Vec::new(),
         detectable: Vec::new(),
+        detectable_cells: Vec::new(),
         detectable_coverage: Vec::new(),
         worst: 0.0,
         others: 0,
@@ -515,6 +518,8 @@ fn fit_lines(
             }
         }
         fit.detectable.push(st as f64 / inside.max(1) as f64);
+        fit.detectable_cells
+            .push(st as f64 * len / steps.max(1) as f64);
         fit.detectable_coverage.push(if st == 0 {
             1.0
         } else {
@@ -594,6 +599,14 @@ fn check_lines(
         assert!(
             *c >= min_coverage,
             "{label}: expected line {k} covered {c} < {min_coverage}"
+        );
+        // The judged part must be a line the extraction can draw at all (at least the line floor,
+        // 6 scales), or "90 % of it drawn" would hold for nothing.
+        let need = separatrix::LINE_MIN_SCALES * sep.scale;
+        assert!(
+            fit.detectable_cells[k] >= need,
+            "{label}: the detectable part of line {k} is {} cells, under the {need}-cell floor",
+            fit.detectable_cells[k]
         );
         let sc = fit.detectable_coverage[k];
         assert!(
