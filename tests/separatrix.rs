@@ -554,6 +554,7 @@ fn fit_lines(
 /// How [`check_lines`] judges: the region (x0, x1, y0, y1 in scene coordinates), the fractions
 /// of each line and of its detectable part that must be drawn, whether stray lines may be drawn, and
 /// whether the 1.5-cell distance is asserted (`false`: reported only; see the shadow test).
+#[derive(Clone, Copy)]
 struct Judge {
     region: [f64; 4],
     min_coverage: f64,
@@ -651,6 +652,37 @@ fn reference_without(fields: &[Field], k: usize) -> Vec<f64> {
     mean_sigma(&others)
 }
 
+/// [`check_lines`] on every seed's field of `scene` at both resolutions (`plane_at` gives the
+/// window of a resolution), each against the mean of the other seeds.
+fn check_every_seed(
+    name: &str,
+    scene: &Scene,
+    p: &Params,
+    (resolutions, plane_at): ([usize; 2], fn(usize) -> Plane),
+    expected: &[([f64; 2], [f64; 2])],
+    judge: Judge,
+) {
+    for res in resolutions {
+        let plane = plane_at(res);
+        let fields = seeds_of(scene, &plane, p);
+        for (k, field) in fields.iter().enumerate() {
+            let label = format!("{name} res {res} seed {}", k + 1);
+            let reference = reference_without(&fields, k);
+            check_lines(&label, field, &reference, &plane, expected, judge);
+        }
+    }
+}
+
+/// How the shadow boundary is judged, in 3D and in flatland: every check asserted, no overall
+/// coverage demanded (its step passes through zero along it; the detectable part is judged).
+const SHADOW_JUDGE: Judge = Judge {
+    region: SHADOW_REGION,
+    min_coverage: 0.0,
+    min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
+    strays_allowed: false,
+    distance_asserted: true,
+};
+
 /// The fraction of a line's detectable part (see [`detectable`]) that must be drawn: nearly all
 /// of it, leaving a cell or two at the ends of a stretch, where the step fades below Z + 2 and
 /// the drawn line stops where its own cells stop passing Z.
@@ -679,26 +711,14 @@ fn shadow_boundary_of_a_point_light_in_a_slice_at_two_resolutions() {
     let scene = shadow_scene(Bsdf::Diffuse {
         kd: Rgb::splat(0.5),
     });
-    for res in [72, 104] {
-        let plane = window(res);
-        let fields = seeds_of(&scene, &plane, &params(None));
-        for (k, field) in fields.iter().enumerate() {
-            check_lines(
-                &format!("3D res {res} seed {}", k + 1),
-                field,
-                &reference_without(&fields, k),
-                &plane,
-                &[([-0.5, 1.0], [-1.5, 0.0])],
-                Judge {
-                    region: SHADOW_REGION,
-                    min_coverage: 0.0,
-                    min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
-                    strays_allowed: false,
-                    distance_asserted: true,
-                },
-            );
-        }
-    }
+    check_every_seed(
+        "3D",
+        &scene,
+        &params(None),
+        ([72, 104], window),
+        &[([-0.5, 1.0], [-1.5, 0.0])],
+        SHADOW_JUDGE,
+    );
 }
 
 /// The shadow scene with a mirror floor (the slab and light as before): light passing x reaches
@@ -766,26 +786,20 @@ const MIRROR_LINES: [([f64; 2], [f64; 2]); 2] = [
 #[test]
 fn shadow_boundary_seen_in_a_mirror_at_two_resolutions() {
     let scene = mirror_floor_scene();
-    for res in [48, 72] {
-        let plane = mirror_window(res);
-        let fields = seeds_of(&scene, &plane, &mirror_params());
-        for (k, field) in fields.iter().enumerate() {
-            check_lines(
-                &format!("mirror res {res} seed {}", k + 1),
-                field,
-                &reference_without(&fields, k),
-                &plane,
-                &MIRROR_LINES,
-                Judge {
-                    region: [-0.45, 0.4, 0.25, 0.75],
-                    min_coverage: MIRROR_MIN_COVERAGE,
-                    min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
-                    strays_allowed: true,
-                    distance_asserted: true,
-                },
-            );
-        }
-    }
+    check_every_seed(
+        "mirror",
+        &scene,
+        &mirror_params(),
+        ([48, 72], mirror_window),
+        &MIRROR_LINES,
+        Judge {
+            region: [-0.45, 0.4, 0.25, 0.75],
+            min_coverage: MIRROR_MIN_COVERAGE,
+            min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
+            strays_allowed: true,
+            distance_asserted: true,
+        },
+    );
 }
 
 /// Flatland: the light separatrix (the ray from the light past the slab's corner), at two
@@ -804,26 +818,14 @@ fn light_separatrix_past_a_corner_in_flatland() {
         kd: Rgb::splat(0.5),
     });
     scene.prepare_flatland(fl, "z=0").unwrap();
-    for res in [72, 104] {
-        let plane = window(res);
-        let fields = seeds_of(&scene, &plane, &params(Some(fl)));
-        for (k, field) in fields.iter().enumerate() {
-            check_lines(
-                &format!("flatland res {res} seed {}", k + 1),
-                field,
-                &reference_without(&fields, k),
-                &plane,
-                &[([-0.5, 1.0], [-1.5, 0.0])],
-                Judge {
-                    region: SHADOW_REGION,
-                    min_coverage: 0.0,
-                    min_detectable_coverage: MIN_DETECTABLE_COVERAGE,
-                    strays_allowed: false,
-                    distance_asserted: true,
-                },
-            );
-        }
-    }
+    check_every_seed(
+        "flatland",
+        &scene,
+        &params(Some(fl)),
+        ([72, 104], window),
+        &[([-0.5, 1.0], [-1.5, 0.0])],
+        SHADOW_JUDGE,
+    );
 }
 
 /// An empty lit box (a point light inside a closed diffuse box): in the middle, away from the
@@ -1091,14 +1093,7 @@ fn sweep_shadow_boundary_over_seeds() {
             .collect();
         for (k, field) in fields.iter().enumerate() {
             let seed = k + 1;
-            // The reference: the other seeds' mean.
-            let others: Vec<&Field> = fields
-                .iter()
-                .enumerate()
-                .filter(|(o, _)| *o != k)
-                .map(|(_, f)| f)
-                .collect();
-            let reference = mean_sigma(&others);
+            let reference = reference_without(&fields, k);
             let (sep, placement) =
                 separatrix::of_field(field, "sweep", &SepParams::default()).unwrap();
             let (known, region) = if mirror {
