@@ -147,7 +147,11 @@ impl Sampler {
             index: 0,
             dim: QMC_DIMS,
             keyed: None,
-            keys: SobolKeys::new(0),
+            // Unused until a group's first point hashes its own (`keyed`).
+            keys: SobolKeys {
+                index: 0,
+                dims: [Int4::from([0; 4]); QMC_SETS],
+            },
             four: [0.0; 4],
         }
     }
