@@ -236,6 +236,30 @@ impl Moments {
         }
     }
 
+    /// How many independent units the weight Σc effectively rests on: Kish's (ΣCᵢ)² / ΣCᵢ² over
+    /// the units' sums Cᵢ of c, between 1 (one unit holds all of it) and the number of units
+    /// (equal sums); 0 without weight. σ is a ratio of sums, and a unit without weight (Cᵢ = 0:
+    /// no radiance found, or every pair absorbed) says nothing of it.
+    pub fn effective_units(&self) -> f64 {
+        let s0 = self.sums().0;
+        let c2 = self.cross[0];
+        if s0 > 0.0 && c2 > 0.0 {
+            let e = s0 * s0 / c2;
+            if e.is_finite() { e } else { 0.0 }
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether σ has a standard error: at least two batches, and its weight effectively spread over
+    /// at least two units ([`Moments::effective_units`]). Where one unit holds (almost) all of the
+    /// weight, as in a cell that radiance reached in one group of samples only, every unit agrees
+    /// with the ratio it sets and the delta method's variance is about 0, however wrong σ may
+    /// be: such a cell has no estimate, like a cell of one batch.
+    pub fn has_estimate(&self) -> bool {
+        self.batches >= 2 && self.effective_units() >= 2.0
+    }
+
     /// Standard error of σ by the delta method (linearisation; the infinitesimal jackknife) over
     /// the independent units, with the second-order correction of the studentized error.
     ///
@@ -270,7 +294,8 @@ impl Moments {
     /// √v has an infinite derivative at v = 0 (where Δ barely varies): when the standard error of
     /// v itself, s_v, exceeds 4v, the linearisation of √v is no longer valid and the estimate is
     /// the bound s(√m2) + √s_v (|√v̂ − √v| ≤ √|v̂ − v|; the two agree on the √v term at s_v = 4v).
-    /// Returns 0 with fewer than two units or S0 ≤ 0, and for a cell whose Δ never varies.
+    /// Returns 0 with fewer than two units or S0 ≤ 0, for a cell whose Δ never varies, and when the
+    /// weight effectively rests on fewer than two units (see [`Moments::has_estimate`]).
     pub fn stderr(&self) -> f64 {
         self.stderr_with(true)
     }
@@ -278,7 +303,7 @@ impl Moments {
     /// [`Moments::stderr`], with or without the skewness factor.
     fn stderr_with(&self, skewness_factor: bool) -> f64 {
         let (s0, s1, s2) = self.sums();
-        if self.groups < 2 || !(s0 > 0.0 && s0.is_finite()) {
+        if self.groups < 2 || !(s0 > 0.0 && s0.is_finite()) || self.effective_units() < 2.0 {
             return 0.0;
         }
         let (m1, m2) = (s1 / s0, s2 / s0);
@@ -628,5 +653,47 @@ mod tests {
         let mut m = Moments::default();
         m.add_sample(1.0, 0.3, Rgb::ZERO);
         assert_eq!(m.finalize().stderr, 0.0);
+    }
+
+    #[test]
+    fn a_weight_in_one_unit_has_no_estimate() {
+        // A cell that radiance reached in one of 80 units: the other 79 have c = 0. σ is that
+        // unit's ratio alone and every unit agrees with it, so the delta method's variance is 0
+        // (up to rounding) although σ rests on one unit: the cell has no estimate.
+        let cell = |weights: &[f64]| {
+            let mut m = Moments {
+                batches: 2,
+                ..Default::default()
+            };
+            for (k, &w) in weights.iter().enumerate() {
+                let mut g = GroupSums::default();
+                for j in 0..8 {
+                    let d = 0.1 * (j + k) as f64;
+                    g.add(m.add_to_sums(w, d, Rgb::ZERO));
+                }
+                m.add_group(&g);
+            }
+            m
+        };
+        let mut w = vec![0.0; 80];
+        w[17] = 3.0;
+        let one = cell(&w);
+        assert!(one.finalize().valid && one.finalize().sigma > 0.0);
+        assert!((one.effective_units() - 1.0).abs() < 1e-12);
+        assert!(!one.has_estimate());
+        assert_eq!(one.stderr(), 0.0);
+        // Almost all of it in one unit (Kish: (3 + 79·10⁻⁶)² / (9 + 79·10⁻¹²) ≈ 1): the same.
+        let near: Vec<f64> = w.iter().map(|&x| if x > 0.0 { x } else { 1e-6 }).collect();
+        assert!(cell(&near).effective_units() < 1.001);
+        assert!(!cell(&near).has_estimate());
+        // Two units of equal weight: an estimate, from their disagreement.
+        w[40] = 3.0;
+        let two = cell(&w);
+        assert!((two.effective_units() - 2.0).abs() < 1e-12);
+        assert!(two.has_estimate() && two.stderr() > 0.0);
+        // Equal weights in every unit: as many effective units as units.
+        let all = cell(&[1.0; 80]);
+        assert!((all.effective_units() - 80.0).abs() < 1e-9);
+        assert!(all.has_estimate());
     }
 }
