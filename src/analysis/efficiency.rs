@@ -39,6 +39,25 @@ pub struct Errors {
     pub p95_rel: f64,
     /// Variance of (σ − σ_ref) / sqrt(se² + se_ref²) over the cells where that is defined.
     pub z_var: f64,
+    /// The same over the cells the reference resolves: relative standard error ≤
+    /// [`RESOLVED`]. Where the reference's own error is larger, its rare contributions (met by
+    /// some runs and not others) make z-scores that judge the reference as much as the field.
+    pub z_var_resolved: f64,
+    /// How many cells `z_var_resolved` is over.
+    pub resolved: usize,
+}
+
+/// The reference's relative standard error up to which [`Errors::z_var_resolved`] counts a cell.
+pub const RESOLVED: f64 = 0.05;
+
+/// Sample variance (n − 1) of the values whose (n, Σz, Σz²) are given; 0 below two values.
+fn variance((n, s, s2): (usize, f64, f64)) -> f64 {
+    if n > 1 {
+        let m = s / n as f64;
+        (s2 - n as f64 * m * m) / (n - 1) as f64
+    } else {
+        0.0
+    }
 }
 
 /// The `q` quantile (0..=1) of `v` by nearest rank; 0 for an empty slice.
@@ -56,7 +75,7 @@ pub fn errors(field: &Field, reference: &Field) -> Errors {
     let c = compare(field, reference);
     let (a, b) = (field.values(), reference.values());
     let mut rel = Vec::new();
-    let (mut n, mut zs, mut zs2) = (0usize, 0.0f64, 0.0f64);
+    let (mut all, mut resolved) = ((0usize, 0.0f64, 0.0f64), (0usize, 0.0f64, 0.0f64));
     for (x, r) in a.iter().zip(&b) {
         if !(x.valid && r.valid) {
             continue;
@@ -67,22 +86,24 @@ pub fn errors(field: &Field, reference: &Field) -> Errors {
         let se = (x.stderr * x.stderr + r.stderr * r.stderr).sqrt();
         if se > 0.0 {
             let z = (x.sigma - r.sigma) / se;
-            n += 1;
-            zs += z;
-            zs2 += z * z;
+            let add = |(n, s, s2): &mut (usize, f64, f64)| {
+                *n += 1;
+                *s += z;
+                *s2 += z * z;
+            };
+            add(&mut all);
+            if r.sigma > 0.0 && r.stderr <= RESOLVED * r.sigma {
+                add(&mut resolved);
+            }
         }
     }
-    let z_var = if n > 1 {
-        let m = zs / n as f64;
-        (zs2 - n as f64 * m * m) / (n - 1) as f64
-    } else {
-        0.0
-    };
     Errors {
         cells: c.cells,
         net_rmse: c.net_rmse(),
         p95_rel: quantile(&mut rel, 0.95),
-        z_var,
+        z_var: variance(all),
+        z_var_resolved: variance(resolved),
+        resolved: resolved.0,
     }
 }
 
@@ -297,8 +318,14 @@ pub fn run_efficiency(job: &EfficiencyJob, mut say: impl FnMut(&str)) -> anyhow:
                         errors: errors(&f, &reference),
                     };
                     say(&format!(
-                        "{stem} {w} {tag:>4} {spp:>5} spp {:>8.3} s  rmse {:.4e}  p95 rel {:.4}  z var {:.2}",
-                        l.seconds, l.errors.net_rmse, l.errors.p95_rel, l.errors.z_var
+                        "{stem} {w} {tag:>4} {spp:>5} spp {:>8.3} s  rmse {:.4e}  p95 rel {:.4}  z var {:.2} \
+                         ({:.2} over the {} cells the reference resolves)",
+                        l.seconds,
+                        l.errors.net_rmse,
+                        l.errors.p95_rel,
+                        l.errors.z_var,
+                        l.errors.z_var_resolved,
+                        l.errors.resolved
                     ));
                     v.push(l);
                 }
@@ -313,13 +340,15 @@ pub fn run_efficiency(job: &EfficiencyJob, mut say: impl FnMut(&str)) -> anyhow:
             });
         }
     }
-    let mut csv = String::from("scene,weighting,binary,spp,seconds,net_rmse,p95_rel,z_var,cells\n");
+    let mut csv = String::from(
+        "scene,weighting,binary,spp,seconds,net_rmse,p95_rel,z_var,cells,z_var_resolved,resolved_cells\n",
+    );
     for r in &rows {
         for (tag, lv) in [("base", &r.base), ("new", &r.new)] {
             for l in lv {
                 let _ = writeln!(
                     csv,
-                    "{},{},{tag},{},{},{},{},{},{}",
+                    "{},{},{tag},{},{},{},{},{},{},{},{}",
                     r.scene,
                     r.weighting,
                     l.spp,
@@ -327,7 +356,9 @@ pub fn run_efficiency(job: &EfficiencyJob, mut say: impl FnMut(&str)) -> anyhow:
                     l.errors.net_rmse,
                     l.errors.p95_rel,
                     l.errors.z_var,
-                    l.errors.cells
+                    l.errors.cells,
+                    l.errors.z_var_resolved,
+                    l.errors.resolved
                 );
             }
         }
@@ -340,14 +371,19 @@ pub fn run_efficiency(job: &EfficiencyJob, mut say: impl FnMut(&str)) -> anyhow:
 
 /// The report as a Markdown table: per scene, weighting and error measure, the seconds each
 /// binary needs for the baseline's error at its largest level, their ratio, the slopes of ln error
-/// against ln seconds, and the z variance of each binary's largest level.
+/// against ln seconds, and the z variance of each binary's largest level, over all cells and (in
+/// brackets) over the cells the reference resolves.
 pub fn table(rows: &[Row]) -> String {
     let f = |v: Option<f64>, p: usize| v.map_or("n/a".to_string(), |x| format!("{x:.p$}"));
     let mut s = String::from(
-        "| scene | weighting | error | target | base s | new s | speed-up | base slope | new slope | z var base | z var new |\n\
+        "| scene | weighting | error | target | base s | new s | speed-up | base slope | new slope | z var base (resolved) | z var new (resolved) |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    let zmean = |lv: &[Level]| lv.last().map(|l| l.errors.z_var);
+    let zvar = |lv: &[Level]| {
+        lv.last().map_or("n/a".to_string(), |l| {
+            format!("{:.2} ({:.2})", l.errors.z_var, l.errors.z_var_resolved)
+        })
+    };
     for r in rows {
         for (name, sp) in [("RMSE σ", &r.rmse), ("p95 rel", &r.p95)] {
             let _ = writeln!(
@@ -361,8 +397,8 @@ pub fn table(rows: &[Row]) -> String {
                 sp.ratio().map_or("n/a".to_string(), |r| format!("{r:.2}x")),
                 f(sp.base_slope, 2),
                 f(sp.new_slope, 2),
-                f(zmean(&r.base), 2),
-                f(zmean(&r.new), 2),
+                zvar(&r.base),
+                zvar(&r.new),
             );
         }
     }
@@ -379,6 +415,49 @@ mod tests {
         assert_eq!(quantile(&mut v, 0.95), 95.0);
         assert_eq!(quantile(&mut [3.0], 0.95), 3.0);
         assert_eq!(quantile(&mut [], 0.95), 0.0);
+    }
+
+    #[test]
+    fn resolved_z_variance_leaves_out_what_the_reference_has_not_met() {
+        // Cells 0..200 draw Δ uniform on [0, 1]; the reference takes 8192 samples there (relative
+        // error about 1 %). Cells 200..400 draw, in 1 of 100 samples, a rare deflection of 15
+        // instead, which carries most of E[Δ²]; the reference takes 16 samples there (relative
+        // error ≥ 10 %), and most of its cells never meet the rare value. The field takes 512
+        // samples everywhere.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut cell = |n: usize, rare: f64| {
+            let mut m = crate::ftpd::moments::Moments::default();
+            for _ in 0..n {
+                let d = if uniform() < rare { 15.0 } else { uniform() };
+                m.add_sample(1.0, d, crate::math::Rgb::ONE);
+            }
+            m
+        };
+        let (mut field, mut reference) = (Field::new(400, 1, 1), Field::new(400, 1, 1));
+        for i in 0..400 {
+            let (rare, n_ref) = if i < 200 { (0.0, 8192) } else { (0.01, 16) };
+            field.cells[i] = cell(512, rare);
+            reference.cells[i] = cell(n_ref, rare);
+        }
+        let e = errors(&field, &reference);
+        let resolved = reference
+            .values()
+            .iter()
+            .filter(|r| r.valid && r.sigma > 0.0 && r.stderr <= RESOLVED * r.sigma)
+            .count();
+        assert_eq!(e.resolved, resolved);
+        assert_eq!(resolved, 200, "{e:?}");
+        // Where the reference resolves σ, the z-scores have unit variance within three of its
+        // standard errors (√(2/n) for normal z); over all cells the unresolved half inflates it.
+        let tol = 3.0 * (2.0 / resolved as f64).sqrt();
+        assert!((e.z_var_resolved - 1.0).abs() < tol, "{e:?}");
+        assert!(e.z_var > 1.0 + tol, "{e:?}");
     }
 
     #[test]
