@@ -359,12 +359,16 @@ struct RunArgs {
     /// Samples per cell added by each pass (one batch) [default: spp/batches, or 8 without --spp].
     #[arg(long, value_name = "N")]
     pass_spp: Option<u32>,
-    /// From the third pass on, give the samples of a pass to the cells with the largest error.
-    #[arg(long)]
+    /// From the third pass on, give the samples of a pass to the cells with the largest error
+    /// [default: on when the run stops at a target error (--target-error, or no budget given)].
+    #[arg(long, conflicts_with = "uniform")]
     adaptive: bool,
-    /// With --adaptive: at most this many times the uniform share per cell and pass.
-    #[arg(long, value_name = "K", default_value_t = Adaptive::default().max_share, requires = "adaptive")]
-    adaptive_cap: u32,
+    /// Every cell gets the same samples in every pass, also when the run stops at a target error.
+    #[arg(long)]
+    uniform: bool,
+    /// Adaptive runs: at most this many times the uniform share per cell and pass [default: 4].
+    #[arg(long, value_name = "K", conflicts_with = "uniform")]
+    adaptive_cap: Option<u32>,
     /// Write the field so far (marked partial, resumable) to the output every DURATION, at pass
     /// boundaries.
     #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
@@ -551,6 +555,7 @@ impl RunArgs {
                 }
             });
         }
+        self.check_adaptive_cap()?;
         Ok(Job {
             scene,
             domain,
@@ -572,6 +577,17 @@ impl RunArgs {
         })
     }
 
+    /// --adaptive-cap on a run that is not adaptive is refused rather than ignored.
+    fn check_adaptive_cap(&self) -> anyhow::Result<()> {
+        if self.adaptive_cap.is_some() && !self.adaptive_sampling() {
+            anyhow::bail!(
+                "--adaptive-cap applies to adaptive runs: add --adaptive (runs of --spp or --time \
+                 alone are uniform)"
+            );
+        }
+        Ok(())
+    }
+
     fn separatrices(&self) -> anyhow::Result<Option<SepParams>> {
         if !self.separatrices {
             if self.sep.given() {
@@ -580,6 +596,16 @@ impl RunArgs {
             return Ok(None);
         }
         self.sep.params().map(Some)
+    }
+
+    /// Whether passes after the second go where the error is largest: asked for by --adaptive, and
+    /// the default of a run that stops at a target error (--target-error, or the default budget),
+    /// since that stop is a percentile of the relative error over cells and the allocation fills
+    /// cells up to a common relative error; --uniform turns it off. A run of --spp or --time alone
+    /// stays uniform.
+    fn adaptive_sampling(&self) -> bool {
+        let target = self.target_error.is_some() || (self.spp.is_none() && self.time.is_none());
+        self.adaptive || (target && !self.uniform)
     }
 
     fn render(&self) -> RenderOptions {
@@ -600,8 +626,8 @@ impl RunArgs {
                 }
             },
             pass_spp: self.pass_spp,
-            adaptive: self.adaptive.then_some(Adaptive {
-                max_share: self.adaptive_cap,
+            adaptive: self.adaptive_sampling().then_some(Adaptive {
+                max_share: self.adaptive_cap.unwrap_or(Adaptive::default().max_share),
             }),
             tile: self.tile,
         }

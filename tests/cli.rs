@@ -135,13 +135,75 @@ fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
     );
     let f = ftpd3d::output::exr::read_exr(&out).unwrap();
     let info = f.info("d.exr").unwrap();
-    let target: Option<f64> = info.budget_target_error.and_then(|t| t.parse().ok());
+    let target: Option<f64> = info
+        .budget_target_error
+        .as_deref()
+        .and_then(|t| t.parse().ok());
     assert_eq!(target, Some(0.05), "{:?}", f.meta);
     assert_eq!(info.budget_time.as_deref(), Some("1m00s"), "{:?}", f.meta);
     let p95 = ftpd3d::render::error_stats(&f.cells).p95;
     assert!(p95 <= 0.05, "p95 {p95}: {err}");
-    // More than the old default of 64 spp was needed, and no spp cap was applied.
-    assert!(f.cells.iter().all(|c| c.n > 64), "{:?}", f.meta);
+    // A run that stops at a target error allocates adaptively from the third pass on.
+    assert!(info.is_adaptive(), "{:?}", f.meta);
+    assert!(
+        err.contains("adaptive (at most 4x the uniform share)"),
+        "{err}"
+    );
+    // More than the old default of 64 spp was needed (on the mean over cells: adaptive runs
+    // differ per cell), and no spp cap was applied.
+    let n: u64 = f.cells.iter().map(|c| c.n).sum();
+    assert!(n > 64 * f.cells.len() as u64, "{:?}", f.meta);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn adaptive_sampling_is_the_default_of_target_error_runs_only() {
+    // Which runs allocate adaptively, as the run's first summary line says (4x4 cells: short runs).
+    let cornell = scene_path("cornell_mirror.obj");
+    let dir = crate::support::temp_dir("cli", "adaptive_default");
+    let out = dir.join("a.exr");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "--scene",
+            cornell.to_str().unwrap(),
+            "--slice",
+            "z=0",
+            "--res",
+            "4",
+            "--weight",
+            "unweighted",
+            "--no-png",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        ftpd3d(&args)
+    };
+    let adaptive = "adaptive (at most";
+    for (extra, want) in [
+        (&["--target-error", "0.5"][..], true),
+        (&["--target-error", "0.5", "--uniform"][..], false),
+        (&["--target-error", "0.5", "--adaptive-cap", "2"][..], true),
+        (&["--spp", "16"][..], false),
+        (&["--spp", "16", "--adaptive"][..], true),
+        (&["--time", "1s", "--pass-spp", "4"][..], false),
+        (&["--uniform", "--spp", "16", "--batches", "2"][..], false),
+    ] {
+        let (ok, _, err) = run(extra);
+        assert!(ok, "{extra:?}: {err}");
+        assert_eq!(err.contains(adaptive), want, "{extra:?}: {err}");
+        if extra.contains(&"2") && want {
+            assert!(err.contains("at most 2x"), "{extra:?}: {err}");
+        }
+    }
+    // A cap on a uniform run, and both allocations at once, are refused with the option named.
+    let (ok, _, err) = run(&["--spp", "16", "--adaptive-cap", "8"]);
+    assert!(
+        !ok && err.contains("--adaptive-cap") && err.contains("--adaptive"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&["--adaptive", "--uniform"]);
+    assert!(!ok && err.contains("--uniform"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
