@@ -37,7 +37,8 @@ pub struct Errors {
     pub net_rmse: f64,
     /// 95th percentile of |σ − σ_ref| / σ_ref over the cells with σ_ref > 0.
     pub p95_rel: f64,
-    /// Variance of (σ − σ_ref) / sqrt(se² + se_ref²) over the cells where that is defined.
+    /// Variance of (σ − σ_ref) / sqrt(se² + se_ref²) over the cells where both have an error
+    /// estimate (a standard error of 0 is none: see `Moments::has_estimate`).
     pub z_var: f64,
     /// The same over the cells the reference resolves: relative standard error ≤
     /// [`RESOLVED`]. Where the reference's own error is larger, its rare contributions (met by
@@ -83,8 +84,8 @@ pub fn errors(field: &Field, reference: &Field) -> Errors {
         if r.sigma > 0.0 {
             rel.push((x.sigma - r.sigma).abs() / r.sigma);
         }
-        let se = (x.stderr * x.stderr + r.stderr * r.stderr).sqrt();
-        if se > 0.0 {
+        if x.stderr > 0.0 && r.stderr > 0.0 {
+            let se = (x.stderr * x.stderr + r.stderr * r.stderr).sqrt();
             let z = (x.sigma - r.sigma) / se;
             let add = |(n, s, s2): &mut (usize, f64, f64)| {
                 *n += 1;
