@@ -344,8 +344,8 @@ pub struct ErrorStats {
     pub p95: f64,
     /// Cells with a defined σ > 0.
     pub cells: usize,
-    /// Of those, cells without an error estimate ([`Moments::has_estimate`]: fewer than two
-    /// batches, or the weight in effectively one unit).
+    /// Of those, cells without an error estimate: fewer than two batches, or none by
+    /// [`Moments::has_estimate`] (e.g. the weight in effectively one unit).
     pub unestimated: usize,
 }
 
@@ -356,7 +356,7 @@ fn cell_relerr(m: &Moments) -> Option<f64> {
     if !(v.valid && v.sigma > 0.0) {
         return None;
     }
-    if !m.has_estimate() {
+    if m.batches < 2 || !m.has_estimate() {
         return Some(f64::INFINITY);
     }
     let r = v.stderr / v.sigma;
@@ -396,9 +396,9 @@ pub fn error_stats(cells: &[Moments]) -> ErrorStats {
 /// alone. A cell whose σ is exactly 0 so far has a² = 0 before shrinking. The pass then fills the
 /// cells up to a common error level λ (water-filling): a cell gets the samples it lacks to reach
 /// a²/(n + m) = λ, clamped to [0, max_share] units, with λ chosen so that the units add up to the
-/// budget. Cells without an estimate (no defined σ yet, fewer than two batches, or the weight in
-/// effectively one unit: [`Moments::has_estimate`]) get the uniform share, one unit. Shares are
-/// rounded by cumulative rounding, so the total is the budget.
+/// budget. Cells without an estimate (no defined σ yet, fewer than two batches, or none by
+/// [`Moments::has_estimate`], e.g. the weight in effectively one unit) get the uniform share, one
+/// unit. Shares are rounded by cumulative rounding, so the total is the budget.
 ///
 /// What this does to the estimate. The allocation of pass p is a function of the sums after passes
 /// < p only, never of pass p's samples, and pass p's samples come from the stream keyed
@@ -423,7 +423,7 @@ pub fn allocate(cells: &[Moments], unit: u32, budget: u64, max_share: u32) -> Ve
         .par_iter()
         .map(|m| {
             let v = m.finalize();
-            if !v.valid || !m.has_estimate() {
+            if !v.valid || m.batches < 2 || !v.estimated {
                 return None;
             }
             let r = if v.sigma > 0.0 {

@@ -244,6 +244,40 @@ fn bad_settings_are_refused_and_degenerate_fields_give_no_nan() {
     }
 }
 
+#[test]
+fn a_cell_without_an_error_estimate_is_not_exact_to_the_extraction() {
+    use ftpd3d::ftpd::moments::{GroupSums, Moments};
+    // Three cells of 10 groups of 8 samples: weight in every group; weight in one group only (as
+    // where radiance was found once: its stored standard error is 0, meaning unknown); no weight.
+    let cell = |lit: &dyn Fn(usize) -> bool| {
+        let mut m = Moments::default();
+        for k in 0..10 {
+            let mut b = Moments::default();
+            let mut g = GroupSums::default();
+            for j in 0..8 {
+                let c = if lit(k) { 1.0 } else { 0.0 };
+                g.add(b.add_to_sums(c, 0.1 * (j + k) as f64, Rgb::ZERO));
+            }
+            b.add_group(&g);
+            m.add_batch(&b);
+        }
+        m
+    };
+    let mut field = Field::new(3, 1, 1);
+    field.cells[0] = cell(&|_| true);
+    field.cells[1] = cell(&|k| k == 3);
+    field.cells[2] = cell(&|_| false);
+    let v = field.values();
+    assert!(v[0].estimated && v[0].stderr > 0.0);
+    assert!(v[1].valid && v[1].sigma > 0.0 && !v[1].estimated && v[1].stderr == 0.0);
+    assert!(!v[2].valid);
+    let grid = Grid::of_field(&field, [1.0; 3]);
+    assert_eq!(grid.stderr[0], v[0].stderr);
+    assert_eq!(grid.stderr[1], v[1].sigma);
+    assert_eq!(grid.stderr[2], 0.0);
+    assert_eq!(grid.valid, vec![true, true, false]);
+}
+
 // ------------------------------------------------------------------------------------------------
 // Scenes with known separatrices
 

@@ -67,11 +67,14 @@ pub struct CellValue {
     /// Weighted second moment of Δ (S2/S0).
     pub m2: f64,
     /// Standard error of σ, linearised over the independent units (see [`Moments::stderr`]); 0
-    /// with fewer than two units.
+    /// without an estimate.
     pub stderr: f64,
     /// Mean contribution weight S0/n.
     pub weight: f64,
     pub valid: bool,
+    /// Whether `stderr` is an estimate ([`Moments::has_estimate`]); a 0 without one means
+    /// unknown, not exact.
+    pub estimated: bool,
 }
 
 /// FTPD from normalised moments: `sqrt(m2) + sqrt(max(0, m2 - m1²))` (eq. 14).
@@ -233,6 +236,7 @@ impl Moments {
             stderr: if stderr.is_finite() { stderr } else { 0.0 },
             weight: if self.n > 0 { s0 / self.n as f64 } else { 0.0 },
             valid: true,
+            estimated: self.has_estimate(),
         }
     }
 
@@ -251,13 +255,13 @@ impl Moments {
         }
     }
 
-    /// Whether σ has a standard error: at least two batches, and its weight effectively spread over
-    /// at least two units ([`Moments::effective_units`]). Where one unit holds (almost) all of the
+    /// Whether σ has a standard error: at least two units, and its weight effectively spread over
+    /// at least two ([`Moments::effective_units`]). Where one unit holds (almost) all of the
     /// weight, as in a cell that radiance reached in one group of samples only, every unit agrees
     /// with the ratio it sets and the delta method's variance is about 0, however wrong σ may
-    /// be: such a cell has no estimate, like a cell of one batch.
+    /// be: such a cell has no estimate, like a cell of one unit. [`Moments::stderr`] is 0 then.
     pub fn has_estimate(&self) -> bool {
-        self.batches >= 2 && self.effective_units() >= 2.0
+        self.groups >= 2 && self.effective_units() >= 2.0
     }
 
     /// Standard error of σ by the delta method (linearisation; the infinitesimal jackknife) over
