@@ -108,14 +108,10 @@ fn a_run_writes_exr_and_png_and_never_leaves_temporaries() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-#[test]
-fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
-    // A 4x4 unweighted slice reaches p95 relative error 0.05 in well under a minute: the run
-    // stops there, deterministically, with the default budget recorded in the output.
-    let dir = crate::support::temp_dir("cli", "default_budget");
-    let out = dir.join("d.exr");
+/// A 4x4 unweighted slice of the Cornell box written to `out`, with `extra` arguments.
+fn cornell_4x4(out: &Path, extra: &[&str]) -> (bool, String, String) {
     let cornell = scene_path("cornell_mirror.obj");
-    let (ok, _, err) = ftpd3d(&[
+    let mut args = vec![
         "--scene",
         cornell.to_str().unwrap(),
         "--slice",
@@ -127,7 +123,18 @@ fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
         "--no-png",
         "-o",
         out.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    ftpd3d(&args)
+}
+
+#[test]
+fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
+    // A 4x4 unweighted slice reaches p95 relative error 0.05 in well under a minute: the run
+    // stops there, deterministically, with the default budget recorded in the output.
+    let dir = crate::support::temp_dir("cli", "default_budget");
+    let out = dir.join("d.exr");
+    let (ok, _, err) = cornell_4x4(&out, &[]);
     assert!(ok, "{err}");
     assert!(
         err.contains("budget time 1m00s or target error 0.05"),
@@ -159,26 +166,9 @@ fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
 #[test]
 fn adaptive_sampling_is_the_default_of_target_error_runs_only() {
     // Which runs allocate adaptively, as the run's first summary line says (4x4 cells: short runs).
-    let cornell = scene_path("cornell_mirror.obj");
     let dir = crate::support::temp_dir("cli", "adaptive_default");
     let out = dir.join("a.exr");
-    let run = |extra: &[&str]| {
-        let mut args = vec![
-            "--scene",
-            cornell.to_str().unwrap(),
-            "--slice",
-            "z=0",
-            "--res",
-            "4",
-            "--weight",
-            "unweighted",
-            "--no-png",
-            "-o",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        ftpd3d(&args)
-    };
+    let run = |extra: &[&str]| cornell_4x4(&out, extra);
     let adaptive = "adaptive (at most";
     for (extra, want) in [
         (&["--target-error", "0.5"][..], true),
