@@ -120,9 +120,8 @@ pub struct Sampler {
     rng: Pcg64Mcg,
     /// Hash of the stream's key, for the scramble seeds of its batches.
     key: u64,
-    /// The current sample's group, its point in the group's sequence (shuffled by the group's
-    /// scramble once its first number is drawn) and the next dimension; `dim == QMC_DIMS` when
-    /// every number comes from `rng`.
+    /// The current sample's group, its point's index in the group's sequence and the next
+    /// dimension; `dim == QMC_DIMS` when every number comes from `rng`.
     group: u32,
     index: u32,
     dim: u32,
@@ -130,8 +129,8 @@ pub struct Sampler {
     /// that draw from the random stream only never pay for them).
     keyed: Option<u32>,
     keys: SobolKeys,
-    /// Dimensions `dim & !3 ..` of the current point.
-    four: [f32; 4],
+    /// The current point's [`QMC_DIMS`] numbers, computed when its first one is drawn.
+    point: [f64; QMC_DIMS as usize],
 }
 
 impl Sampler {
@@ -152,7 +151,7 @@ impl Sampler {
                 index: 0,
                 dims: [Int4::from([0; 4]); QMC_SETS],
             },
-            four: [0.0; 4],
+            point: [0.0; QMC_DIMS as usize],
         }
     }
 
@@ -183,30 +182,34 @@ impl Sampler {
         if self.dim < QMC_DIMS {
             let d = self.dim;
             self.dim += 1;
-            if d.is_multiple_of(4) {
-                self.next_point(d);
+            if d == 0 {
+                self.next_point();
             }
             // 24 bits from the sequence, the bits below them from the random stream: the point
             // keeps its strata, and every number keeps 53 bits.
-            let q = f64::from(self.four[(d % 4) as usize]);
+            let q = self.point[d as usize];
             return (q + r * (1.0 / (1u64 << 24) as f64)).min(1.0 - f64::EPSILON / 2.0);
         }
         r
     }
 
-    /// Dimensions `d .. d + 4` of the current QMC point into `four`. Not inlined: with the
-    /// point's code inlined into every call site, all of them were slower (2 % more instructions
-    /// per radiance-weighted sample on the stair wall, which never draws a point).
+    /// Every dimension of the current QMC point into `point`, when its first number is drawn (the
+    /// samples that draw a point use all of its sets). Not inlined: with the point's code inlined
+    /// into every call site, all of them were slower (2 % more instructions per radiance-weighted
+    /// sample on the stair wall, which never draws a point).
     #[inline(never)]
-    fn next_point(&mut self, d: u32) {
-        if d == 0 {
-            if self.keyed != Some(self.group) {
-                self.keys = SobolKeys::new(mix64(self.key ^ u64::from(self.group)) as u32);
-                self.keyed = Some(self.group);
-            }
-            self.index = self.keys.shuffle(self.index);
+    fn next_point(&mut self) {
+        if self.keyed != Some(self.group) {
+            self.keys = SobolKeys::new(mix64(self.key ^ u64::from(self.group)) as u32);
+            self.keyed = Some(self.group);
         }
-        self.four = self.keys.point(self.index, (d / 4) as usize);
+        let shuffled = self.keys.shuffle(self.index);
+        for set in 0..QMC_SETS {
+            let four = self.keys.point(shuffled, set);
+            for (q, x) in self.point[4 * set..].iter_mut().zip(four) {
+                *q = f64::from(x);
+            }
+        }
     }
 
     #[inline]
