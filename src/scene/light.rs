@@ -217,10 +217,15 @@ impl PowerCdf {
         if self.is_empty() {
             return None;
         }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
+        // The number of leading entries ≤ u (the cdf is non-decreasing): counted one by one for
+        // the few lights or mirror planes most scenes have, where a binary search's bookkeeping
+        // cost more than the comparisons it saves.
+        let n = if self.cdf.len() <= 8 {
+            self.cdf.iter().take_while(|&&c| c <= u).count()
+        } else {
+            self.cdf.partition_point(|&c| c <= u)
+        };
+        let i = n.min(self.cdf.len() - 1);
         let p = self.prob(i);
         (p > 0.0).then_some((i, p))
     }
