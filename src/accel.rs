@@ -777,7 +777,12 @@ mod tests {
     fn ray_validity_is_finite_coordinates_nonzero_direction_and_an_interval() {
         let (o, d) = (Vec3::new(1.0, -2.0, 3.0), Vec3::new(0.0, -0.0, 1.0));
         assert!(ray_ok(o, d, 0.0, f32::INFINITY));
-        assert!(ray_ok(Vec3::splat(f32::MAX), Vec3::splat(-f32::MAX), 0.0, 1.0));
+        assert!(ray_ok(
+            Vec3::splat(f32::MAX),
+            Vec3::splat(-f32::MAX),
+            0.0,
+            1.0
+        ));
         for bad in [f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
             for k in 0..3 {
                 let mut v = Vec3::ONE;

@@ -93,9 +93,8 @@ impl SobolKeys {
     fn new(seed: u32) -> Self {
         let salt = Int4::from([0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8]);
         let seed4 = Int4::from([seed.wrapping_mul(0x9c8f_2d3b); 4]);
-        let lanes: [[u32; 4]; QMC_SETS] = std::array::from_fn(|set| {
-            hash_int4(seed4 ^ Int4::from([set as u32; 4]) ^ salt).into()
-        });
+        let lanes: [[u32; 4]; QMC_SETS] =
+            std::array::from_fn(|set| hash_int4(seed4 ^ Int4::from([set as u32; 4]) ^ salt).into());
         SobolKeys {
             index: hash(seed ^ 0x79c6_8e4a),
             lanes,
@@ -127,7 +126,10 @@ impl SobolKeys {
     /// has no such multiplication); the bit reversal stays four lanes at a time.
     #[inline]
     fn points(&self, shuffled: u32, out: &mut [f64; QMC_DIMS as usize]) {
-        let (hi, lo) = ((shuffled >> 24) as usize, ((shuffled >> 16) & 0xff) as usize);
+        let (hi, lo) = (
+            (shuffled >> 24) as usize,
+            ((shuffled >> 16) & 0xff) as usize,
+        );
         for set in 0..QMC_SETS {
             let t = &SOBOL_BYTES[set];
             let n: [u32; 4] = std::array::from_fn(|k| {
