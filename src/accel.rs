@@ -17,7 +17,7 @@
 //! and queries may run on any thread.
 
 use embree_sys as sys;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use std::cell::RefCell;
 use std::ffi::{CStr, c_char, c_void};
 use std::sync::{Arc, OnceLock};
@@ -688,9 +688,20 @@ struct Spare<T> {
 /// What Embree accepts: finite origin and direction, 0 ≤ tnear ≤ tfar (tfar may be +inf).
 #[inline]
 fn ray_is_valid(o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> bool {
-    let ok = o.is_finite() && d.is_finite() && d != Vec3::ZERO && tnear >= 0.0 && tnear <= tfar;
+    let ok = ray_ok(o, d, tnear, tfar);
     debug_assert!(ok, "invalid ray o={o} d={d} [{tnear}, {tfar}]");
     ok
+}
+
+/// [`ray_is_valid`] without its debug assertion.
+#[inline]
+fn ray_ok(o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> bool {
+    // Finite exactly where x · 0 = 0 (∞ · 0 and NaN · 0 are NaN): one vector test for the six
+    // coordinates instead of a test of each (`is_finite`, about 20 instructions per ray).
+    let finite = (Vec3A::from(o) * 0.0 + Vec3A::from(d) * 0.0)
+        .cmpeq(Vec3A::ZERO)
+        .all();
+    finite && d != Vec3::ZERO && tnear >= 0.0 && tnear <= tfar
 }
 
 /// A ray with all mask bits set (Embree 4 geometries default to mask 1) and no motion blur time.
@@ -761,6 +772,29 @@ pub fn vec_with_huge_pages<T>(capacity: usize) -> Vec<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ray_validity_is_finite_coordinates_nonzero_direction_and_an_interval() {
+        let (o, d) = (Vec3::new(1.0, -2.0, 3.0), Vec3::new(0.0, -0.0, 1.0));
+        assert!(ray_ok(o, d, 0.0, f32::INFINITY));
+        assert!(ray_ok(
+            Vec3::splat(f32::MAX),
+            Vec3::splat(-f32::MAX),
+            0.0,
+            1.0
+        ));
+        for bad in [f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+            for k in 0..3 {
+                let mut v = Vec3::ONE;
+                v[k] = bad;
+                assert!(!ray_ok(v, d, 0.0, 1.0), "origin {v}");
+                assert!(!ray_ok(o, v, 0.0, 1.0), "direction {v}");
+            }
+        }
+        assert!(!ray_ok(o, Vec3::ZERO, 0.0, 1.0));
+        assert!(!ray_ok(o, d, -1.0, 1.0));
+        assert!(!ray_ok(o, d, 2.0, 1.0));
+    }
 
     fn one_triangle() -> Accel {
         let p = [

@@ -13,9 +13,9 @@
 
 use rand_core::Rng;
 use rand_pcg::Pcg64Mcg;
-use sobol_burley::parts::{
-    Int4, hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev, sobol_int4_rev,
-};
+#[cfg(test)]
+use sobol_burley::parts::owen_scramble_int4_rev;
+use sobol_burley::parts::{Int4, hash, hash_int4, owen_scramble_rev, sobol_int4_rev};
 use std::sync::LazyLock;
 
 /// SplitMix64 finaliser: a bijective 64-bit mixer used to turn stream keys into PCG states.
@@ -83,17 +83,22 @@ static SOBOL_BYTES: LazyLock<Box<[ByteVectors; QMC_SETS]>> = LazyLock::new(|| {
 struct SobolKeys {
     /// Scramble of the point index (the sequence's shuffle).
     index: u32,
-    /// Owen scramble of each set of four dimensions.
-    dims: [Int4; QMC_SETS],
+    /// Owen scramble of each set of four dimensions, and the odd multiplier
+    /// `(scramble >> 16) | 1` the Owen scramble takes from each.
+    lanes: [[u32; 4]; QMC_SETS],
+    mults: [[u32; 4]; QMC_SETS],
 }
 
 impl SobolKeys {
     fn new(seed: u32) -> Self {
-        let lanes = Int4::from([0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8]);
+        let salt = Int4::from([0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8]);
         let seed4 = Int4::from([seed.wrapping_mul(0x9c8f_2d3b); 4]);
+        let lanes: [[u32; 4]; QMC_SETS] =
+            std::array::from_fn(|set| hash_int4(seed4 ^ Int4::from([set as u32; 4]) ^ salt).into());
         SobolKeys {
             index: hash(seed ^ 0x79c6_8e4a),
-            dims: std::array::from_fn(|set| hash_int4(seed4 ^ Int4::from([set as u32; 4]) ^ lanes)),
+            lanes,
+            mults: lanes.map(|l| l.map(|s| (s >> 16) | 1)),
         }
     }
 
@@ -103,15 +108,44 @@ impl SobolKeys {
         owen_scramble_rev(index.reverse_bits(), self.index)
     }
 
-    /// Dimensions `4 set .. 4 set + 4` of the point whose shuffled index is `shuffled`.
-    #[inline]
+    /// Dimensions `4 set .. 4 set + 4` of the point whose shuffled index is `shuffled`, with the
+    /// crate's four-lane integers (the reference [`SobolKeys::points`] is tested against).
+    #[cfg(test)]
     fn point(&self, shuffled: u32, set: usize) -> [f32; 4] {
         let t = &SOBOL_BYTES[set];
         let sobol = Int4::from(t[0][(shuffled >> 24) as usize])
             ^ Int4::from(t[1][((shuffled >> 16) & 0xff) as usize]);
-        owen_scramble_int4_rev(sobol, self.dims[set])
+        owen_scramble_int4_rev(sobol, Int4::from(self.lanes[set]))
             .reverse_bits()
             .to_f32_norm()
+    }
+
+    /// Every dimension of the point whose shuffled index is `shuffled`: [`SobolKeys::point`]'s
+    /// numbers bit for bit, as f64. The Owen scramble runs lane by lane on scalar integers, where
+    /// a 32-bit multiplication is one instruction (`Int4`'s takes about eleven with SSE2, which
+    /// has no such multiplication); the bit reversal stays four lanes at a time.
+    #[inline]
+    fn points(&self, shuffled: u32, out: &mut [f64; QMC_DIMS as usize]) {
+        let (hi, lo) = (
+            (shuffled >> 24) as usize,
+            ((shuffled >> 16) & 0xff) as usize,
+        );
+        for set in 0..QMC_SETS {
+            let t = &SOBOL_BYTES[set];
+            let n: [u32; 4] = std::array::from_fn(|k| {
+                // `owen_scramble_rev`, with the multiplier taken once per sequence.
+                let mut n = t[0][hi][k] ^ t[1][lo][k];
+                n ^= n.wrapping_mul(0x3d20_adea);
+                n = n.wrapping_add(self.lanes[set][k]);
+                n = n.wrapping_mul(self.mults[set][k]);
+                n ^= n.wrapping_mul(0x0552_6c56);
+                n ^ n.wrapping_mul(0x53a2_2864)
+            });
+            let four = Int4::from(n).reverse_bits().to_f32_norm();
+            for (q, x) in out[4 * set..].iter_mut().zip(four) {
+                *q = f64::from(x);
+            }
+        }
     }
 }
 
@@ -120,9 +154,8 @@ pub struct Sampler {
     rng: Pcg64Mcg,
     /// Hash of the stream's key, for the scramble seeds of its batches.
     key: u64,
-    /// The current sample's group, its point in the group's sequence (shuffled by the group's
-    /// scramble once its first number is drawn) and the next dimension; `dim == QMC_DIMS` when
-    /// every number comes from `rng`.
+    /// The current sample's group, its point's index in the group's sequence and the next
+    /// dimension; `dim == QMC_DIMS` when every number comes from `rng`.
     group: u32,
     index: u32,
     dim: u32,
@@ -130,8 +163,8 @@ pub struct Sampler {
     /// that draw from the random stream only never pay for them).
     keyed: Option<u32>,
     keys: SobolKeys,
-    /// Dimensions `dim & !3 ..` of the current point.
-    four: [f32; 4],
+    /// The current point's [`QMC_DIMS`] numbers, computed when its first one is drawn.
+    point: [f64; QMC_DIMS as usize],
 }
 
 impl Sampler {
@@ -150,9 +183,10 @@ impl Sampler {
             // Unused until a group's first point hashes its own (`keyed`).
             keys: SobolKeys {
                 index: 0,
-                dims: [Int4::from([0; 4]); QMC_SETS],
+                lanes: [[0; 4]; QMC_SETS],
+                mults: [[0; 4]; QMC_SETS],
             },
-            four: [0.0; 4],
+            point: [0.0; QMC_DIMS as usize],
         }
     }
 
@@ -183,30 +217,29 @@ impl Sampler {
         if self.dim < QMC_DIMS {
             let d = self.dim;
             self.dim += 1;
-            if d.is_multiple_of(4) {
-                self.next_point(d);
+            if d == 0 {
+                self.next_point();
             }
             // 24 bits from the sequence, the bits below them from the random stream: the point
             // keeps its strata, and every number keeps 53 bits.
-            let q = f64::from(self.four[(d % 4) as usize]);
+            let q = self.point[d as usize];
             return (q + r * (1.0 / (1u64 << 24) as f64)).min(1.0 - f64::EPSILON / 2.0);
         }
         r
     }
 
-    /// Dimensions `d .. d + 4` of the current QMC point into `four`. Not inlined: with the
-    /// point's code inlined into every call site, all of them were slower (2 % more instructions
-    /// per radiance-weighted sample on the stair wall, which never draws a point).
+    /// Every dimension of the current QMC point into `point`, when its first number is drawn (the
+    /// samples that draw a point use all of its sets). Not inlined: with the point's code inlined
+    /// into every call site, all of them were slower (2 % more instructions per radiance-weighted
+    /// sample on the stair wall, which never draws a point).
     #[inline(never)]
-    fn next_point(&mut self, d: u32) {
-        if d == 0 {
-            if self.keyed != Some(self.group) {
-                self.keys = SobolKeys::new(mix64(self.key ^ u64::from(self.group)) as u32);
-                self.keyed = Some(self.group);
-            }
-            self.index = self.keys.shuffle(self.index);
+    fn next_point(&mut self) {
+        if self.keyed != Some(self.group) {
+            self.keys = SobolKeys::new(mix64(self.key ^ u64::from(self.group)) as u32);
+            self.keyed = Some(self.group);
         }
-        self.four = self.keys.point(self.index, (d / 4) as usize);
+        self.keys
+            .points(self.keys.shuffle(self.index), &mut self.point);
     }
 
     #[inline]
@@ -295,8 +328,12 @@ mod tests {
             h = mix64(h);
             let (seed, index) = (h as u32, (h >> 32) as u32 % QMC_MAX_POINTS);
             let keys = SobolKeys::new(seed);
+            let mut all = [0.0; QMC_DIMS as usize];
+            keys.points(keys.shuffle(index), &mut all);
             for set in 0..QMC_SETS {
                 let a = keys.point(keys.shuffle(index), set);
+                let whole: Vec<f64> = a.iter().map(|&x| f64::from(x)).collect();
+                assert_eq!(all[4 * set..4 * set + 4], whole[..], "{seed} {index} {set}");
                 let b = sobol_burley::sample_4d(index, set as u32, seed);
                 assert_eq!(
                     a.map(f32::to_bits),

@@ -217,10 +217,15 @@ impl PowerCdf {
         if self.is_empty() {
             return None;
         }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
+        // The number of leading entries ≤ u (the cdf is non-decreasing): counted one by one for
+        // the few lights or mirror planes most scenes have, where a binary search's bookkeeping
+        // cost more than the comparisons it saves.
+        let n = if self.cdf.len() <= 8 {
+            self.cdf.iter().take_while(|&&c| c <= u).count()
+        } else {
+            self.cdf.partition_point(|&c| c <= u)
+        };
+        let i = n.min(self.cdf.len() - 1);
         let p = self.prob(i);
         (p > 0.0).then_some((i, p))
     }
@@ -352,5 +357,34 @@ impl LightSet {
             position,
             intensity,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pick_chooses_by_the_cdf_on_either_side_of_the_linear_scan() {
+        // Short cdfs are scanned, long ones searched: both must give the entry whose interval
+        // holds u, and its probability, including zero-power entries (never chosen).
+        for powers in [
+            vec![2.0],
+            vec![1.0, 0.0, 3.0],
+            (0..8).map(f64::from).collect::<Vec<_>>(),
+            (0..13).map(|k| f64::from(k % 3)).collect(),
+        ] {
+            let cdf = PowerCdf::new(powers.iter().copied());
+            let total: f64 = powers.iter().sum();
+            for k in 0..1000 {
+                let u = (f64::from(k) + 0.5) / 1000.0;
+                let (i, p) = cdf.pick(u).unwrap();
+                let lo: f64 = powers[..i].iter().sum::<f64>() / total;
+                let hi = lo + powers[i] / total;
+                assert!(lo <= u && u < hi, "{powers:?} u {u} -> {i}");
+                assert!((p - powers[i] / total).abs() < 1e-15);
+            }
+        }
+        assert!(PowerCdf::new([0.0, 0.0]).pick(0.5).is_none());
     }
 }
