@@ -194,6 +194,18 @@ fn adaptive_sampling_is_the_default_of_target_error_runs_only() {
     );
     let (ok, _, err) = run(&["--adaptive", "--uniform"]);
     assert!(!ok && err.contains("--uniform"), "{err}");
+    // A file of uniform passes (as every default run before wrote) resumed by a target-error run
+    // is refused, and the message says how to match it.
+    let (ok, _, err) = run(&["--target-error", "0.5", "--uniform"]);
+    assert!(ok, "{err}");
+    let resume = ["--target-error", "0.3", "--resume", out.to_str().unwrap()];
+    let (ok, _, err) = run(&resume);
+    assert!(
+        !ok && err.contains("adaptive differs") && err.contains("add --uniform"),
+        "{err}"
+    );
+    let (ok, _, err) = run(&[&resume[..], &["--uniform"]].concat());
+    assert!(ok, "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

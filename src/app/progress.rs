@@ -50,9 +50,16 @@ pub fn check_resume(
     if let Some(key) = info.first_difference(run, &keys) {
         let (a, b) = (info.to_attributes(), run.to_attributes());
         let show = |v: Option<&String>| v.map_or_else(|| "(none)".to_string(), Clone::clone);
+        // Runs that stop at a target error became adaptive by default: say how to match a file
+        // started before, or with the other allocation.
+        let hint = match (key, a.get(key).map(String::as_str)) {
+            ("adaptive", Some("off")) => " (this file's passes were uniform: add --uniform)",
+            ("adaptive", Some(_)) => " (this file's passes were adaptive: add --adaptive)",
+            _ => "",
+        };
         bail!(
-            "--resume {}: {key} differs: the file has {}, this run {}; a run resumes only with \
-             the scene, domain, parameters, seed and pass schedule it was started with",
+            "--resume {}: {key} differs: the file has {}, this run {}{hint}; a run resumes only \
+             with the scene, domain, parameters, seed and pass schedule it was started with",
             path.display(),
             show(a.get(key)),
             show(b.get(key))
