@@ -83,22 +83,19 @@ static SOBOL_BYTES: LazyLock<Box<[ByteVectors; QMC_SETS]>> = LazyLock::new(|| {
 struct SobolKeys {
     /// Scramble of the point index (the sequence's shuffle).
     index: u32,
-    /// Owen scramble of each set of four dimensions, and the odd multiplier
-    /// `(scramble >> 16) | 1` the Owen scramble takes from each.
+    /// Owen scramble of each set of four dimensions.
     lanes: [[u32; 4]; QMC_SETS],
-    mults: [[u32; 4]; QMC_SETS],
 }
 
 impl SobolKeys {
     fn new(seed: u32) -> Self {
         let salt = Int4::from([0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8]);
         let seed4 = Int4::from([seed.wrapping_mul(0x9c8f_2d3b); 4]);
-        let lanes: [[u32; 4]; QMC_SETS] =
-            std::array::from_fn(|set| hash_int4(seed4 ^ Int4::from([set as u32; 4]) ^ salt).into());
         SobolKeys {
             index: hash(seed ^ 0x79c6_8e4a),
-            lanes,
-            mults: lanes.map(|l| l.map(|s| (s >> 16) | 1)),
+            lanes: std::array::from_fn(|set| {
+                hash_int4(seed4 ^ Int4::from([set as u32; 4]) ^ salt).into()
+            }),
         }
     }
 
@@ -133,13 +130,7 @@ impl SobolKeys {
         for set in 0..QMC_SETS {
             let t = &SOBOL_BYTES[set];
             let n: [u32; 4] = std::array::from_fn(|k| {
-                // `owen_scramble_rev`, with the multiplier taken once per sequence.
-                let mut n = t[0][hi][k] ^ t[1][lo][k];
-                n ^= n.wrapping_mul(0x3d20_adea);
-                n = n.wrapping_add(self.lanes[set][k]);
-                n = n.wrapping_mul(self.mults[set][k]);
-                n ^= n.wrapping_mul(0x0552_6c56);
-                n ^ n.wrapping_mul(0x53a2_2864)
+                owen_scramble_rev(t[0][hi][k] ^ t[1][lo][k], self.lanes[set][k])
             });
             let four = Int4::from(n).reverse_bits().to_f32_norm();
             for (q, x) in out[4 * set..].iter_mut().zip(four) {
@@ -184,7 +175,6 @@ impl Sampler {
             keys: SobolKeys {
                 index: 0,
                 lanes: [[0; 4]; QMC_SETS],
-                mults: [[0; 4]; QMC_SETS],
             },
             point: [0.0; QMC_DIMS as usize],
         }
