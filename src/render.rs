@@ -356,7 +356,7 @@ fn cell_relerr(m: &Moments) -> Option<f64> {
     if !(v.valid && v.sigma > 0.0) {
         return None;
     }
-    if m.batches < 2 || !m.has_estimate() {
+    if m.batches < 2 || !v.estimated {
         return Some(f64::INFINITY);
     }
     let r = v.stderr / v.sigma;

@@ -307,7 +307,7 @@ impl Moments {
     /// [`Moments::stderr`], with or without the skewness factor.
     fn stderr_with(&self, skewness_factor: bool) -> f64 {
         let (s0, s1, s2) = self.sums();
-        if self.groups < 2 || !(s0 > 0.0 && s0.is_finite()) || self.effective_units() < 2.0 {
+        if !(self.has_estimate() && s0 > 0.0 && s0.is_finite()) {
             return 0.0;
         }
         let (m1, m2) = (s1 / s0, s2 / s0);
