@@ -1,0 +1,42 @@
+//! The driver: runs the per-cell kernel over a grid of cells in progressive passes, in parallel
+//! (rayon), with deterministic streams keyed by (seed, pass, cell), so the result is bit-identical
+//! for any thread count. Each pass is one independent batch for the standard error.
+//!
+//! # Passes and budgets
+//!
+//! A run is a sequence of passes. Pass `p` adds samples to cells from the stream
+//! `Sampler::new(seed, p, cell)` and folds them into the cell's sums as complete batches
+//! ([`Moments::add_batch`](crate::ftpd::moments::Moments::add_batch)), so after any pass the field is consistent and can be finalised, written
+//! and resumed. How many samples a pass gives each cell is the [`Schedule`]; when to stop is the
+//! [`Budget`]: a sample cap (`spp` per cell), a time budget, a target error, or a pass limit
+//! (library only), whichever is reached first, checked at pass boundaries. An interruption
+//! ([`Hooks::stop`], set by the signal handler) is checked between chunks of cells: the chunks in
+//! flight finish, the rest of the pass is skipped, and [`Progress::inflight`] records which cells
+//! completed that pass, so that a resumed run can finish exactly those that did not.
+//!
+//! # Reproducibility
+//!
+//! The sums of a cell are added in pass order, each pass's batches in a fixed order, and pass `p`
+//! always draws from the stream keyed (seed, p, cell). The pass sizes and the adaptive allocation
+//! depend only on the schedule and on the sums of completed passes. A run resumed from a partial
+//! field (same seed, schedule and parameters) therefore performs the same additions in the same
+//! order as an uninterrupted one, and ends with bit-identical sums.
+//!
+//! # Adaptive sampling
+//!
+//! See [`allocate`]: from pass 2 on, each pass distributes its sample budget (the uniform share
+//! times the number of cells) over the cells by their estimated error.
+
+mod allocate;
+mod error_stats;
+mod options;
+mod pass;
+mod progressive;
+mod schedule;
+
+pub use allocate::allocate;
+pub use error_stats::{ErrorStats, error_stats};
+pub use options::{Adaptive, Budget, RenderOptions, RunStats, StopReason};
+pub use pass::CHUNK;
+pub use progressive::{AfterPass, Hooks, INTERRUPT, run_in, run_progressive};
+pub use schedule::{DEFAULT_PASS_SPP, InFlight, Progress, Schedule, samples_in_pass};
