@@ -48,6 +48,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::ops::Range;
 use std::str::FromStr;
+use std::time::Duration;
 
 /// An attribute that does not read as what it should be, naming the attribute and the file.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -367,6 +368,22 @@ fn join<T: fmt::Display>(v: &[T], sep: &str) -> String {
 /// `x,y,z`, each the shortest decimal that reads back as the same f64.
 pub fn fmt_vec(v: DVec3) -> String {
     format!("{},{},{}", v.x, v.y, v.z)
+}
+
+/// `1h02m03s`, `4m05s`, `12.3s`: a duration as run metadata (`budget.time`, `remaining.time`)
+/// and reports write it, in the form the command line's duration parser reads back.
+pub fn fmt_duration(d: Duration) -> String {
+    let secs = d.as_secs_f64();
+    if secs < 60.0 {
+        return format!("{}s", (secs * 1000.0).round() / 1000.0);
+    }
+    let s = d.as_secs();
+    let (h, m, sec) = (s / 3600, s / 60 % 60, s % 60);
+    if h > 0 {
+        format!("{h}h{m:02}m{sec:02}s")
+    } else {
+        format!("{m}m{sec:02}s")
+    }
 }
 
 fn shown<T: fmt::Display>(v: &Option<T>) -> Option<String> {

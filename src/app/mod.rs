@@ -20,12 +20,12 @@ use crate::domain::{CameraView, Domain, MAX_RES, Plane, PlaneDomain, VolumeRes};
 use crate::field::Field;
 use crate::ftpd::Params;
 use crate::output::check_writable;
-use crate::render::{self, ErrorStats, Hooks, Progress, RenderOptions, RunStats, Schedule};
-use crate::run::{
-    EstimatorArgs, camera_info, check_flatland, describe_run, estimate_time, fmt_vec, plane_info,
-    prepare_flatland, run_domain_progressive, volume_info,
+use crate::params::{EstimatorArgs, prepare_flatland};
+use crate::render::{
+    self, ErrorStats, Hooks, Progress, RenderOptions, RunStats, Schedule, camera_info,
+    check_flatland, describe_run, estimate_time, plane_info, run_domain_progressive, volume_info,
 };
-use crate::run_info::{DomainKind, RunInfo};
+use crate::run_info::{DomainKind, RunInfo, fmt_vec};
 use crate::scene::load::{extension, load_scene_with_lights};
 use crate::scene::{self, Scene};
 use anyhow::{Context, bail};
@@ -277,7 +277,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
                      black; add one with --point-light X,Y,Z:R,G,B, --sun X,Y,Z:R,G,B, --sky \
                      R,G,B or --env FILE",
                     job.scene.display(),
-                    crate::run::ways_to_light(&scene)
+                    crate::params::ways_to_light(&scene)
                 );
             }
             domains.push((

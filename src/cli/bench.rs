@@ -4,9 +4,8 @@
 use crate::domain::{Domain, Plane, PlaneDomain};
 use crate::field::Field;
 use crate::ftpd::{self, Params};
-use crate::render::{self, RenderOptions, RunStats};
+use crate::render::{self, RenderOptions, RunStats, run_plane};
 use crate::rng::Sampler;
-use crate::run::run_plane;
 use crate::scene::Scene;
 use std::time::Instant;
 
@@ -122,7 +121,7 @@ pub fn bench(
     out: &mut impl std::io::Write,
     path: &std::path::Path,
     lights: &[crate::scene::Light],
-    estimator: &crate::run::EstimatorArgs,
+    estimator: &crate::params::EstimatorArgs,
     (slice, window, res): (&crate::domain::slice::SliceArg, Option<[f64; 4]>, usize),
     flatland: bool,
     opts: &RenderOptions,
@@ -130,7 +129,7 @@ pub fn bench(
     let mut scene = crate::scene::load::load_scene_with_lights(path, lights)?;
     let plane = crate::domain::slice::resolve_plane(slice, &scene, window, res)?;
     let params = if flatland {
-        crate::run::prepare_flatland(&mut scene, &plane, estimator)?
+        crate::params::prepare_flatland(&mut scene, &plane, estimator)?
     } else {
         estimator.resolve_for_plane(&scene, &plane)?
     };

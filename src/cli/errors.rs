@@ -4,7 +4,8 @@
 
 use crate::domain::{DomainError, commas};
 use crate::output::OutputError;
-use crate::run::ParamError;
+use crate::params::ParamError;
+use crate::render::RunError;
 use crate::scene::flat::FlatlandError;
 use std::error::Error;
 
@@ -35,6 +36,9 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
                 dir.display()
             ),
         }
+    } else if let Some(RunError::AfterPass(inner)) = e.downcast_ref::<RunError>() {
+        // The caller's own error (a checkpoint's), in the words it has.
+        describe(inner.as_ref())
     } else if let Some(f) = e.downcast_ref::<FlatlandError>() {
         match f {
             FlatlandError::NotExtruded { file, detail } => format!(

@@ -2,7 +2,7 @@
 
 use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::math::Rgb;
-use crate::run::{EstimatorArgs, prepare_flatland};
+use crate::params::{EstimatorArgs, prepare_flatland};
 use crate::scene::Light;
 use crate::scene::load::load_scene_with_lights;
 use std::io::Write;

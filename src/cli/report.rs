@@ -3,7 +3,7 @@
 use crate::field::Field;
 use crate::ftpd::{Params, Weighting};
 use crate::render::{self, ErrorStats, RunStats};
-pub use crate::run::fmt_duration;
+pub use crate::run_info::fmt_duration;
 use std::time::Duration;
 
 /// Mean and 95th percentile of the relative standard error over valid cells with σ > 0 (see

@@ -2,6 +2,7 @@
 //! Each domain is a grid of cells and knows where a sample of a cell starts (a point, or an eye and
 //! a direction); the estimator ([`crate::ftpd::sample`]) does the rest with the run's kernel.
 pub mod camera;
+pub mod offset;
 pub mod slice;
 pub mod tile;
 pub mod volume;

@@ -28,15 +28,48 @@
 //! times the number of cells) over the cells by their estimated error.
 
 mod allocate;
+mod describe;
 mod error_stats;
+mod eta;
 mod options;
 mod pass;
 mod progressive;
+mod runs;
 mod schedule;
 
 pub use allocate::allocate;
+pub use describe::{camera_info, describe_run, plane_info, volume_info};
 pub use error_stats::{ErrorStats, error_stats};
+pub use eta::{CALIBRATION_SECONDS, Eta, estimate_time};
 pub use options::{Adaptive, Budget, RenderOptions, RunStats, StopReason};
 pub use pass::CHUNK;
 pub use progressive::{AfterPass, Hooks, INTERRUPT, run_in, run_progressive};
+pub use runs::{check_flatland, run_camera, run_domain, run_domain_progressive, run_plane};
 pub use schedule::{DEFAULT_PASS_SPP, InFlight, Progress, Schedule, samples_in_pass};
+
+/// A run that cannot start or was aborted, as a typed value.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The field to add to has another grid than the domain.
+    #[error(
+        "the field is {}x{}x{} cells, the domain {}x{}x{}",
+        field.0, field.1, field.2, domain.0, domain.1, domain.2
+    )]
+    FieldSize {
+        field: (usize, usize, usize),
+        domain: (usize, usize, usize),
+    },
+    #[error(
+        "flatland run on {plane}: the scene was not prepared for this plane \
+         (Scene::prepare_flatland)"
+    )]
+    FlatlandNotPrepared { plane: String },
+    #[error("flatland run: the domain {plane} does not lie in the flatland plane")]
+    FlatlandOffPlane { plane: String },
+    /// The worker threads could not be started.
+    #[error(transparent)]
+    Threads(#[from] rayon::ThreadPoolBuildError),
+    /// The caller's [`Hooks::after_pass`] failed (a checkpoint that could not be written).
+    #[error(transparent)]
+    AfterPass(#[from] anyhow::Error),
+}

@@ -5,7 +5,7 @@
 use super::allocate::allocate;
 use super::error_stats::error_stats;
 use super::pass::{CHUNK, Counters, PassJob, PassSizes, run_pass};
-use super::{InFlight, Progress, RenderOptions, RunStats, Schedule, StopReason};
+use super::{InFlight, Progress, RenderOptions, RunError, RunStats, Schedule, StopReason};
 use crate::field::Field;
 use crate::ftpd::Sample;
 use crate::rng::Sampler;
@@ -37,7 +37,7 @@ pub fn run_in<K>(
     field: &mut Field,
     opts: &RenderOptions,
     kernel: K,
-) -> anyhow::Result<RunStats>
+) -> Result<RunStats, RunError>
 where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
@@ -55,7 +55,7 @@ pub fn run_progressive<K>(
     progress: &mut Progress,
     mut hooks: Hooks,
     kernel: K,
-) -> anyhow::Result<RunStats>
+) -> Result<RunStats, RunError>
 where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
