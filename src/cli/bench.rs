@@ -1,6 +1,8 @@
 //! The benchmark (`ftpd3d bench`): kernel rays/s against raw Embree rays/s on the same scene, rays
 //! and threads.
 
+use super::args::RunArgs;
+use crate::app::DomainArg;
 use crate::domain::{Domain, Plane, PlaneDomain};
 use crate::field::Field;
 use crate::ftpd::{self, Params};
@@ -167,4 +169,32 @@ pub fn bench(
     )?;
     writeln!(out, "kernel/raw rays/s    {:.3}", r.ray_ratio())?;
     Ok(())
+}
+
+/// `ftpd3d bench`: the benchmark on the first slice of the run `args` describe.
+pub fn command(args: &RunArgs) -> anyhow::Result<()> {
+    if args.volume.is_some() {
+        anyhow::bail!("bench runs on a slice: use --slice instead of --volume");
+    }
+    let job = args.job()?;
+    let DomainArg::Slice {
+        slices,
+        window,
+        res,
+    } = &job.domain
+    else {
+        anyhow::bail!("bench runs on a slice: give --slice");
+    };
+    let Some(slice) = slices.first() else {
+        anyhow::bail!("bench runs on a slice: give --slice");
+    };
+    bench(
+        &mut std::io::stdout().lock(),
+        &job.scene,
+        &job.lights,
+        &job.estimator,
+        (slice, *window, *res),
+        job.flatland,
+        &job.render,
+    )
 }

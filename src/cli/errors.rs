@@ -5,9 +5,31 @@
 use crate::domain::{DomainError, commas};
 use crate::output::OutputError;
 use crate::params::ParamError;
-use crate::render::RunError;
+use crate::render::{RunError, StopReason};
 use crate::scene::flat::FlatlandError;
 use std::error::Error;
+use std::process::ExitCode;
+
+/// The process's exit status for the result of a command (`Some` reason a run stopped): success;
+/// [`super::signals::EXIT_INTERRUPTED`] for a run stopped by a signal, its partial result written;
+/// failure with the error printed on stderr in command-line words ([`message`]).
+pub fn exit_code(result: anyhow::Result<Option<StopReason>>) -> ExitCode {
+    match result {
+        Ok(Some(StopReason::Interrupted)) => ExitCode::from(super::signals::EXIT_INTERRUPTED),
+        Ok(_) => ExitCode::SUCCESS,
+        // A closed pipe (`ftpd3d --explain | head`) is not an error of ours.
+        Err(e)
+            if e.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {}", message(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
 
 /// The whole chain of `e` as `anyhow`'s `{:#}` prints it (`outer: inner: …`), each typed error in
 /// its command-line words.
