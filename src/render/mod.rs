@@ -6,13 +6,14 @@
 //!
 //! A run is a sequence of passes. Pass `p` adds samples to cells from the stream
 //! `Sampler::new(seed, p, cell)` and folds them into the cell's sums as complete batches
-//! ([`Moments::add_batch`](crate::ftpd::moments::Moments::add_batch)), so after any pass the field is consistent and can be finalised, written
-//! and resumed. How many samples a pass gives each cell is the [`Schedule`]; when to stop is the
-//! [`Budget`]: a sample cap (`spp` per cell), a time budget, a target error, or a pass limit
-//! (library only), whichever is reached first, checked at pass boundaries. An interruption
-//! ([`Hooks::stop`], set by the signal handler) is checked between chunks of cells: the chunks in
-//! flight finish, the rest of the pass is skipped, and [`Progress::inflight`] records which cells
-//! completed that pass, so that a resumed run can finish exactly those that did not.
+//! ([`Moments::add_batch`](crate::ftpd::moments::Moments::add_batch)), so after any pass the field
+//! is consistent and can be finalised, written and resumed. How many samples a pass gives each
+//! cell is the [`Schedule`]; when to stop is the [`Budget`]: a sample cap (`spp` per cell), a time
+//! budget, a target error, or a pass limit, whichever is reached first, checked at pass
+//! boundaries. An interruption ([`Hooks::stop`], set by the signal handler) is checked between
+//! chunks of cells: the chunks in flight finish, the rest of the pass is skipped, and
+//! [`Progress::inflight`] records which cells completed that pass, so that a resumed run can
+//! finish exactly those that did not.
 //!
 //! # Reproducibility
 //!
@@ -26,6 +27,14 @@
 //!
 //! See [`allocate`]: from pass 2 on, each pass distributes its sample budget (the uniform share
 //! times the number of cells) over the cells by their estimated error.
+//!
+//! # The rooms
+//!
+//! What a run is asked and reports (`options`), how samples are cut into passes and where a run
+//! stands (`schedule`), the relative error over a field (`error_stats`), adaptive allocation
+//! (`allocate`), one pass over the cells in chunks (`pass`), the progressive loop (`progressive`);
+//! built on them, runs of a domain with the kernel their parameters need (`runs`), their
+//! description (`describe`) and a short calibration of how long a run will take (`eta`).
 
 mod allocate;
 mod describe;

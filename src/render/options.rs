@@ -114,7 +114,7 @@ impl RenderOptions {
 /// Why a run stopped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum StopReason {
-    /// The sample cap (`--spp`) is reached.
+    /// The sample cap ([`RenderOptions::spp`] per cell) is reached.
     #[default]
     Samples,
     /// The next pass would not fit in the time budget.

@@ -16,7 +16,7 @@ pub fn samples_in_pass(spp: u32, batches: u32, pass: u32) -> u32 {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Schedule {
     /// `spp` split into `batches` passes, the remainder over the first ones: the behaviour of a run
-    /// given only `--spp` (and `--batches`).
+    /// given only a sample cap (and a number of batches).
     Split { spp: u32, batches: u32 },
     /// `per_pass` samples per cell and pass; with a cap, the last pass is cut to reach it exactly.
     Every { per_pass: u32, cap: Option<u32> },
