@@ -9,7 +9,8 @@ use crate::domain::offset::{box_offset, flat_extent, plane_offset};
 use crate::ftpd::{Params, Weighting};
 use crate::scene::{self, Scene};
 
-/// Estimator settings as the user gave them; `None` means "relative to the scene" (see [`resolve`]).
+/// Estimator settings as a caller gives them; `None` means "relative to the scene" (see
+/// [`EstimatorArgs::resolve`]).
 #[derive(Clone, Debug)]
 pub struct EstimatorArgs {
     pub weighting: Weighting,

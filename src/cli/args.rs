@@ -2,6 +2,9 @@
 //! benchmark's), the estimator's flags shared with `converge` ([`EstimatorFlags`]) and the
 //! weightings. [`RunArgs::job`] (in [`super::job`]) turns them into a validated job.
 
+// The fields' doc comments are clap's help text, where `<scene>` is plain text, not HTML.
+#![allow(rustdoc::invalid_html_tags)]
+
 use super::parse::{
     parse_duration, parse_env, parse_point_light, parse_size, parse_sky, parse_sun, parse_vec3,
     parse_volume, parse_window,

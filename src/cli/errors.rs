@@ -1,6 +1,8 @@
-//! Error messages as the command line prints them: the library's typed errors
-//! ([`ParamError`], [`DomainError`], [`FlatlandError`]) say what is wrong in its own terms; here they name the flags
-//! that set the values (`--t0`, `--slice`, `--window`, …). Other errors print as they are.
+//! Error messages as the command line prints them: the library's typed errors ([`ParamError`],
+//! [`DomainError`], [`OutputError`], [`FlatlandError`], [`RunError`]) say what is wrong in its own
+//! terms; here they name the flags that set the values (`--t0`, `--slice`, `--window`, …). Other
+//! errors print as they are. A room with a new error enum adds one arm to [`describe`] (and, when
+//! it is long, a function like [`param`] beside it).
 
 use crate::domain::{DomainError, commas};
 use crate::output::OutputError;

@@ -1,8 +1,8 @@
 //! The command line as a library: its arguments ([`args`], clap), their validation into a job
 //! ([`job`], which runs it through [`crate::app`]), value parsers ([`parse`]), the benchmark
-//! ([`bench`]), `--explain` ([`explain`]), report lines ([`report`]), signals ([`signals`]) and the
-//! error messages that name the flags ([`errors`]). Flag names appear only here, in `src/main.rs`
-//! and in [`crate::app`]. The top of the crate: nothing below imports it.
+//! ([`bench`](mod@bench)), `--explain` ([`explain`]), report lines ([`report`]), signals
+//! ([`signals`]) and the error messages that name the flags ([`errors`]). Flag names appear only
+//! here, in `src/main.rs` and in [`crate::app`]. The top of the crate: nothing below imports it.
 
 pub mod args;
 pub mod bench;

@@ -18,21 +18,21 @@ use rayon::prelude::*;
 /// unit. Shares are rounded by cumulative rounding, so the total is the budget.
 ///
 /// What this does to the estimate. The allocation of pass p is a function of the sums after passes
-/// < p only, never of pass p's samples, and pass p's samples come from the stream keyed
-/// (seed, p, cell) whatever the allocation; the allocation only decides how many of them are
-/// drawn. Each sample added is therefore, given the past, an independent draw from the cell's
-/// sampling distribution, and the cell's sums stay plain sums of such draws: E[Σc] = E[n]·E[c], and
+/// < p only, never of pass p's samples, and pass p's samples come from the stream keyed (seed, p,
+/// cell) whatever the allocation; the allocation only decides how many of them are drawn. Each
+/// sample added is therefore, given the past, an independent draw from the cell's sampling
+/// distribution, and the cell's sums stay plain sums of such draws: `E[Σc] = E[n]·E[c]`, and
 /// likewise for ΣcΔ and ΣcΔ² (Wald's identity), so sums still merge and resume exactly, and every
-/// normalised quantity (σ, S0/n, fluence) converges to the same limit as in a uniform run. What
-/// is not exact at finite n is the normalisation: n depends on the earlier samples' values (a cell
+/// normalised quantity (σ, S0/n, fluence) converges to the same limit as in a uniform run. What is
+/// not exact at finite n is the normalisation: n depends on the earlier samples' values (a cell
 /// whose first passes looked noisy, e.g. because of one large contribution, gets more samples,
 /// which dilute that contribution), so S/n is not an unbiased mean, and σ, a nonlinear function of
 /// ratios of sums, is biased at finite n in any run. Both biases shrink as the samples grow; the
 /// driver tests compare the mean of σ over a slice with that of a uniform run of four times the
 /// samples. Each unit is a batch of the same size as a uniform pass's, taken in groups of
-/// [`QMC_GROUP`](crate::rng::QMC_GROUP) samples (one scrambled sequence each) like a uniform
-/// pass, and the standard error comes from sums over those groups, so it does not depend on how
-/// many units a cell gets.
+/// [`QMC_GROUP`](crate::rng::QMC_GROUP) samples (one scrambled sequence each) like a uniform pass,
+/// and the standard error comes from sums over those groups, so it does not depend on how many
+/// units a cell gets.
 pub fn allocate(cells: &[Moments], unit: u32, budget: u64, max_share: u32) -> Vec<u32> {
     let unit = unit.max(1) as f64;
     let kmax = max_share.max(1) as f64;

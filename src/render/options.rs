@@ -1,6 +1,6 @@
-//! What a run is asked and what it reports: how many samples on how many threads ([`RenderOptions`]),
-//! when to stop ([`Budget`], [`StopReason`]), whether later passes go where the error is
-//! ([`Adaptive`]), and what a run did ([`RunStats`]).
+//! What a run is asked and what it reports: how many samples on how many threads
+//! ([`RenderOptions`]), when to stop ([`Budget`], [`StopReason`]), whether later passes go where
+//! the error is ([`Adaptive`]), and what a run did ([`RunStats`]).
 
 use crate::domain::Tile;
 use std::fmt;
@@ -17,7 +17,7 @@ pub struct Budget {
     /// run ends before the budget, not after (the first pass always runs).
     pub time: Option<Duration>,
     /// Stop when the 95th percentile of the relative standard error is at most this (see
-    /// [`ErrorStats`]); checked after every pass from the second on.
+    /// [`ErrorStats`](super::ErrorStats)); checked after every pass from the second on.
     pub target_error: Option<f64>,
     /// Stop after this many passes in all (library use: tests, simulated interruptions).
     pub max_passes: Option<u32>,
@@ -34,7 +34,7 @@ impl Default for Budget {
     }
 }
 
-/// Adaptive sampling settings (see [`allocate`]).
+/// Adaptive sampling settings (see [`allocate`](super::allocate)).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Adaptive {
     /// A cell gets at most this many times the uniform share of a pass.

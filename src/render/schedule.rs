@@ -73,8 +73,8 @@ impl Schedule {
         }
     }
 
-    /// What fixes the pass sizes, as recorded in a field's metadata (`schedule`): a run resumes only
-    /// with the same schedule. The cap of `Every` is a budget, not part of it.
+    /// What fixes the pass sizes, as recorded in a field's metadata (`schedule`): a run resumes
+    /// only with the same schedule. The cap of `Every` is a budget, not part of it.
     pub fn key(&self) -> String {
         match *self {
             Schedule::Split { spp, batches } => format!("{spp} spp in {batches} passes"),
