@@ -16,8 +16,8 @@
 use ftpd3d::domain::Plane;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::Weighting;
-use ftpd3d::render::{self, Adaptive, Budget, RenderOptions, error_stats};
-use ftpd3d::run::{EstimatorArgs, run_plane};
+use ftpd3d::params::EstimatorArgs;
+use ftpd3d::render::{self, Adaptive, Budget, RenderOptions, error_stats, run_plane};
 use ftpd3d::scene::load::load_scene;
 use std::path::Path;
 
@@ -119,7 +119,7 @@ fn main() -> anyhow::Result<()> {
                 };
                 run_plane(&scene, &plane, &params, &opts).map(|r| r.0)
             })
-            .collect::<anyhow::Result<_>>()?;
+            .collect::<Result<_, _>>()?;
         let (seen, varz) = honesty(&fields.iter().collect::<Vec<_>>());
         println!(
             "  at equal samples ({spp} spp): p95 seen uniform {seen:.4} (var z {varz:.2}), adaptive {adaptive_seen:.4}"

@@ -9,10 +9,10 @@ use ftpd3d::domain::Plane;
 use ftpd3d::domain::slice::SliceSpec;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::{Params, Weighting};
+use ftpd3d::params::EstimatorArgs;
 use ftpd3d::render::{
     self, Adaptive, Budget, Hooks, Progress, RenderOptions, RunStats, StopReason,
 };
-use ftpd3d::run::{self, EstimatorArgs};
 use ftpd3d::run_info::{DomainKind, RunInfo};
 use ftpd3d::scene::Scene;
 use ftpd3d::scene::load::load_scene;
@@ -68,8 +68,8 @@ impl Setup {
     /// The description `run_job` gives a run (what a resume is checked against).
     fn info(&self, o: &RenderOptions) -> RunInfo {
         RunInfo {
-            plane: Some(run::plane_info(&self.plane)),
-            ..run::describe_run(&self.scene, &self.params, o, DomainKind::Slice)
+            plane: Some(render::plane_info(&self.plane)),
+            ..render::describe_run(&self.scene, &self.params, o, DomainKind::Slice)
         }
     }
 
@@ -87,7 +87,7 @@ impl Setup {
         o: &RenderOptions,
         hooks: Hooks,
     ) -> RunStats {
-        run::run_domain_progressive(
+        render::run_domain_progressive(
             &pool(),
             &self.scene,
             &self.plane,

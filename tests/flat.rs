@@ -15,8 +15,8 @@ use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_at, sample_poin
 use ftpd3d::kernel::{PlainFlat, RadianceFlat, Record};
 use ftpd3d::math::{Rgb, luminance, reflect};
 use ftpd3d::render::RenderOptions;
+use ftpd3d::render::run_plane;
 use ftpd3d::rng::Sampler;
-use ftpd3d::run::run_plane;
 use ftpd3d::scene::flat::{FlatBsdf, Flatland, PhongLobe, cos_power_integral};
 use ftpd3d::scene::load::load_scene;
 use ftpd3d::scene::{Material, Scene};

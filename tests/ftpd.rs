@@ -7,8 +7,8 @@ use ftpd3d::field::Field;
 use ftpd3d::ftpd::moments::Moments;
 use ftpd3d::ftpd::{Params, Weighting, sample_point};
 use ftpd3d::render::RenderOptions;
+use ftpd3d::render::run_plane;
 use ftpd3d::rng::Sampler;
-use ftpd3d::run::run_plane;
 use ftpd3d::scene::Scene;
 use ftpd3d::scene::load::load_scene;
 use glam::DVec3;
@@ -251,7 +251,7 @@ fn exr_round_trip_equals_the_field() {
 #[test]
 fn camera_image_of_an_empty_scene_is_zero_and_beauty_sees_the_light() {
     use ftpd3d::domain::CameraView;
-    use ftpd3d::run::run_camera;
+    use ftpd3d::render::run_camera;
     use ftpd3d::scene::Camera;
     let cam = |eye: DVec3, forward: DVec3| Camera {
         name: "test".into(),

@@ -17,7 +17,7 @@ use ftpd3d::field::Field;
 use ftpd3d::ftpd::{Params, Weighting};
 use ftpd3d::math::Rgb;
 use ftpd3d::render::RenderOptions;
-use ftpd3d::run::run_plane;
+use ftpd3d::render::run_plane;
 use ftpd3d::scene::flat::Flatland;
 use ftpd3d::scene::{Material, Scene};
 use ftpd3d::transport::bsdf::Bsdf;

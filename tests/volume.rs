@@ -7,8 +7,8 @@ use ftpd3d::domain::VolumeRes;
 use ftpd3d::domain::slice::SliceArg;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::Weighting;
+use ftpd3d::params::EstimatorArgs;
 use ftpd3d::render::RenderOptions;
-use ftpd3d::run::EstimatorArgs;
 use std::path::{Path, PathBuf};
 
 fn temp_dir(name: &str) -> PathBuf {

@@ -1,6 +1,6 @@
 //! The memory a volume needs, checked against what the machine has before anything is allocated.
 
-use crate::cli::report::human_bytes;
+use super::report::human_bytes;
 use crate::domain::VolumeRes;
 use crate::domain::volume::Volume;
 use crate::output;

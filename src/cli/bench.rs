@@ -1,12 +1,13 @@
 //! The benchmark (`ftpd3d bench`): kernel rays/s against raw Embree rays/s on the same scene, rays
 //! and threads.
 
+use super::args::RunArgs;
+use crate::app::DomainArg;
 use crate::domain::{Domain, Plane, PlaneDomain};
 use crate::field::Field;
 use crate::ftpd::{self, Params};
-use crate::render::{self, RenderOptions, RunStats};
+use crate::render::{self, RenderOptions, RunStats, run_plane};
 use crate::rng::Sampler;
-use crate::run::run_plane;
 use crate::scene::Scene;
 use std::time::Instant;
 
@@ -122,7 +123,7 @@ pub fn bench(
     out: &mut impl std::io::Write,
     path: &std::path::Path,
     lights: &[crate::scene::Light],
-    estimator: &crate::run::EstimatorArgs,
+    estimator: &crate::params::EstimatorArgs,
     (slice, window, res): (&crate::domain::slice::SliceArg, Option<[f64; 4]>, usize),
     flatland: bool,
     opts: &RenderOptions,
@@ -130,7 +131,7 @@ pub fn bench(
     let mut scene = crate::scene::load::load_scene_with_lights(path, lights)?;
     let plane = crate::domain::slice::resolve_plane(slice, &scene, window, res)?;
     let params = if flatland {
-        crate::run::prepare_flatland(&mut scene, &plane, estimator)?
+        crate::params::prepare_flatland(&mut scene, &plane, estimator)?
     } else {
         estimator.resolve_for_plane(&scene, &plane)?
     };
@@ -168,4 +169,32 @@ pub fn bench(
     )?;
     writeln!(out, "kernel/raw rays/s    {:.3}", r.ray_ratio())?;
     Ok(())
+}
+
+/// `ftpd3d bench`: the benchmark on the first slice of the run `args` describe.
+pub fn command(args: &RunArgs) -> anyhow::Result<()> {
+    if args.volume.is_some() {
+        anyhow::bail!("bench runs on a slice: use --slice instead of --volume");
+    }
+    let job = args.job()?;
+    let DomainArg::Slice {
+        slices,
+        window,
+        res,
+    } = &job.domain
+    else {
+        anyhow::bail!("bench runs on a slice: give --slice");
+    };
+    let Some(slice) = slices.first() else {
+        anyhow::bail!("bench runs on a slice: give --slice");
+    };
+    bench(
+        &mut std::io::stdout().lock(),
+        &job.scene,
+        &job.lights,
+        &job.estimator,
+        (slice, *window, *res),
+        job.flatland,
+        &job.render,
+    )
 }

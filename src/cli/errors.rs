@@ -1,12 +1,37 @@
-//! Error messages as the command line prints them: the library's typed errors
-//! ([`ParamError`], [`DomainError`], [`FlatlandError`]) say what is wrong in its own terms; here they name the flags
-//! that set the values (`--t0`, `--slice`, `--window`, …). Other errors print as they are.
+//! Error messages as the command line prints them: the library's typed errors ([`ParamError`],
+//! [`DomainError`], [`OutputError`], [`FlatlandError`], [`RunError`]) say what is wrong in its own
+//! terms; here they name the flags that set the values (`--t0`, `--slice`, `--window`, …). Other
+//! errors print as they are. A room with a new error enum adds one arm to [`describe`] (and, when
+//! it is long, a function like [`param`] beside it).
 
 use crate::domain::{DomainError, commas};
 use crate::output::OutputError;
-use crate::run::ParamError;
+use crate::params::ParamError;
+use crate::render::{RunError, StopReason};
 use crate::scene::flat::FlatlandError;
 use std::error::Error;
+use std::process::ExitCode;
+
+/// The process's exit status for the result of a command (`Some` reason a run stopped): success;
+/// [`super::signals::EXIT_INTERRUPTED`] for a run stopped by a signal, its partial result written;
+/// failure with the error printed on stderr in command-line words ([`message`]).
+pub fn exit_code(result: anyhow::Result<Option<StopReason>>) -> ExitCode {
+    match result {
+        Ok(Some(StopReason::Interrupted)) => ExitCode::from(super::signals::EXIT_INTERRUPTED),
+        Ok(_) => ExitCode::SUCCESS,
+        // A closed pipe (`ftpd3d --explain | head`) is not an error of ours.
+        Err(e)
+            if e.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {}", message(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
 
 /// The whole chain of `e` as `anyhow`'s `{:#}` prints it (`outer: inner: …`), each typed error in
 /// its command-line words.
@@ -35,6 +60,9 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
                 dir.display()
             ),
         }
+    } else if let Some(RunError::AfterPass(inner)) = e.downcast_ref::<RunError>() {
+        // The caller's own error (a checkpoint's), in the words it has.
+        describe(inner.as_ref())
     } else if let Some(f) = e.downcast_ref::<FlatlandError>() {
         match f {
             FlatlandError::NotExtruded { file, detail } => format!(

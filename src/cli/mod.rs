@@ -1,9 +1,15 @@
-//! What the command line needs besides clap: value parsers, report formatting, error messages
-//! that name the flags, the benchmark and `--explain`. Below [`crate::app`] (which prints its reports through [`report`]); imports nothing
-//! of it.
+//! The command line as a library: its arguments ([`args`], clap), their validation into a job
+//! ([`job`], which runs it through [`crate::app`]), value parsers ([`parse`]), the benchmark
+//! ([`bench`](mod@bench)), `--explain` ([`explain`]), report lines ([`report`]), signals
+//! ([`signals`]) and the error messages that name the flags ([`errors`]). Flag names appear only
+//! here, in `src/main.rs` and in [`crate::app`]. The top of the crate: nothing below imports it.
 
+pub mod args;
 pub mod bench;
 pub mod errors;
 pub mod explain;
+pub mod job;
 pub mod parse;
 pub mod report;
+pub mod sep_flags;
+pub mod signals;

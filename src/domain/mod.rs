@@ -2,6 +2,7 @@
 //! Each domain is a grid of cells and knows where a sample of a cell starts (a point, or an eye and
 //! a direction); the estimator ([`crate::ftpd::sample`]) does the rest with the run's kernel.
 pub mod camera;
+pub mod offset;
 pub mod slice;
 pub mod tile;
 pub mod volume;
@@ -15,7 +16,8 @@ use crate::rng::Sampler;
 use crate::scene::Scene;
 use glam::DVec3;
 
-/// Largest accepted grid side (`--res`, `--size`).
+/// Largest accepted grid side (a slice's cells along its longer side, a camera image's pixels
+/// each way).
 pub const MAX_RES: usize = 16384;
 
 /// A domain that cannot be built, as a typed value; the command line names its flags in the

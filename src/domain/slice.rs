@@ -436,7 +436,7 @@ impl SliceArg {
     }
 }
 
-/// Resolves `--slice`: `AXIS=VALUE`, or the name of a slice in the sidecar scene file.
+/// Resolves a slice given as `AXIS=VALUE`, or as the name of a slice in the sidecar scene file.
 pub fn resolve_slice(arg: &str, scene: &Scene) -> Result<SliceSpec, DomainError> {
     if arg.contains('=') {
         return arg.parse::<SliceSpec>().map_err(DomainError::SliceSyntax);

@@ -1,4 +1,4 @@
-//! Tiles: one stripe of a domain's grid, for splitting a run over jobs (`--tile i/N`).
+//! Tiles: one stripe of a domain's grid, for splitting a run over jobs (stripe i of N, `i/N`).
 //!
 //! Stripe `i` of `N` holds the rows `⌊i·H/N⌋ .. ⌊(i+1)·H/N⌋` of a grid of height H (field row 0 is the
 //! bottom, v minimal, so stripe 0 is the bottom of the image); for volumes the rows are the z
@@ -12,7 +12,7 @@ use std::fmt;
 use std::ops::Range;
 use std::str::FromStr;
 
-/// Stripe `index` of `count` (`--tile index/count`).
+/// Stripe `index` of `count`, written `index/count` (from 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tile {
     pub index: usize,

@@ -13,8 +13,8 @@ use glam::DVec3;
 use std::fmt;
 use std::str::FromStr;
 
-/// `--volume N` (N voxels along the longest side of the box, the others by aspect) or
-/// `--volume NX,NY,NZ`.
+/// A volume's resolution: `N` voxels along the longest side of the box (the others by aspect),
+/// or `NX,NY,NZ`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum VolumeRes {
     Longest(usize),
@@ -54,7 +54,7 @@ impl fmt::Display for VolumeRes {
     }
 }
 
-/// Parses `--box xmin,ymin,zmin,xmax,ymax,zmax` (finite numbers; checked for emptiness later).
+/// Parses a box `xmin,ymin,zmin,xmax,ymax,zmax` (finite numbers; checked for emptiness later).
 pub fn parse_box(s: &str) -> Result<[f64; 6], String> {
     crate::math::parse_floats(s, "xmin,ymin,zmin,xmax,ymax,zmax")
 }

@@ -1,0 +1,122 @@
+//! One pass over the cells: the grid cut into chunks of [`CHUNK`] cells run in parallel, each cell
+//! drawing its pass's samples from its own stream and folding them into its sums as whole batches.
+
+use crate::field::Field;
+use crate::ftpd::Sample;
+use crate::ftpd::moments::{GroupSums, Moments};
+use crate::rng::{QMC_GROUP, Sampler};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
+
+/// Cells per parallel work item: large enough to amortise scheduling, small enough to balance.
+pub const CHUNK: usize = 64;
+
+/// Per-cell sample counts of one pass.
+pub(super) enum PassSizes<'a> {
+    /// Every cell gets one batch of this many samples.
+    Uniform(u32),
+    /// Cell i gets `units[i]` batches of `unit` samples.
+    Units { unit: u32, units: &'a [u32] },
+}
+
+/// Counters shared by the workers of a pass.
+#[derive(Default)]
+pub(super) struct Counters {
+    pub(super) rays: AtomicU64,
+    pub(super) capped: AtomicU64,
+    pub(super) clamped: AtomicU64,
+    pub(super) samples: AtomicU64,
+}
+
+/// One pass to run: its index, the cells it covers, per-cell sizes, the cells that already
+/// completed it (resumed runs) and the stop flag checked between chunks. Per-cell vectors are
+/// indexed over the whole field.
+pub(super) struct PassJob<'a> {
+    pub(super) seed: u64,
+    pub(super) cells: std::ops::Range<usize>,
+    pub(super) pass: u32,
+    pub(super) sizes: PassSizes<'a>,
+    pub(super) done: Option<&'a [bool]>,
+    pub(super) stop: Option<&'a AtomicBool>,
+}
+
+/// Runs one pass over the cells not yet `done`; returns per chunk whether it ran (false: skipped
+/// after a stop request).
+pub(super) fn run_pass<K>(
+    pool: &rayon::ThreadPool,
+    field: &mut Field,
+    job: &PassJob,
+    counters: &Counters,
+    bar: &ProgressBar,
+    kernel: &K,
+) -> Vec<bool>
+where
+    K: Fn(usize, &mut Sampler) -> Sample + Sync,
+{
+    let PassJob {
+        seed,
+        ref cells,
+        pass,
+        ref sizes,
+        done,
+        stop,
+    } = *job;
+    let first = cells.start;
+    pool.install(|| {
+        field.cells[cells.clone()]
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(ci, chunk)| {
+                if stop.is_some_and(|s| s.load(Relaxed)) {
+                    return false;
+                }
+                let (mut r, mut cap, mut cl, mut n) = (0u64, 0u64, 0u64, 0u64);
+                for (k, cell) in chunk.iter_mut().enumerate() {
+                    let idx = first + ci * CHUNK + k;
+                    if done.is_some_and(|d| d[idx]) {
+                        continue;
+                    }
+                    let (batches, spp) = match sizes {
+                        PassSizes::Uniform(s) => (1, *s),
+                        PassSizes::Units { unit, units } => (units[idx], *unit),
+                    };
+                    if batches == 0 || spp == 0 {
+                        continue;
+                    }
+                    let mut s = Sampler::new(seed, pass as u64, idx as u64);
+                    // Groups of QMC_GROUP samples (the last of a batch may be shorter), numbered
+                    // over the pass: each is its own scrambled sequence and one independent unit
+                    // of the standard error.
+                    let mut group = 0;
+                    for _ in 0..batches {
+                        let mut b = Moments::default();
+                        let mut sums = GroupSums::default();
+                        for i in 0..spp {
+                            let k = i % QMC_GROUP;
+                            s.begin_sample(group, k);
+                            let smp = kernel(idx, &mut s);
+                            r += smp.rays as u64;
+                            cap += smp.capped as u64;
+                            cl += smp.clamped as u64;
+                            sums.add(b.add_to_sums(smp.c, smp.delta, smp.weight));
+                            if k + 1 == QMC_GROUP || i + 1 == spp {
+                                b.add_group(&sums);
+                                sums = GroupSums::default();
+                                group += 1;
+                            }
+                        }
+                        cell.add_batch(&b);
+                    }
+                    n += batches as u64 * spp as u64;
+                }
+                counters.rays.fetch_add(r, Relaxed);
+                counters.capped.fetch_add(cap, Relaxed);
+                counters.clamped.fetch_add(cl, Relaxed);
+                counters.samples.fetch_add(n, Relaxed);
+                bar.inc(n);
+                true
+            })
+            .collect()
+    })
+}
