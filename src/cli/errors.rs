@@ -35,6 +35,8 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
                 dir.display()
             ),
         }
+    } else if let Some(m) = super::analysis_errors::describe(e) {
+        m
     } else if let Some(f) = e.downcast_ref::<FlatlandError>() {
         match f {
             FlatlandError::NotExtruded { file, detail } => format!(

@@ -2,6 +2,7 @@
 //! that name the flags, the benchmark and `--explain`. Below [`crate::app`] (which prints its reports through [`report`]); imports nothing
 //! of it.
 
+pub mod analysis_errors;
 pub mod bench;
 pub mod errors;
 pub mod explain;

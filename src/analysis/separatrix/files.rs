@@ -2,10 +2,11 @@
 //! and the files written beside it.
 
 use super::{
-    Grid, SepParams, Separatrices, extract, surface, write_overlay_png, write_svg, write_vtp,
+    Grid, SepParams, Separatrices, SeparatrixError, extract, surface, write_overlay_png, write_svg,
+    write_vtp,
 };
 use crate::field::Field;
-use anyhow::{Context, bail};
+use anyhow::Context;
 use glam::DVec3;
 use std::path::Path;
 
@@ -170,10 +171,12 @@ pub fn rerun(
     let volume = match ext.as_str() {
         "exr" => false,
         "vti" => true,
-        _ => bail!(
-            "{}: not a field: separatrices reads .exr fields and .vti volumes",
-            input.display()
-        ),
+        _ => {
+            return Err(SeparatrixError::NotAField {
+                path: input.to_path_buf(),
+            }
+            .into());
+        }
     };
     let out = match output {
         Some(p) => p.to_path_buf(),
@@ -186,11 +189,12 @@ pub fn rerun(
         }
     };
     if crate::scene::load::extension(&out).as_deref() != Some(ext.as_str()) {
-        bail!(
-            "-o {}: the output must be a .{ext} like the input {}",
-            out.display(),
-            input.display()
-        );
+        return Err(SeparatrixError::OutputFormat {
+            output: out,
+            input: input.to_path_buf(),
+            ext,
+        }
+        .into());
     }
     output::check_writable(&out)?;
     let name = input.display().to_string();

@@ -68,7 +68,7 @@ pub use significance::{Z_CAP, normal_two_sided_tail, scheffe_z};
 pub use surface::{Mesh, surface};
 pub use vtp::{SceneLine, write_vtp};
 
-use anyhow::bail;
+use std::path::PathBuf;
 
 /// The user's settings (`None`: the default described in the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -92,23 +92,45 @@ impl Default for SepParams {
 }
 
 impl SepParams {
-    /// Refuses values that cannot be used, naming the flag.
-    pub fn check(&self) -> anyhow::Result<()> {
-        if let Some(s) = self.scale
-            && !(s.is_finite() && s >= MIN_SCALE)
+    /// Refuses values that cannot be used.
+    pub fn check(&self) -> Result<(), SeparatrixError> {
+        if let Some(scale) = self.scale
+            && !(scale.is_finite() && scale >= MIN_SCALE)
         {
-            bail!("--sep-scale {s}: the scale must be a number of cells ≥ {MIN_SCALE}");
+            return Err(SeparatrixError::Scale { scale });
         }
         if !(self.z.is_finite() && self.z >= 0.0) {
-            bail!("--sep-threshold {}: Z must be a finite number ≥ 0", self.z);
+            return Err(SeparatrixError::Significance { z: self.z });
         }
-        if let Some(t) = self.tau
-            && !(t.is_finite() && t >= 0.0)
+        if let Some(tau) = self.tau
+            && !(tau.is_finite() && tau >= 0.0)
         {
-            bail!("--sep-tau {t}: τ must be a finite number ≥ 0");
+            return Err(SeparatrixError::Strength { tau });
         }
         Ok(())
     }
+}
+
+/// What the extraction refuses, in its own terms (the command line names its flags:
+/// `crate::cli::analysis_errors`).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SeparatrixError {
+    #[error("filter scale {scale}: must be a number of cells ≥ {MIN_SCALE}")]
+    Scale { scale: f64 },
+    #[error("significance threshold Z = {z}: must be a finite number ≥ 0")]
+    Significance { z: f64 },
+    #[error("strength threshold τ = {tau}: must be a finite number ≥ 0")]
+    Strength { tau: f64 },
+    #[error("separatrices: an empty or inconsistent grid")]
+    EmptyGrid,
+    #[error("{}: not a field: separatrices reads .exr fields and .vti volumes", .path.display())]
+    NotAField { path: PathBuf },
+    #[error("output {}: must be a .{ext} like the input {}", .output.display(), .input.display())]
+    OutputFormat {
+        output: PathBuf,
+        input: PathBuf,
+        ext: String,
+    },
 }
 
 /// Which detector found a line.

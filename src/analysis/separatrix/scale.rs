@@ -9,8 +9,21 @@ const SCALES: &[f64] = &[1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0];
 /// Smallest scale accepted: below it the sampled Gaussian is no longer smooth.
 pub const MIN_SCALE: f64 = 0.7;
 
+/// The default strength threshold τ: a tenth of the median σ of the valid cells with σ > 0 (see
+/// the module docs).
+pub(super) fn default_tau(grid: &Grid) -> f64 {
+    let sigmas: Vec<f64> = grid
+        .sigma
+        .iter()
+        .zip(&grid.valid)
+        .filter(|(s, ok)| **ok && **s > 0.0)
+        .map(|(s, _)| *s)
+        .collect();
+    0.1 * median(sigmas)
+}
+
 /// Median of the finite values (0 if none).
-pub(super) fn median(mut v: Vec<f64>) -> f64 {
+fn median(mut v: Vec<f64>) -> f64 {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
         return 0.0;

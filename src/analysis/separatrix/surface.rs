@@ -1,6 +1,7 @@
 //! Surfaces (3D): marching tetrahedra around the marked voxels.
 
 use super::Separatrices;
+use std::collections::HashMap;
 
 /// A triangle mesh in grid coordinates (voxel centre (i, j, k) at (i, j, k)).
 #[derive(Clone, Debug, Default)]
@@ -9,11 +10,48 @@ pub struct Mesh {
     pub triangles: Vec<[usize; 3]>,
 }
 
+/// Cube corners 0..8 (bit 0: +x, bit 1: +y, bit 2: +z); six tetrahedra around the 0–7 diagonal.
+const TETS: [[usize; 4]; 6] = [
+    [0, 1, 3, 7],
+    [0, 3, 2, 7],
+    [0, 2, 6, 7],
+    [0, 6, 4, 7],
+    [0, 4, 5, 7],
+    [0, 5, 1, 7],
+];
+
 /// The surface where min(strength/τ, z/Z) = 1 (τ = 0 or Z = 0: that term left out), by marching
 /// tetrahedra over the voxel centres (six tetrahedra per cube): it encloses the marked voxels.
 pub fn surface(sep: &Separatrices) -> Mesh {
     let [nx, ny, nz] = sep.dims;
-    let f: Vec<f64> = (0..sep.strength.len())
+    let f = level(sep);
+    let mut mesh = Mesh::default();
+    if nx < 2 || ny < 2 || nz < 2 {
+        return mesh;
+    }
+    let idx = |i: usize, j: usize, k: usize| i + nx * (j + ny * k);
+    let mut edges = EdgePoints {
+        dims: sep.dims,
+        f: &f,
+        at: HashMap::new(),
+    };
+    for k in 0..nz - 1 {
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let corner = |c: usize| idx(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
+                for tet in TETS {
+                    edges.march(tet.map(corner), &mut mesh);
+                }
+            }
+        }
+    }
+    mesh
+}
+
+/// Per voxel, min(strength/τ, z/Z): ≥ 1 inside the marked region (2 where both thresholds are 0
+/// and the strength is not, 0 where the voxel is not defined).
+fn level(sep: &Separatrices) -> Vec<f64> {
+    (0..sep.strength.len())
         .map(|i| {
             if !sep.defined[i] {
                 return 0.0;
@@ -37,16 +75,57 @@ pub fn surface(sep: &Separatrices) -> Mesh {
                 0.0
             }
         })
-        .collect();
-    let mut mesh = Mesh::default();
-    if nx < 2 || ny < 2 || nz < 2 {
-        return mesh;
+        .collect()
+}
+
+/// The mesh points on the grid's edges where the level crosses 1, one per edge, shared by the
+/// triangles that meet there.
+struct EdgePoints<'a> {
+    dims: [usize; 3],
+    f: &'a [f64],
+    at: HashMap<(usize, usize), usize>,
+}
+
+impl EdgePoints<'_> {
+    /// The triangles of one tetrahedron with corners `v` (voxel indices).
+    fn march(&mut self, v: [usize; 4], mesh: &mut Mesh) {
+        let f = self.f;
+        let inside: Vec<usize> = (0..4).filter(|&t| f[v[t]] >= 1.0).collect();
+        let outside: Vec<usize> = (0..4).filter(|&t| f[v[t]] < 1.0).collect();
+        match inside.len() {
+            1 | 3 => {
+                let (lone, others) = if inside.len() == 1 {
+                    (inside[0], outside)
+                } else {
+                    (outside[0], inside)
+                };
+                let p: Vec<usize> = others
+                    .iter()
+                    .map(|&o| self.point_on(v[lone], v[o], mesh))
+                    .collect();
+                mesh.triangles.push([p[0], p[1], p[2]]);
+            }
+            2 => {
+                let (a, b) = (inside[0], inside[1]);
+                let (c, d) = (outside[0], outside[1]);
+                let p1 = self.point_on(v[a], v[c], mesh);
+                let p2 = self.point_on(v[a], v[d], mesh);
+                let p3 = self.point_on(v[b], v[d], mesh);
+                let p4 = self.point_on(v[b], v[c], mesh);
+                mesh.triangles.push([p1, p2, p3]);
+                mesh.triangles.push([p1, p3, p4]);
+            }
+            _ => {}
+        }
     }
-    let idx = |i: usize, j: usize, k: usize| i + nx * (j + ny * k);
-    let mut edge_point = std::collections::HashMap::new();
-    let mut point_on = |a: usize, b: usize, mesh: &mut Mesh| -> usize {
+
+    /// The point where the level crosses 1 on the edge between voxels `a` and `b` (linear
+    /// interpolation), added to `mesh` the first time the edge is met.
+    fn point_on(&mut self, a: usize, b: usize, mesh: &mut Mesh) -> usize {
+        let [nx, ny, _] = self.dims;
+        let f = self.f;
         let key = (a.min(b), a.max(b));
-        *edge_point.entry(key).or_insert_with(|| {
+        *self.at.entry(key).or_insert_with(|| {
             let pos = |c: usize| {
                 [
                     (c % nx) as f64,
@@ -68,52 +147,5 @@ pub fn surface(sep: &Separatrices) -> Mesh {
             ]);
             mesh.points.len() - 1
         })
-    };
-    // Cube corners 0..8 (bit 0: +x, bit 1: +y, bit 2: +z); six tetrahedra around the 0–7 diagonal.
-    const TETS: [[usize; 4]; 6] = [
-        [0, 1, 3, 7],
-        [0, 3, 2, 7],
-        [0, 2, 6, 7],
-        [0, 6, 4, 7],
-        [0, 4, 5, 7],
-        [0, 5, 1, 7],
-    ];
-    for k in 0..nz - 1 {
-        for j in 0..ny - 1 {
-            for i in 0..nx - 1 {
-                let corner = |c: usize| idx(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
-                for tet in TETS {
-                    let v = tet.map(corner);
-                    let inside: Vec<usize> = (0..4).filter(|&t| f[v[t]] >= 1.0).collect();
-                    let outside: Vec<usize> = (0..4).filter(|&t| f[v[t]] < 1.0).collect();
-                    match inside.len() {
-                        1 | 3 => {
-                            let (lone, others) = if inside.len() == 1 {
-                                (inside[0], outside)
-                            } else {
-                                (outside[0], inside)
-                            };
-                            let p: Vec<usize> = others
-                                .iter()
-                                .map(|&o| point_on(v[lone], v[o], &mut mesh))
-                                .collect();
-                            mesh.triangles.push([p[0], p[1], p[2]]);
-                        }
-                        2 => {
-                            let (a, b) = (inside[0], inside[1]);
-                            let (c, d) = (outside[0], outside[1]);
-                            let p1 = point_on(v[a], v[c], &mut mesh);
-                            let p2 = point_on(v[a], v[d], &mut mesh);
-                            let p3 = point_on(v[b], v[d], &mut mesh);
-                            let p4 = point_on(v[b], v[c], &mut mesh);
-                            mesh.triangles.push([p1, p2, p3]);
-                            mesh.triangles.push([p1, p3, p4]);
-                        }
-                        _ => {}
-                    }
-                }
-            }
-        }
     }
-    mesh
 }
