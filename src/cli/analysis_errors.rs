@@ -4,12 +4,16 @@
 //! [`crate::cli::errors::describe`] dispatches here.
 
 use crate::analysis::separatrix::{MIN_SCALE, SeparatrixError};
+use crate::merge::MergeError;
 use std::error::Error;
 
 /// One error of a chain in command-line words, if it is one of the analysis rooms'.
 pub fn describe(e: &(dyn Error + 'static)) -> Option<String> {
     if let Some(s) = e.downcast_ref::<SeparatrixError>() {
         return Some(separatrix(s));
+    }
+    if let Some(m) = e.downcast_ref::<MergeError>() {
+        return Some(merge(m));
     }
     None
 }
@@ -30,6 +34,48 @@ pub fn separatrix(e: &SeparatrixError) -> String {
         ),
         // No flag sets these: the library's words are the message.
         S::EmptyGrid | S::NotAField { .. } => e.to_string(),
+    }
+}
+
+/// A merge refusal, naming the flag that would fix it (`--seed` of the part to run again, `-o`).
+pub fn merge(e: &MergeError) -> String {
+    use MergeError as M;
+    let twice = "the same seed repeats the same random streams, so merging would count the same \
+                 samples twice (run the extra part with another --seed)";
+    match e {
+        M::SeedRepeated { file, seed, other } => {
+            format!("{file}: seed {seed} is also the seed of {other}: {twice}")
+        }
+        M::SeedOverlap {
+            file,
+            seed,
+            rows,
+            other,
+            other_rows,
+        } => format!(
+            "{file}: seed {seed} over rows {}-{} overlaps rows {}-{} of {other} with the same \
+             seed: {twice}",
+            rows.start, rows.end, other_rows.start, other_rows.end
+        ),
+        M::OutputFormat { output, ext } => format!(
+            "-o {}: the inputs are {ext} files, so the merged file is one too: name it .{ext}",
+            output.display()
+        ),
+        // No flag sets these: the library's words are the message.
+        M::NoFields
+        | M::NoFiles
+        | M::UnknownFormat { .. }
+        | M::MixedFormats { .. }
+        | M::NoSuchFile { .. }
+        | M::Info(_)
+        | M::Resolution { .. }
+        | M::Differs { .. }
+        | M::GridDiffers { .. }
+        | M::CellCount { .. }
+        | M::NoSeed { .. }
+        | M::DamagedTiles { .. }
+        | M::PartOutsideRows { .. }
+        | M::SamplesOutsideParts { .. } => e.to_string(),
     }
 }
 
@@ -59,6 +105,33 @@ mod tests {
                 ..p
             }),
             "--sep-tau NaN: τ must be a finite number ≥ 0"
+        );
+    }
+
+    #[test]
+    fn merge_refusals_name_the_flag_that_fixes_them() {
+        let e = MergeError::SeedOverlap {
+            file: "t1.exr".into(),
+            seed: 1,
+            rows: 6..12,
+            other: "a.exr".into(),
+            other_rows: 0..12,
+        };
+        let lib = e.to_string();
+        let cli = merge(&e);
+        assert!(
+            !lib.contains("--seed") && lib.ends_with("another seed)"),
+            "{lib}"
+        );
+        assert_eq!(cli, lib.replace("another seed", "another --seed"));
+        let e = MergeError::SeedRepeated {
+            file: "b.exr".into(),
+            seed: 1,
+            other: "a.exr".into(),
+        };
+        assert_eq!(
+            merge(&e),
+            e.to_string().replace("another seed", "another --seed")
         );
     }
 }
