@@ -1,19 +1,18 @@
 //! The command line: parses arguments (clap) into a validated job, runs it, reports errors.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
-use ftpd3d::analysis::converge::{self, ConvergeJob};
+use clap::{Args, Parser, Subcommand};
 use ftpd3d::analysis::separatrix::SepParams;
 use ftpd3d::app::{self, CameraArg, DomainArg, Job};
-use ftpd3d::cli::parse::{
-    parse_duration, parse_env, parse_point_light, parse_size, parse_sky, parse_sun, parse_vec3,
-    parse_volume, parse_window,
-};
-use ftpd3d::cli::{bench, explain, report};
+use ftpd3d::cli::converge::ConvergeArgs;
+use ftpd3d::cli::flags::{EstimatorFlags, SepFlags, WeightArg};
+use ftpd3d::cli::merge::MergeArgs;
+use ftpd3d::cli::parse::{parse_duration, parse_size, parse_vec3, parse_volume, parse_window};
+use ftpd3d::cli::separatrices::SeparatricesArgs;
+use ftpd3d::cli::{self, bench, explain, report};
 use ftpd3d::domain::slice::SliceArg;
 use ftpd3d::domain::{Tile, VolumeRes};
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::{Adaptive, Budget, RenderOptions, StopReason};
-use ftpd3d::run::EstimatorArgs;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -68,62 +67,6 @@ enum Command {
     Efficiency(EfficiencyArgs),
 }
 
-/// The separatrix extraction's settings, shared by runs (`--separatrices`) and `separatrices`.
-#[derive(Args, Debug, Clone)]
-struct SepFlags {
-    /// Scale of the derivative-of-Gaussian filters, in cells (≥ 0.7) [default: the smallest at
-    /// which a step of height τ is significant at Z in the median cell].
-    #[arg(long, value_name = "CELLS", allow_negative_numbers = true)]
-    sep_scale: Option<f64>,
-    /// Significance Z: mark cells whose largest |∇²_ω σ| is Z standard errors from 0 (a test over
-    /// all directions at once).
-    #[arg(
-        long,
-        value_name = "Z",
-        default_value_t = 3.0,
-        allow_negative_numbers = true
-    )]
-    sep_threshold: f64,
-    /// Strength threshold τ in units of σ (the scale-normalised |∇²_ω σ|; for lines, the height of
-    /// a step of σ) [default: 0.1 × the median σ of the cells with σ > 0].
-    #[arg(long, value_name = "TAU", allow_negative_numbers = true)]
-    sep_tau: Option<f64>,
-}
-
-impl SepFlags {
-    fn params(&self) -> anyhow::Result<SepParams> {
-        let p = SepParams {
-            scale: self.sep_scale,
-            z: self.sep_threshold,
-            tau: self.sep_tau,
-        };
-        p.check()?;
-        Ok(p)
-    }
-
-    fn given(&self) -> bool {
-        self.sep_scale.is_some() || self.sep_tau.is_some() || self.sep_threshold != 3.0
-    }
-}
-
-#[derive(Args, Debug, Clone)]
-struct SeparatricesArgs {
-    /// A field (.exr) or volume (.vti) written by ftpd3d or by merge.
-    #[arg(value_name = "FIELD.exr|FIELD.vti")]
-    input: PathBuf,
-    /// Output, .exr or .vti as the input [default: <input name>_sep.<ext> beside it].
-    #[arg(short, long, value_name = "FILE")]
-    output: Option<PathBuf>,
-    #[command(flatten)]
-    sep: SepFlags,
-    /// Skip the PNG previews of the field (the separatrix overlay is still written).
-    #[arg(long)]
-    no_png: bool,
-    /// No summary (errors and warnings still go to stderr).
-    #[arg(short, long)]
-    quiet: bool,
-}
-
 #[derive(Args, Debug, Clone)]
 struct EfficiencyArgs {
     /// The baseline binary (an older build of this tool).
@@ -165,150 +108,6 @@ struct EfficiencyArgs {
     /// No per-run lines.
     #[arg(short, long)]
     quiet: bool,
-}
-
-#[derive(Args, Debug, Clone)]
-struct MergeArgs {
-    /// EXR fields or VTI volumes written by ftpd3d (or by an earlier merge), all of one kind,
-    /// added in the order given.
-    #[arg(required = true, value_name = "FILE.exr|FILE.vti")]
-    inputs: Vec<PathBuf>,
-    /// Output, .exr or .vti as the inputs (PNG previews are written next to it).
-    #[arg(short, long, value_name = "FILE")]
-    output: PathBuf,
-    /// Skip the PNG previews.
-    #[arg(long)]
-    no_png: bool,
-    /// No summary (errors and warnings still go to stderr).
-    #[arg(short, long)]
-    quiet: bool,
-}
-
-#[derive(Args, Debug, Clone)]
-struct ConvergeArgs {
-    /// Scene file: .obj (with its .mtl), .gltf or .glb, or a sidecar .toml naming one.
-    #[arg(long, value_name = "FILE", required = true)]
-    scene: PathBuf,
-    /// Axis-aligned slice plane, e.g. z=0, or a slice named in the scene file.
-    #[arg(long, value_name = "AXIS=VALUE|NAME", required = true)]
-    slice: String,
-    /// Directory for converge.csv, converge_fit.csv, converge.png and the top runs' EXRs.
-    #[arg(long, value_name = "DIR", required = true)]
-    out_dir: PathBuf,
-    /// Reference field (EXR of the same slice and parameters, many samples); without it, each
-    /// weighting's highest-spp run is the reference.
-    #[arg(long, value_name = "REF.exr")]
-    reference: Option<PathBuf>,
-    /// Part of the plane to cover, u0,v0,u1,v1.
-    #[arg(long, value_name = "U0,V0,U1,V1", allow_hyphen_values = true, value_parser = parse_window)]
-    window: Option<[f64; 4]>,
-    /// Cells along the longer side [default: the reference's, else 64].
-    #[arg(long)]
-    res: Option<usize>,
-    /// Samples per cell of the first run; each further run doubles them.
-    #[arg(long, default_value_t = 4)]
-    start_spp: u32,
-    /// Largest samples per cell.
-    #[arg(long, default_value_t = 256)]
-    max_spp: u32,
-    /// Weighting of a single curve [default: the reference's; else radiance and unweighted when
-    /// the scene has lights, unweighted otherwise].
-    #[arg(long = "weight", value_enum)]
-    weight: Option<WeightArg>,
-    /// Passes each run is split into (at most the run's spp).
-    #[arg(long, default_value_t = RenderOptions::default().batches)]
-    batches: u32,
-    #[command(flatten)]
-    estimator: EstimatorFlags,
-    /// Seed of the first run; run k uses seed + k (every run independent).
-    #[arg(long, default_value_t = RenderOptions::default().seed)]
-    seed: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long, default_value_t = RenderOptions::default().threads)]
-    threads: usize,
-    /// An older build of ftpd3d: run it and this binary, each as its own processes, at the same
-    /// levels and draw both curves on one plot [reference: --reference, else the baseline's
-    /// highest-spp run].
-    #[arg(long, value_name = "BIN")]
-    baseline: Option<PathBuf>,
-    /// No per-run lines or summary.
-    #[arg(short, long)]
-    quiet: bool,
-}
-
-/// The estimator's flags, shared by runs and `converge`.
-#[derive(Args, Debug, Clone)]
-struct EstimatorFlags {
-    /// Add an isotropic point light at x,y,z with radiant intensity r,g,b (per steradian); repeatable.
-    #[arg(long, value_name = "X,Y,Z:R,G,B", allow_hyphen_values = true, value_parser = parse_point_light)]
-    point_light: Vec<(glam::DVec3, glam::DVec3)>,
-    /// Add the sun: the direction x,y,z towards it, the irradiance r,g,b it gives a surface facing
-    /// it, and its angular diameter in degrees [default: 0.53; 0: a Dirac delta]; repeatable.
-    #[arg(long, value_name = "X,Y,Z:R,G,B[:DIAM]", allow_hyphen_values = true, value_parser = parse_sun)]
-    sun: Vec<ftpd3d::scene::Light>,
-    /// Add a uniform sky: radiance r,g,b from every direction that leaves the scene.
-    #[arg(long, value_name = "R,G,B", value_parser = parse_sky)]
-    sky: Option<ftpd3d::scene::Light>,
-    /// Add an environment map: a lat-long .exr or .hdr (+y up), its radiance × SCALE [default: 1],
-    /// turned about +y by ROT_DEG degrees [default: 0].
-    #[arg(long, value_name = "FILE[:SCALE[:ROT_DEG]]", allow_hyphen_values = true, value_parser = parse_env)]
-    env: Option<ftpd3d::scene::Light>,
-    /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t0: Option<f64>,
-    /// Longest run length T, scene units [default: 0.5 × scene diagonal].
-    #[arg(long, allow_negative_numbers = true)]
-    t1: Option<f64>,
-    /// Half-angle of the cone the second direction is drawn from, degrees (0 < angle < 90).
-    #[arg(long, default_value_t = EstimatorArgs::default().angle_deg, allow_negative_numbers = true)]
-    angle: f64,
-    /// Cap on scattering events per walk, and per radiance path unless --radiance-bounces is given.
-    #[arg(long, default_value_t = EstimatorArgs::default().max_bounces, allow_negative_numbers = true)]
-    max_bounces: u32,
-    /// Cap on scattering events per radiance path alone (radiance weighting, fluence, a camera's
-    /// beauty image): paths of at most N + 1 segments from the point to the light; the walks keep
-    /// --max-bounces [default: --max-bounces].
-    #[arg(long, value_name = "N", allow_negative_numbers = true)]
-    radiance_bounces: Option<u32>,
-}
-
-impl EstimatorFlags {
-    /// The lights given on the command line, in the order point lights, suns, sky.
-    fn lights(&self) -> Vec<ftpd3d::scene::Light> {
-        let points =
-            self.point_light
-                .iter()
-                .map(|&(position, intensity)| ftpd3d::scene::Light::Point {
-                    position,
-                    intensity,
-                });
-        points
-            .chain(self.sun.iter().cloned())
-            .chain(self.sky.clone())
-            .chain(self.env.clone())
-            .collect()
-    }
-
-    fn args(&self, weighting: Weighting) -> EstimatorArgs {
-        EstimatorArgs {
-            weighting,
-            t0: self.t0,
-            t1: self.t1,
-            angle_deg: self.angle,
-            max_bounces: self.max_bounces,
-            radiance_bounces: self.radiance_bounces,
-        }
-    }
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum WeightArg {
-    /// Weight each direction by the radiance passing the point along it (needs lights).
-    Radiance,
-    /// Every direction alike.
-    Unweighted,
-    /// Pairs start at a camera along pixel rays (camera images; the default there).
-    Importance,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -448,16 +247,6 @@ struct SliceRange(Vec<ftpd3d::domain::slice::SliceSpec>);
 
 fn parse_slices(s: &str) -> Result<SliceRange, String> {
     ftpd3d::domain::slice::parse_slice_range(s).map(SliceRange)
-}
-
-impl From<WeightArg> for Weighting {
-    fn from(w: WeightArg) -> Weighting {
-        match w {
-            WeightArg::Radiance => Weighting::Radiance,
-            WeightArg::Unweighted => Weighting::Unweighted,
-            WeightArg::Importance => Weighting::Importance,
-        }
-    }
 }
 
 impl RunArgs {
@@ -713,108 +502,6 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn merge(args: &MergeArgs) -> anyhow::Result<()> {
-    let merged = ftpd3d::merge::merge_files(&args.inputs, &args.output, !args.no_png)?;
-    for w in &merged.warnings {
-        eprintln!("warning: {w}");
-    }
-    if !args.quiet {
-        eprintln!(
-            "{}",
-            report::merge_summary(args.inputs.len(), &merged.field)
-        );
-        eprintln!("wrote {}", args.output.display());
-    }
-    Ok(())
-}
-
-fn converge(args: &ConvergeArgs) -> anyhow::Result<()> {
-    let weighting = args.weight.map(Weighting::from);
-    let job = ConvergeJob {
-        scene: args.scene.clone(),
-        lights: args.estimator.lights(),
-        slice: args.slice.clone(),
-        window: args.window,
-        res: args.res,
-        reference: args.reference.clone(),
-        out_dir: args.out_dir.clone(),
-        weighting,
-        estimator: args
-            .estimator
-            .args(weighting.unwrap_or(Weighting::Unweighted)),
-        start_spp: args.start_spp,
-        max_spp: args.max_spp,
-        batches: args.batches,
-        seed: args.seed,
-        threads: args.threads,
-        quiet: args.quiet,
-        baseline: args.baseline.clone(),
-        forward_args: estimator_flags_as_given(),
-    };
-    if let Some(b) = &args.baseline
-        && !b.is_file()
-    {
-        anyhow::bail!("--baseline {}: no such file", b.display());
-    }
-    let conv = converge::run_converge(&job)?;
-    if !args.quiet {
-        for c in &conv.curves {
-            println!("{}", report::converge_line(c));
-        }
-        println!(
-            "wrote {}/converge.csv, converge_fit.csv, converge.png",
-            args.out_dir.display()
-        );
-    }
-    Ok(())
-}
-
-/// The estimator and light flags of this process's command line ([`EstimatorFlags`]) with their
-/// values, as given: what `converge --baseline` passes on to both binaries.
-fn estimator_flags_as_given() -> Vec<String> {
-    const FLAGS: [&str; 9] = [
-        "--point-light",
-        "--sun",
-        "--sky",
-        "--env",
-        "--t0",
-        "--t1",
-        "--angle",
-        "--max-bounces",
-        "--radiance-bounces",
-    ];
-    let mut out = Vec::new();
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        let name = a.split('=').next().unwrap_or_default();
-        if !FLAGS.contains(&name) {
-            continue;
-        }
-        if a.contains('=') {
-            out.push(a);
-        } else if let Some(v) = args.next() {
-            out.push(format!("{a}={v}"));
-        }
-    }
-    out
-}
-
-fn separatrices(args: &SeparatricesArgs) -> anyhow::Result<()> {
-    let params = args.sep.params()?;
-    let out = ftpd3d::analysis::separatrix::rerun(
-        &args.input,
-        args.output.as_deref(),
-        &params,
-        !args.no_png,
-    )?;
-    if !args.quiet {
-        eprintln!("{}", out.summary);
-        let files: Vec<String> = out.files.iter().map(|p| p.display().to_string()).collect();
-        eprintln!("wrote {}", files.join(", "));
-    }
-    Ok(())
-}
-
 fn efficiency(args: &EfficiencyArgs) -> anyhow::Result<()> {
     use ftpd3d::analysis::efficiency::{EfficiencyJob, run_efficiency, table};
     let candidate = match &args.candidate {
@@ -904,9 +591,9 @@ fn main() -> ExitCode {
     ftpd3d::scene::load::set_strict(strict);
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args).map(|()| None),
-        Some(Command::Merge(args)) => merge(args).map(|()| None),
-        Some(Command::Converge(args)) => converge(args).map(|()| None),
-        Some(Command::Separatrices(args)) => separatrices(args).map(|()| None),
+        Some(Command::Merge(args)) => cli::merge::run(args).map(|()| None),
+        Some(Command::Converge(args)) => cli::converge::run(args).map(|()| None),
+        Some(Command::Separatrices(args)) => cli::separatrices::run(args).map(|()| None),
         Some(Command::Efficiency(args)) => efficiency(args).map(|()| None),
         None if cli.run.explain => explain(&cli.run).map(|()| None),
         None => cli.run.job().and_then(|job| {

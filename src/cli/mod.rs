@@ -4,7 +4,11 @@
 
 pub mod analysis_errors;
 pub mod bench;
+pub mod converge;
 pub mod errors;
 pub mod explain;
+pub mod flags;
+pub mod merge;
 pub mod parse;
 pub mod report;
+pub mod separatrices;
