@@ -3,6 +3,7 @@
 //! terms; here they name the flags that set the values (`--sep-scale`, `--max-spp`, `-o`, …).
 //! [`crate::cli::errors::describe`] dispatches here.
 
+use crate::analysis::converge::ConvergeError;
 use crate::analysis::separatrix::{MIN_SCALE, SeparatrixError};
 use crate::merge::MergeError;
 use std::error::Error;
@@ -14,6 +15,9 @@ pub fn describe(e: &(dyn Error + 'static)) -> Option<String> {
     }
     if let Some(m) = e.downcast_ref::<MergeError>() {
         return Some(merge(m));
+    }
+    if let Some(c) = e.downcast_ref::<ConvergeError>() {
+        return Some(converge(c));
     }
     None
 }
@@ -34,6 +38,35 @@ pub fn separatrix(e: &SeparatrixError) -> String {
         ),
         // No flag sets these: the library's words are the message.
         S::EmptyGrid | S::NotAField { .. } => e.to_string(),
+    }
+}
+
+/// A convergence report's setting, named by its flag. The cause of a directory that cannot be
+/// created or a reference that cannot be read follows as the next link of the chain.
+pub fn converge(e: &ConvergeError) -> String {
+    use ConvergeError as C;
+    match e {
+        C::NoSamples => "--start-spp 0: at least one sample per cell is needed".into(),
+        C::LevelsReversed { start, max } => {
+            format!("--max-spp {max} is smaller than --start-spp {start}")
+        }
+        C::TooFewLevels { max, needed } => format!(
+            "--max-spp {max}: a self-referenced report needs at least 3 levels (start, 2x, 4x); \
+             raise --max-spp to {needed} or give --reference"
+        ),
+        C::Resolution { res, max } => format!("--res {res}: must be between 1 and {max}"),
+        C::CreateDir { dir, .. } => format!("--out-dir {}: cannot create it", dir.display()),
+        C::NoReference { path } => format!("--reference {}: no such file", path.display()),
+        C::ReadReference { .. } => "--reference".into(),
+        C::ReferenceWeighting { weighting } => format!(
+            "--reference: weighting {} cannot be compared on a slice",
+            weighting.map_or("(none)".into(), |w| w.to_string())
+        ),
+        C::ImportanceOnSlice => {
+            "--weight importance needs a camera; converge runs on a slice".into()
+        }
+        // No flag sets this alone: the library's words are the message.
+        C::NoLevels => e.to_string(),
     }
 }
 
@@ -83,6 +116,7 @@ pub fn merge(e: &MergeError) -> String {
 mod tests {
     use super::*;
     use crate::analysis::separatrix::SepParams;
+    use crate::cli::errors::message;
 
     #[test]
     fn separatrix_settings_are_named_by_their_flags() {
@@ -106,6 +140,26 @@ mod tests {
             }),
             "--sep-tau NaN: τ must be a finite number ≥ 0"
         );
+    }
+
+    #[test]
+    fn converge_settings_are_named_by_their_flags() {
+        use crate::analysis::converge::spp_levels;
+        let msg = |e: ConvergeError| message(&anyhow::Error::from(e).context("converge"));
+        assert_eq!(
+            msg(spp_levels(0, 8).unwrap_err()),
+            "converge: --start-spp 0: at least one sample per cell is needed"
+        );
+        assert_eq!(
+            msg(spp_levels(8, 4).unwrap_err()),
+            "converge: --max-spp 4 is smaller than --start-spp 8"
+        );
+        // The cause of an unreadable reference follows the flag, as a context did before.
+        let e = ConvergeError::ReadReference {
+            path: "ref.exr".into(),
+            source: anyhow::anyhow!("ref.exr: not an EXR file"),
+        };
+        assert_eq!(msg(e), "converge: --reference: ref.exr: not an EXR file");
     }
 
     #[test]

@@ -34,11 +34,12 @@
 //! for one normal variable, whatever the direction. The jump's z is the same test for the four
 //! third derivatives (k = 4), since n too is chosen from the data.
 //!
-//! A cell is marked (`separatrix` = 1) where strength ≥ τ and z ≥ Z. τ (`--sep-tau`) is in units of
-//! σ; its default is a tenth of the median σ of the valid cells with σ > 0, so that smooth but significant
-//! curvature (which a field with many samples shows everywhere) is not called a separatrix. The
-//! default scale is the smallest of 1, 1.25, 1.5, 2, 2.5, 3, 4, 5, 6 cells at which a step of height
-//! τ would be significant at Z in the median cell (the noise of a derivative falls with the scale).
+//! A cell is marked (`separatrix` = 1) where strength ≥ τ and z ≥ Z. τ (the strength threshold) is
+//! in units of σ; its default is a tenth of the median σ of the valid cells with σ > 0, so that
+//! smooth but significant curvature (which a field with many samples shows everywhere) is not
+//! called a separatrix. The default scale is the smallest of 1, 1.25, 1.5, 2, 2.5, 3, 4, 5, 6
+//! cells at which a step of height τ would be significant at Z in the median cell (the noise of a
+//! derivative falls with the scale).
 //!
 //! How the marked cells become lines (2D) is told in [`lines`]; a volume's marked region is
 //! enclosed by a surface ([`surface()`]).
