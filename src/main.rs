@@ -11,7 +11,6 @@ use ftpd3d::cli::separatrices::SeparatricesArgs;
 use ftpd3d::cli::{self, bench, explain, report};
 use ftpd3d::domain::slice::SliceArg;
 use ftpd3d::domain::{Tile, VolumeRes};
-use ftpd3d::ftpd::Weighting;
 use ftpd3d::render::{Adaptive, Budget, RenderOptions, StopReason};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -61,53 +60,6 @@ enum Command {
     ///
     /// Example: ftpd3d separatrices out/cornell_mirror_z0.exr --sep-scale 2 -o out/sep.exr
     Separatrices(SeparatricesArgs),
-    /// Time to the same error as a baseline build, per scene and weighting (a Markdown table).
-    ///
-    /// Example: ftpd3d efficiency --baseline /path/to/old/ftpd3d --scene scenes/cornell_mirror.obj
-    Efficiency(EfficiencyArgs),
-}
-
-#[derive(Args, Debug, Clone)]
-struct EfficiencyArgs {
-    /// The baseline binary (an older build of this tool).
-    #[arg(long, value_name = "BIN", required = true)]
-    baseline: PathBuf,
-    /// The candidate binary [default: this one].
-    #[arg(long, value_name = "BIN")]
-    candidate: Option<PathBuf>,
-    /// Scene files; repeatable.
-    #[arg(long, value_name = "FILE", required = true)]
-    scene: Vec<PathBuf>,
-    /// Axis-aligned slice plane of every scene.
-    #[arg(long, value_name = "AXIS=VALUE", default_value = "z=0")]
-    slice: String,
-    /// Cells along the longer side.
-    #[arg(long, default_value_t = 64)]
-    res: usize,
-    /// Weightings to compare; repeatable [default: radiance and unweighted].
-    #[arg(long = "weight", value_enum)]
-    weight: Vec<WeightArg>,
-    /// Samples per cell of the first level; each further level doubles them.
-    #[arg(long, default_value_t = 4)]
-    start_spp: u32,
-    /// Largest samples per cell.
-    #[arg(long, default_value_t = 64)]
-    max_spp: u32,
-    /// The reference (baseline, another seed) has this many times --max-spp.
-    #[arg(long, default_value_t = 32)]
-    ref_factor: u32,
-    /// Worker threads of every run [default: all cores].
-    #[arg(long, default_value_t = 0)]
-    threads: usize,
-    /// Directory for every run's EXR and efficiency.csv.
-    #[arg(long, value_name = "DIR", default_value = "out/efficiency")]
-    work_dir: PathBuf,
-    /// Reuse references already in the work directory.
-    #[arg(long)]
-    keep_references: bool,
-    /// No per-run lines.
-    #[arg(short, long)]
-    quiet: bool,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -502,43 +454,6 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn efficiency(args: &EfficiencyArgs) -> anyhow::Result<()> {
-    use ftpd3d::analysis::efficiency::{EfficiencyJob, run_efficiency, table};
-    let candidate = match &args.candidate {
-        Some(c) => c.clone(),
-        None => std::env::current_exe()?,
-    };
-    let mut weightings: Vec<Weighting> = args.weight.iter().map(|w| Weighting::from(*w)).collect();
-    if weightings.is_empty() {
-        weightings = vec![Weighting::Radiance, Weighting::Unweighted];
-    }
-    if weightings.contains(&Weighting::Importance) {
-        anyhow::bail!("--weight importance needs a camera; efficiency runs on slices");
-    }
-    let job = EfficiencyJob {
-        baseline: args.baseline.clone(),
-        candidate,
-        scenes: args.scene.clone(),
-        slice: args.slice.clone(),
-        res: args.res,
-        weightings,
-        start_spp: args.start_spp,
-        max_spp: args.max_spp,
-        ref_factor: args.ref_factor,
-        threads: args.threads,
-        work_dir: args.work_dir.clone(),
-        keep_references: args.keep_references,
-    };
-    let quiet = args.quiet;
-    let rows = run_efficiency(&job, |s| {
-        if !quiet {
-            eprintln!("{s}");
-        }
-    })?;
-    print!("{}", table(&rows));
-    Ok(())
-}
-
 /// This process's command line without `--resume FILE`, quoted for a shell.
 fn command_without_resume() -> String {
     let mut out = Vec::new();
@@ -594,7 +509,6 @@ fn main() -> ExitCode {
         Some(Command::Merge(args)) => cli::merge::run(args).map(|()| None),
         Some(Command::Converge(args)) => cli::converge::run(args).map(|()| None),
         Some(Command::Separatrices(args)) => cli::separatrices::run(args).map(|()| None),
-        Some(Command::Efficiency(args)) => efficiency(args).map(|()| None),
         None if cli.run.explain => explain(&cli.run).map(|()| None),
         None => cli.run.job().and_then(|job| {
             install_signal_handler();

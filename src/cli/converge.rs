@@ -52,46 +52,46 @@ pub struct ConvergeArgs {
     /// Worker threads [default: all cores].
     #[arg(long, default_value_t = RenderOptions::default().threads)]
     pub threads: usize,
-    /// An older build of ftpd3d: run it and this binary, each as its own processes, at the same
-    /// levels and draw both curves on one plot [reference: --reference, else the baseline's
-    /// highest-spp run].
-    #[arg(long, value_name = "BIN")]
-    pub baseline: Option<PathBuf>,
     /// No per-run lines or summary.
     #[arg(short, long)]
     pub quiet: bool,
 }
 
-/// Runs the report, then (unless quiet) prints each curve's fit and the files written.
-pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
-    let weighting = args.weight.map(Weighting::from);
-    let job = ConvergeJob {
-        scene: args.scene.clone(),
-        lights: args.estimator.lights(),
-        slice: args.slice.clone(),
-        window: args.window,
-        res: args.res,
-        reference: args.reference.clone(),
-        out_dir: args.out_dir.clone(),
-        weighting,
-        estimator: args
-            .estimator
-            .args(weighting.unwrap_or(Weighting::Unweighted)),
-        start_spp: args.start_spp,
-        max_spp: args.max_spp,
-        batches: args.batches,
-        seed: args.seed,
-        threads: args.threads,
-        quiet: args.quiet,
-        baseline: args.baseline.clone(),
-        forward_args: estimator_flags_as_given(),
-    };
-    if let Some(b) = &args.baseline
-        && !b.is_file()
-    {
-        anyhow::bail!("--baseline {}: no such file", b.display());
+impl ConvergeArgs {
+    /// The library's job for these arguments.
+    pub fn job(&self) -> ConvergeJob {
+        let weighting = self.weight.map(Weighting::from);
+        ConvergeJob {
+            scene: self.scene.clone(),
+            lights: self.estimator.lights(),
+            slice: self.slice.clone(),
+            window: self.window,
+            res: self.res,
+            reference: self.reference.clone(),
+            out_dir: self.out_dir.clone(),
+            weighting,
+            estimator: self
+                .estimator
+                .args(weighting.unwrap_or(Weighting::Unweighted)),
+            start_spp: self.start_spp,
+            max_spp: self.max_spp,
+            batches: self.batches,
+            seed: self.seed,
+            threads: self.threads,
+            quiet: self.quiet,
+        }
     }
-    let conv = converge::run_converge(&job)?;
+}
+
+/// Runs the report, then (unless quiet) prints it ([`print_report`]).
+pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
+    let conv = converge::run_converge(&args.job())?;
+    print_report(args, &conv);
+    Ok(())
+}
+
+/// Unless quiet: each curve's fit and the files written.
+pub fn print_report(args: &ConvergeArgs, conv: &converge::Report) {
     if !args.quiet {
         for c in &conv.curves {
             println!("{}", report::converge_line(c));
@@ -101,35 +101,4 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
             args.out_dir.display()
         );
     }
-    Ok(())
-}
-
-/// The estimator and light flags of this process's command line ([`EstimatorFlags`]) with their
-/// values, as given: what `converge --baseline` passes on to both binaries.
-fn estimator_flags_as_given() -> Vec<String> {
-    const FLAGS: [&str; 9] = [
-        "--point-light",
-        "--sun",
-        "--sky",
-        "--env",
-        "--t0",
-        "--t1",
-        "--angle",
-        "--max-bounces",
-        "--radiance-bounces",
-    ];
-    let mut out = Vec::new();
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        let name = a.split('=').next().unwrap_or_default();
-        if !FLAGS.contains(&name) {
-            continue;
-        }
-        if a.contains('=') {
-            out.push(a);
-        } else if let Some(v) = args.next() {
-            out.push(format!("{a}={v}"));
-        }
-    }
-    out
 }

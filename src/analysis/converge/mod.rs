@@ -19,17 +19,14 @@
 //!
 //! Before each curve, one untimed warm-up run of the first level's size absorbs one-time costs.
 //!
-//! **A baseline build** (an older build of this tool, e.g. 8ae9f4f) draws the old and the new
-//! estimator on one plot: both binaries run every level as separate processes on the same scene,
-//! slice, grid and estimator settings, against one reference (see `measure_binaries`); the CSVs
-//! gain a row per baseline level and fit (`binary` = `baseline`), the plot a darker curve per
-//! weighting with its own slope, and every run's EXR stays in `runs/` of the output directory.
+//! The same report can hold the curves of another build of the tool (`Curve::baseline`, drawn
+//! darker on the plot, `baseline` in the CSVs' `binary` column): the developer tooling (`cargo
+//! xtask converge`) measures an older build and this one that way.
 //!
 //! The fit is ordinary least squares of ln(RMSE) against ln(wall seconds) (and against ln(spp)),
 //! with the slope's standard error. Monte Carlo converges as t^−½ once the time is proportional
 //! to the samples; fixed costs per run make small runs look cheaper than they are.
 
-mod baseline;
 mod curve;
 mod measure;
 mod report;
@@ -70,12 +67,6 @@ pub struct ConvergeJob {
     pub seed: u64,
     pub threads: usize,
     pub quiet: bool,
-    /// An older build of this tool: its curves are measured too, and drawn on the same plot
-    /// (see `measure_binaries`).
-    pub baseline: Option<PathBuf>,
-    /// The estimator and light settings as command-line arguments, passed on to both builds
-    /// with a baseline.
-    pub forward_args: Vec<String>,
 }
 
 /// Cells along the longer side of a convergence run without a reference or a resolution.
@@ -287,16 +278,9 @@ pub fn run_converge(job: &ConvergeJob) -> anyhow::Result<Report> {
             eprintln!("{s}");
         }
     };
-    let self_reference = match &job.baseline {
-        Some(_) => "reference: the baseline's highest spp run",
-        None => "self-reference (highest spp)",
-    };
-    say(&setup.summary(job, self_reference));
-    let (curves, tops) = match &job.baseline {
-        Some(b) => baseline::measure_binaries(job, b, &setup, say)?,
-        None => measure(&setup, job, say)?,
-    };
-    let report = setup.report(job, curves, job.baseline.clone());
+    say(&setup.summary(job, "self-reference (highest spp)"));
+    let (curves, tops) = measure(&setup, job, say)?;
+    let report = setup.report(job, curves, None);
     write_report(job, &report, &tops)?;
     Ok(report)
 }
