@@ -19,7 +19,7 @@ impl Grid {
     /// The grid of a field; `cell` its cell size per axis. A cell whose σ > 0 has no error
     /// estimate (`Moments::has_estimate`: one unit, or its weight in effectively one) takes σ itself
     /// as its standard error, not the 0 its output stores: unknown is not exact, and such cells'
-    /// σ is typically off by half (the glass sphere at 512 spp, against a 16× reference).
+    /// σ can be far off.
     pub fn of_field(field: &Field, cell: [f64; 3]) -> Grid {
         let vals = field.values();
         let ok = |x: f64| x.is_finite();

@@ -257,9 +257,9 @@ mod tests {
 
     #[test]
     fn an_error_that_barely_falls_gives_no_time() {
-        // The stair wall's radiance-weighted 95th percentiles of `efficiency.sh --long` (128²,
-        // 16..512 spp): 1 until the last level. Their fitted slopes (about −0.01 and −0.003)
-        // extrapolated the baseline's 0.951 to 2·10⁶ s; the fall is within the levels' scatter.
+        // 95th percentiles stuck at 1 until the last level (as radiance weighting gives while
+        // most cells have not yet met a deflected pair): slopes near 0 would extrapolate the
+        // baseline's last value to absurd times, and the fall is within the levels' scatter.
         let spp = [16, 32, 64, 128, 256, 512];
         let lv = |p95: &[f64]| -> Vec<Level> {
             spp.iter()

@@ -25,11 +25,9 @@
 //!
 //! - the thinned cells are made one cell wide first: where a diagonal line runs between cell
 //!   centres, non-maximum suppression keeps two cells per row, and a chain through both zigzags
-//!   by half a cell, which the turn test below read as bends and cut lines into pieces too short
-//!   to keep (see [`one_cell_wide`]; on the ground-truth sweeps of `tests/separatrix.rs`, seeds
-//!   1–20 at two resolutions, it raised the runs that pass every check from 34 to 37 of 40 for
-//!   the shadow boundary and from 36 to 38 of 40 for its mirror image; it also makes lines drawn
-//!   by noise shorter: 1.4 instead of 2.1 per 10⁶ cells in `pure_noise_draws_few_lines`);
+//!   by half a cell, which the turn test below would read as bends, cutting lines into pieces
+//!   too short to keep (see `thin::one_cell_wide`); thinner lines also leave noise less to
+//!   draw;
 //! - a chain is cut where it turns by more than 45° within ⌈scale⌉ + 1 points on either side (a
 //!   junction, or a hook);
 //! - each piece is trimmed back to its first and last *strong* cell (τ and Z): weak cells join
@@ -39,11 +37,9 @@
 //!   filter support) when each end lies within 1.5 cells of the other's tangent and the tangents
 //!   agree within 30°; the points laid across carry strength and z 0 (bridged, not measured);
 //! - lines shorter than [`LINE_MIN_SCALES`] = 6 scales, measured along their points and not
-//!   across the bridged gaps, are dropped: that is the length noise does not reach. On fields of
-//!   pure noise (no separatrix, τ = 0, Z = 3, scales 1–2, flat or with a ramp under it), a floor
-//!   of 4 scales let noise draw about 50 lines per 10⁶ cells, almost all 2–5 scales long; at 6
-//!   scales, 1–4 per 10⁶ remain (the test `pure_noise_draws_few_lines` asserts under 10 per 10⁶,
-//!   i.e. under 0.05 stray lines in a window of 4 000 cells). Along a line the filtered noise has
+//!   across the bridged gaps, are dropped: that is the length noise does not reach (lines drawn
+//!   by noise alone are mostly 2–5 scales long; the test `pure_noise_draws_few_lines` holds them
+//!   under 10 per 10⁶ cells on fields of pure noise). Along a line the filtered noise has
 //!   the correlation exp(−d²/(4·scale²)) (the Gaussian factor of every filter, convolved with
 //!   itself), 10⁻⁴ at 6 scales: a line that long is significant at two places whose noise is
 //!   independent, which one noise excursion is not.
