@@ -1,6 +1,4 @@
-//! Reports computed from fields and runs: convergence of error against time, efficiency against a
-//! baseline build.
-pub mod binary;
+//! Reports computed from fields and runs: separatrices of a finished field, and the convergence
+//! of error against time.
 pub mod converge;
-pub mod efficiency;
 pub mod separatrix;

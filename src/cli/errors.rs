@@ -63,6 +63,8 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
     } else if let Some(RunError::AfterPass(inner)) = e.downcast_ref::<RunError>() {
         // The caller's own error (a checkpoint's), in the words it has.
         describe(inner.as_ref())
+    } else if let Some(m) = super::analysis_errors::describe(e) {
+        m
     } else if let Some(f) = e.downcast_ref::<FlatlandError>() {
         match f {
             FlatlandError::NotExtruded { file, detail } => format!(

@@ -4,12 +4,16 @@
 //! ([`signals`]) and the error messages that name the flags ([`errors`]). Flag names appear only
 //! here, in `src/main.rs` and in [`crate::app`]. The top of the crate: nothing below imports it.
 
+pub mod analysis_errors;
 pub mod args;
 pub mod bench;
+pub mod converge;
 pub mod errors;
 pub mod explain;
 pub mod job;
+pub mod merge;
 pub mod parse;
 pub mod report;
 pub mod sep_flags;
+pub mod separatrices;
 pub mod signals;

@@ -1,11 +1,11 @@
-//! Runs a build of this tool (this one, or an older one for comparison) as a separate process on
+//! Runs a build of ftpd3d (this tree's, or an older one for comparison) as a separate process on
 //! one slice and reads its field back: the common ground of `efficiency` and `converge
 //! --baseline`, so both binaries of a comparison see the same plain command line and nothing of
 //! one process leaks into the other.
 
-use crate::field::Field;
-use crate::ftpd::Weighting;
 use anyhow::{Context, bail};
+use ftpd3d::field::Field;
+use ftpd3d::ftpd::Weighting;
 use std::path::Path;
 
 /// One slice run of a binary.
@@ -53,7 +53,7 @@ pub fn run_slice(bin: &Path, run: &SliceRun, out: &Path) -> anyhow::Result<Field
     if !status.success() {
         bail!("{} failed ({status}): {cmd:?}", bin.display());
     }
-    crate::output::exr::read_exr(out).with_context(|| format!("{}", out.display()))
+    ftpd3d::output::exr::read_exr(out).with_context(|| format!("{}", out.display()))
 }
 
 /// The compute seconds a run stored in its output (the scene load left out).

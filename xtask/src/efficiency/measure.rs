@@ -1,33 +1,7 @@
-//! Efficiency against a baseline build (`ftpd3d efficiency`): the time each estimator needs to reach
-//! the same error, measured on the same slices.
-//!
-//! Both estimators run as separate processes of their own binaries (the baseline is any older
-//! build of this tool, the candidate normally this binary), with the same plain command line, so
-//! that nothing of one leaks into the other. Per scene and weighting:
-//! 1. an **independent reference**: the baseline's estimator with a seed no level uses and
-//!    `ref_factor` × the largest level's samples per cell;
-//! 2. each binary at doubling sample counts, every level with its own seed (as `converge`);
-//! 3. per level, over the cells valid in both the level and the reference: the RMSE of σ with the
-//!    reference's own estimated noise taken out ([`Comparison::net_rmse`]), the 95th percentile
-//!    of |σ − σ_ref| / σ_ref over the cells with σ_ref > 0, and the variance of the z-scores
-//!    (σ − σ_ref) / sqrt(se² + se_ref²), which is 1 when the standard errors are honest;
-//! 4. per binary, least squares of ln(error) against ln(spp) gives the samples it needs for the
-//!    baseline's error at its largest level, and its seconds per sample (pooled over its levels)
-//!    turn them into time; their ratio is the speed-up at equal error (efficiency = 1 /
-//!    (variance · time), so for slopes of −½ it is the ratio of the efficiencies). The slopes
-//!    shown are those of ln(error) against ln(seconds).
-//!
-//! Times are the compute seconds the binaries store in their outputs (the scene load is left
-//! out). On a shared machine they are noisy: compare ratios from one run.
+//! A field's errors against a reference, and the time each build needs for the same error.
 
-use crate::analysis::binary::{SliceRun, run_slice, seconds};
-use crate::analysis::converge::{Fit, compare, fit_line};
-use crate::field::Field;
-use crate::ftpd::Weighting;
-use crate::output::write_atomically;
-use anyhow::{Context, bail};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use ftpd3d::analysis::converge::{Fit, compare, fit_line};
+use ftpd3d::field::Field;
 
 /// A field against a reference over the cells valid in both.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -206,206 +180,6 @@ pub fn speedup(base: &[Level], new: &[Level], err: impl Fn(&Errors) -> f64 + Cop
     }
 }
 
-/// What [`run_efficiency`] measures.
-#[derive(Clone, Debug)]
-pub struct EfficiencyJob {
-    /// The baseline binary (e.g. a build of 8ae9f4f) and the candidate binary.
-    pub baseline: PathBuf,
-    pub candidate: PathBuf,
-    pub scenes: Vec<PathBuf>,
-    pub slice: String,
-    pub res: usize,
-    pub weightings: Vec<Weighting>,
-    pub start_spp: u32,
-    pub max_spp: u32,
-    /// The reference has this many times the largest level's samples.
-    pub ref_factor: u32,
-    pub threads: usize,
-    /// Outputs of every run, reused when present (`--keep`), and `efficiency.csv`.
-    pub work_dir: PathBuf,
-    /// Reuse references already in `work_dir` (they depend only on scene, weighting, res, spp).
-    pub keep_references: bool,
-}
-
-/// One row of the report: a scene and weighting, both binaries' levels and the speed-ups.
-#[derive(Clone, Debug)]
-pub struct Row {
-    pub scene: String,
-    pub weighting: Weighting,
-    pub base: Vec<Level>,
-    pub new: Vec<Level>,
-    pub rmse: Speedup,
-    pub p95: Speedup,
-}
-
-/// Seed of the reference runs: no level uses it (levels use 1, 2, ...).
-pub const REFERENCE_SEED: u64 = 1_000_003;
-
-/// Runs `bin` on one slice and reads its output back.
-fn run_binary(
-    bin: &Path,
-    job: &EfficiencyJob,
-    scene: &Path,
-    weighting: Weighting,
-    spp: u32,
-    seed: u64,
-    out: &Path,
-) -> anyhow::Result<Field> {
-    let run = SliceRun {
-        scene,
-        slice: &job.slice,
-        res: job.res,
-        window: None,
-        weighting,
-        spp,
-        batches: spp.min(16),
-        seed,
-        threads: job.threads,
-        extra: &[],
-    };
-    run_slice(bin, &run, out)
-}
-
-/// Runs every scene and weighting of `job` (see the module documentation); `say` gets one line
-/// per finished run.
-pub fn run_efficiency(job: &EfficiencyJob, mut say: impl FnMut(&str)) -> anyhow::Result<Vec<Row>> {
-    let levels = crate::analysis::converge::spp_levels(job.start_spp, job.max_spp)?;
-    if levels.len() < 2 {
-        bail!("efficiency: at least two sample counts are needed to fit a slope");
-    }
-    std::fs::create_dir_all(&job.work_dir)
-        .with_context(|| format!("{}: cannot create it", job.work_dir.display()))?;
-    let mut rows = Vec::new();
-    for scene in &job.scenes {
-        let stem = scene
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-        for &w in &job.weightings {
-            let ref_spp = job.max_spp.saturating_mul(job.ref_factor);
-            let ref_path = job
-                .work_dir
-                .join(format!("{stem}_{w}_r{}_ref{ref_spp}.exr", job.res));
-            let reference = if job.keep_references && ref_path.exists() {
-                crate::output::exr::read_exr(&ref_path)?
-            } else {
-                let f = run_binary(
-                    &job.baseline,
-                    job,
-                    scene,
-                    w,
-                    ref_spp,
-                    REFERENCE_SEED,
-                    &ref_path,
-                )?;
-                say(&format!(
-                    "{stem} {w}: reference {ref_spp} spp in {:.1} s",
-                    seconds(&f, &ref_path)?
-                ));
-                f
-            };
-            // Levels interleaved (baseline, candidate, next level): a change of the machine's
-            // load during the run hits both alike.
-            let (mut base, mut new) = (Vec::new(), Vec::new());
-            for (k, &spp) in levels.iter().enumerate() {
-                for (tag, bin, v) in [
-                    ("base", &job.baseline, &mut base),
-                    ("new", &job.candidate, &mut new),
-                ] {
-                    let out = job.work_dir.join(format!("{stem}_{w}_{tag}_spp{spp}.exr"));
-                    let f = run_binary(bin, job, scene, w, spp, 1 + k as u64, &out)?;
-                    let l = Level {
-                        spp,
-                        seconds: seconds(&f, &out)?,
-                        errors: errors(&f, &reference),
-                    };
-                    say(&format!(
-                        "{stem} {w} {tag:>4} {spp:>5} spp {:>8.3} s  rmse {:.4e}  p95 rel {:.4}  z var {:.2} \
-                         ({:.2} over the {} cells the reference resolves)",
-                        l.seconds,
-                        l.errors.net_rmse,
-                        l.errors.p95_rel,
-                        l.errors.z_var,
-                        l.errors.z_var_resolved,
-                        l.errors.resolved
-                    ));
-                    v.push(l);
-                }
-            }
-            rows.push(Row {
-                scene: stem.clone(),
-                weighting: w,
-                rmse: speedup(&base, &new, |e| e.net_rmse),
-                p95: speedup(&base, &new, |e| e.p95_rel),
-                base,
-                new,
-            });
-        }
-    }
-    let mut csv = String::from(
-        "scene,weighting,binary,spp,seconds,net_rmse,p95_rel,z_var,cells,z_var_resolved,resolved_cells\n",
-    );
-    for r in &rows {
-        for (tag, lv) in [("base", &r.base), ("new", &r.new)] {
-            for l in lv {
-                let _ = writeln!(
-                    csv,
-                    "{},{},{tag},{},{},{},{},{},{},{},{}",
-                    r.scene,
-                    r.weighting,
-                    l.spp,
-                    l.seconds,
-                    l.errors.net_rmse,
-                    l.errors.p95_rel,
-                    l.errors.z_var,
-                    l.errors.cells,
-                    l.errors.z_var_resolved,
-                    l.errors.resolved
-                );
-            }
-        }
-    }
-    write_atomically(&job.work_dir.join("efficiency.csv"), |tmp| {
-        std::fs::write(tmp, &csv).with_context(|| format!("{}: cannot write", tmp.display()))
-    })?;
-    Ok(rows)
-}
-
-/// The report as a Markdown table: per scene, weighting and error measure, the seconds each
-/// binary needs for the baseline's error at its largest level, their ratio, the slopes of ln error
-/// against ln seconds, and the z variance of each binary's largest level, over all cells and (in
-/// brackets) over the cells the reference resolves.
-pub fn table(rows: &[Row]) -> String {
-    let f = |v: Option<f64>, p: usize| v.map_or("n/a".to_string(), |x| format!("{x:.p$}"));
-    let mut s = String::from(
-        "| scene | weighting | error | target | base s | new s | speed-up | base slope | new slope | z var base (resolved) | z var new (resolved) |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
-    let zvar = |lv: &[Level]| {
-        lv.last().map_or("n/a".to_string(), |l| {
-            format!("{:.2} ({:.2})", l.errors.z_var, l.errors.z_var_resolved)
-        })
-    };
-    for r in rows {
-        for (name, sp) in [("RMSE σ", &r.rmse), ("p95 rel", &r.p95)] {
-            let _ = writeln!(
-                s,
-                "| {} | {} | {name} | {:.3e} | {} | {} | {} | {} | {} | {} | {} |",
-                r.scene,
-                r.weighting,
-                sp.target,
-                f(sp.base_seconds, 2),
-                f(sp.new_seconds, 2),
-                sp.ratio().map_or("n/a".to_string(), |r| format!("{r:.2}x")),
-                f(sp.base_slope, 2),
-                f(sp.new_slope, 2),
-                zvar(&r.base),
-                zvar(&r.new),
-            );
-        }
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -433,10 +207,10 @@ mod tests {
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let mut cell = |n: usize, rare: f64| {
-            let mut m = crate::ftpd::moments::Moments::default();
+            let mut m = ftpd3d::ftpd::moments::Moments::default();
             for _ in 0..n {
                 let d = if uniform() < rare { 15.0 } else { uniform() };
-                m.add_sample(1.0, d, crate::math::Rgb::ONE);
+                m.add_sample(1.0, d, ftpd3d::math::Rgb::ONE);
             }
             m
         };
@@ -483,9 +257,9 @@ mod tests {
 
     #[test]
     fn an_error_that_barely_falls_gives_no_time() {
-        // The stair wall's radiance-weighted 95th percentiles of `efficiency.sh --long` (128²,
-        // 16..512 spp): 1 until the last level. Their fitted slopes (about −0.01 and −0.003)
-        // extrapolated the baseline's 0.951 to 2·10⁶ s; the fall is within the levels' scatter.
+        // 95th percentiles stuck at 1 until the last level (as radiance weighting gives while
+        // most cells have not yet met a deflected pair): slopes near 0 would extrapolate the
+        // baseline's last value to absurd times, and the fall is within the levels' scatter.
         let spp = [16, 32, 64, 128, 256, 512];
         let lv = |p95: &[f64]| -> Vec<Level> {
             spp.iter()
