@@ -1,9 +1,9 @@
-//! What a run simulates and what it skips ("simulate only what the scene calls for"), as
-//! `--explain` prints it. Each entry states a fact about the code paths a run takes: the kernel
-//! ([`crate::kernel`]) decides the radiance estimate and flatland at compile time, and the rest is
-//! decided at run time by the data (a material kind no triangle uses is never evaluated, light
-//! sampling is never called in a scene without lights, shading normals are interpolated only
-//! where the scene has vertex normals).
+//! What a run simulates and what it skips ("simulate only what the scene calls for"), for a
+//! caller to show before or beside a run. Each entry states a fact about the code paths a run
+//! takes: the kernel ([`crate::kernel`]) decides the radiance estimate and flatland at compile
+//! time, and the rest is decided at run time by the data (a material kind no triangle uses is
+//! never evaluated, light sampling is never called in a scene without lights, shading normals are
+//! interpolated only where the scene has vertex normals).
 
 use super::{Params, Weighting, kernel_for};
 use crate::scene::Scene;
