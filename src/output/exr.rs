@@ -32,12 +32,13 @@
 use crate::field::Field;
 use crate::ftpd::Weighting;
 use crate::ftpd::moments::Moments;
-use crate::output::{EXACT, f32_of};
+use crate::output::{EXACT, FileError, f32_of};
 use crate::run_info::DomainKind;
-use anyhow::{Context, bail};
 use exr::prelude::*;
+// The prelude brings `exr::Result`; the functions here return the room's errors.
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::result::Result;
 
 /// The compensations of the weighted sums, stored exactly like [`EXACT`]; files without them read
 /// as zero compensation.
@@ -45,16 +46,13 @@ const EXACT_COMP: &[(&str, usize)] = &[("sum.w.comp", 0), ("sum.wd.comp", 1), ("
 
 /// Writes a 2D field (depth 1) with optional extra f32 channels (e.g. `grad.x`), each one value per
 /// cell in field order. Written to a temporary name, then renamed.
-pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyhow::Result<()> {
+pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> Result<(), FileError> {
     let (w, h) = (field.width, field.height);
     if field.depth != 1 || w == 0 || h == 0 {
-        bail!(
-            "{}: an EXR holds one 2D slice (got {}x{}x{})",
-            path.display(),
-            w,
-            h,
-            field.depth
-        );
+        return Err(FileError::unfit(
+            path,
+            format!("an EXR holds one 2D slice (got {w}x{h}x{})", field.depth),
+        ));
     }
     // Field row 0 is the bottom (v minimal); EXR row 0 is the top.
     let order: Vec<usize> = (0..h)
@@ -109,7 +107,10 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     }
     for (name, data) in extra {
         if data.len() != w * h {
-            bail!("channel {name}: {} values for {} cells", data.len(), w * h);
+            return Err(FileError::unfit(
+                path,
+                format!("channel {name}: {} values for {} cells", data.len(), w * h),
+            ));
         }
         f32ch(name, per(&|k| data[k]));
     }
@@ -118,11 +119,13 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
         exact_chans.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)))
     };
     if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
-        bail!(
-            "{}: a cell holds {} samples, more than an EXR u32 channel can count",
-            path.display(),
-            c.n
-        );
+        return Err(FileError::unfit(
+            path,
+            format!(
+                "a cell holds {} samples, more than an EXR u32 channel can count",
+                c.n
+            ),
+        ));
     }
     u32ch(
         "samples".into(),
@@ -191,34 +194,35 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
         ImageAttributes::new(IntegerBounds::from_dimensions((w, h))),
         vec![view, exact],
     );
-    crate::output::write_atomically(path, |tmp| {
-        image
-            .write()
-            .to_file(tmp)
-            .map_err(|e| anyhow::anyhow!("{e}"))
+    crate::output::write_file_atomically(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| match e {
+            exr::error::Error::Io(source) => FileError::write(path, source),
+            e => FileError::encode(path, e),
+        })
     })
 }
 
 type AnyImage = Image<Layers<AnyChannels<FlatSamples>>>;
 
 /// Every part of an EXR file, all channels and attributes.
-fn read_image(path: &Path) -> anyhow::Result<AnyImage> {
+fn read_image(path: &Path) -> Result<AnyImage, FileError> {
+    let file = std::fs::File::open(path).map_err(|source| FileError::read(path, source))?;
     let image: AnyImage = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .all_layers()
         .all_attributes()
-        .from_file(path)
-        .map_err(|e| anyhow::anyhow!("{}: not a readable EXR file ({e})", path.display()))?;
+        .from_unbuffered(file)
+        .map_err(|e| FileError::format(path, format!("not a readable EXR file ({e})")))?;
     let Some(first) = image.layer_data.first() else {
-        bail!("{}: an EXR file without image parts", path.display());
+        return Err(FileError::format(path, "an EXR file without image parts"));
     };
     if image.layer_data.iter().any(|l| l.size != first.size) {
-        bail!(
-            "{}: its parts differ in size (not an ftpd3d field)",
-            path.display()
-        );
+        return Err(FileError::format(
+            path,
+            "its parts differ in size (not an ftpd3d field)",
+        ));
     }
     Ok(image)
 }
@@ -239,33 +243,33 @@ fn find_channel<'a>(
 }
 
 /// Reads a field written by [`write_exr`] back (exact sums, sample counts, metadata).
-pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
+pub fn read_exr(path: &Path) -> Result<Field, FileError> {
     let image = read_image(path)?;
     let size = image.layer_data[0].size;
     let (w, h) = (size.x(), size.y());
     let has = |name: &str| find_channel(&image, name, |_| true).is_some();
     if has("exact.batch.sigma.hi") && !has("exact.sum.w.w.hi") {
-        bail!(
-            "{}: written by an earlier ftpd3d, whose standard error came from batch σ sums; the \
-             per-sample product sums the error needs now are not in it, so it cannot be merged or \
-             resumed: run it again",
-            path.display()
-        );
+        return Err(FileError::EarlierVersion {
+            path: path.to_path_buf(),
+        });
     }
     // Written before the standard error was taken over groups of samples: see `legacy_groups`.
     let legacy = !has("groups");
-    let chan = |name: &str| -> anyhow::Result<&FlatSamples> {
-        find_channel(&image, name, |d| matches!(d, FlatSamples::U32(_))).with_context(|| {
-            format!(
-                "{}: channel '{name}' missing (not an ftpd3d field?)",
-                path.display()
+    let chan = |name: &str| -> Result<&FlatSamples, FileError> {
+        find_channel(&image, name, |d| matches!(d, FlatSamples::U32(_))).ok_or_else(|| {
+            FileError::format(
+                path,
+                format!("channel '{name}' missing (not an ftpd3d field?)"),
             )
         })
     };
-    let u32s = |name: &str| -> anyhow::Result<Vec<u32>> {
+    let u32s = |name: &str| -> Result<Vec<u32>, FileError> {
         match chan(name)? {
             FlatSamples::U32(v) => Ok(v.clone()),
-            _ => bail!("{}: channel '{name}' is not u32", path.display()),
+            _ => Err(FileError::format(
+                path,
+                format!("channel '{name}' is not u32"),
+            )),
         }
     };
     let mut field = Field::new(w, h, 1);
@@ -321,12 +325,14 @@ pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
 
 /// Reads one channel of an EXR as f32 in field order (row 0 = bottom), for tests and tools: the
 /// first part that has it (part 0's f32 view before part 1's exact u32 counts).
-pub fn read_channel(path: &Path, name: &str) -> anyhow::Result<(usize, usize, Vec<f32>)> {
+pub fn read_channel(path: &Path, name: &str) -> Result<(usize, usize, Vec<f32>), FileError> {
     let image = read_image(path)?;
     let size = image.layer_data[0].size;
     let (w, h) = (size.x(), size.y());
-    let c = find_channel(&image, name, |_| true)
-        .with_context(|| format!("{}: no channel '{name}'", path.display()))?;
+    let c = find_channel(&image, name, |_| true).ok_or_else(|| FileError::NoChannel {
+        path: path.to_path_buf(),
+        name: name.to_string(),
+    })?;
     let v: Vec<f32> = c.values_as_f32().collect();
     let mut out = vec![0.0; w * h];
     for (e, x) in v.into_iter().enumerate() {

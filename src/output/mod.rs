@@ -2,14 +2,16 @@
 //! is written under a temporary name in the destination directory and renamed into place, so a
 //! failed run never leaves a truncated output.
 
+mod error;
 pub mod exr;
 pub mod plot;
 pub mod png;
 pub mod vti;
 
+pub use error::{FileError, OutputError};
+
 use crate::field::Field;
 use crate::ftpd::moments::Moments;
-use anyhow::Context;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -41,11 +43,12 @@ pub fn temp_path(path: &Path) -> PathBuf {
 }
 
 /// Runs `write` on a temporary path and renames the result to `path`; removes the temporary file
-/// when writing fails.
-pub fn write_atomically(
+/// when writing fails. `write`'s errors come back as they are (the writers of this room name
+/// `path` in them, not the temporary name); a failed rename is [`FileError::Rename`].
+pub fn write_file_atomically<E: From<FileError>>(
     path: &Path,
-    write: impl FnOnce(&Path) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), E> {
     let tmp = temp_path(path);
     if let Ok(mut list) = IN_PROGRESS.lock() {
         list.push(tmp.clone());
@@ -55,37 +58,29 @@ pub fn write_atomically(
         list.retain(|p| p != &tmp);
     }
     match result {
-        Ok(()) => std::fs::rename(&tmp, path).with_context(|| {
-            format!(
-                "{}: cannot move the finished file into place",
-                path.display()
-            )
+        Ok(()) => std::fs::rename(&tmp, path).map_err(|source| {
+            FileError::Rename {
+                path: path.to_path_buf(),
+                source,
+            }
+            .into()
         }),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
-            Err(e.context(format!("{}: writing failed", path.display())))
+            Err(e)
         }
     }
 }
 
-/// Why an output path cannot take the file (the command line names the `-o` flag:
-/// `crate::cli::errors`).
-#[derive(Debug, thiserror::Error)]
-pub enum OutputError {
-    #[error("output {path}: cannot create directory {dir}")]
-    CreateDir {
-        path: PathBuf,
-        dir: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("output {path}: is a directory")]
-    IsDirectory { path: PathBuf },
-    #[error("output {path}: directory {dir} is not writable")]
-    NotWritable {
-        path: PathBuf,
-        dir: PathBuf,
-        source: std::io::Error,
-    },
+/// [`write_file_atomically`] for writers whose errors are `anyhow`'s (reports, SVG, CSV): a
+/// failure reads `<path>: writing failed: <cause>`.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    write_file_atomically(path, |tmp| {
+        write(tmp).map_err(|e| e.context(format!("{}: writing failed", path.display())))
+    })
 }
 
 /// Fails early when `path`'s directory cannot take a new file (before hours of work).
@@ -116,7 +111,7 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
 /// Writes the EXR (with the Sobel gradient of σ as `grad.x`/`grad.y`, per cell) and, when asked,
 /// PNG previews next to it: `<name>.png` (σ, equalised CIELAB map) and `<name>.grad.png` (gradient
 /// direction as hue, magnitude as lightness).
-pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()> {
+pub fn write_outputs(field: &Field, path: &Path, png: bool) -> Result<(), FileError> {
     write_outputs_with(field, path, png, Vec::new())
 }
 
@@ -126,7 +121,7 @@ pub fn write_outputs_with(
     path: &Path,
     png: bool,
     mut extra: Vec<(&str, Vec<f64>)>,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     let sigma = field.sigma();
     let valid = field.valid();
     let (w, h) = (field.width, field.height);
@@ -149,7 +144,7 @@ pub fn write_volume_outputs(
     spacing: DVec3,
     path: &Path,
     png: bool,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     write_volume_outputs_with(field, origin, spacing, path, png, &[])
 }
 
@@ -161,7 +156,7 @@ pub fn write_volume_outputs_with(
     path: &Path,
     png: bool,
     extra: &[(&str, Vec<f64>)],
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     vti::write_vti_with(path, field, origin, spacing, extra)?;
     if png {
         let (w, h) = (field.width, field.height);
@@ -182,7 +177,7 @@ pub fn write_previews(
     valid: &[bool],
     w: usize,
     h: usize,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     png::write_field_preview(&path.with_extension("png"), sigma, valid, w, h)?;
     png::write_gradient_preview(&path.with_extension("grad.png"), sigma, valid, w, h)
 }

@@ -1,7 +1,7 @@
 //! Log-log line plots as PNG (plotters, bitmap backend). Text is drawn with a bundled subset of the
 //! DejaVu Sans font through ab_glyph (`assets/fonts/`), so no system font library is needed.
 
-use anyhow::Context;
+use crate::output::FileError;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 use std::path::Path;
@@ -94,7 +94,7 @@ pub fn write_loglog_png(
     x_label: &str,
     y_label: &str,
     series: &[Series],
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     register();
     let (w, h) = size;
     let pos: Vec<(f64, f64)> = series
@@ -102,11 +102,12 @@ pub fn write_loglog_png(
         .flat_map(|s| s.points.iter().copied())
         .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
         .collect();
-    anyhow::ensure!(
-        !pos.is_empty(),
-        "plot {}: no positive finite points to draw on log axes",
-        path.display()
-    );
+    if pos.is_empty() {
+        return Err(FileError::unfit(
+            path,
+            "a plot without positive finite points to draw on log axes",
+        ));
+    }
     let fold = |f: fn(&(f64, f64)) -> f64| {
         pos.iter()
             .map(f)
@@ -123,7 +124,7 @@ pub fn write_loglog_png(
     let mut buf = vec![0u8; w as usize * h as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("plot {}: {e}", path.display());
+        let err = |e: &dyn std::fmt::Display| FileError::encode(path, format!("plot: {e}"));
         root.fill(&WHITE).map_err(|e| err(&e))?;
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 20))
@@ -203,7 +204,6 @@ pub fn write_loglog_png(
         .flat_map(|row| row.chunks_exact(3).map(|p| [p[0], p[1], p[2]]))
         .collect();
     crate::output::png::write_png(path, w as usize, h as usize, &rgb)
-        .with_context(|| format!("plot {}", path.display()))
 }
 
 #[cfg(test)]

@@ -28,7 +28,7 @@ pub use colormap::{
 };
 pub use gradient::{gradient_colors, sobel};
 
-use anyhow::{Context, bail, ensure};
+use crate::output::FileError;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -50,41 +50,55 @@ fn cell_ok(values: &[f64], valid: &[bool], i: usize) -> bool {
 /// The image is written to a hidden temporary file in the destination directory, flushed to disk and
 /// renamed over `path`, so `path` is never seen half-written; on failure the temporary file is
 /// removed. Errors if a dimension is 0 or too large for PNG, or `rgb.len() != width * height`.
-pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[[u8; 3]]) -> anyhow::Result<()> {
-    ensure!(
-        width > 0 && height > 0,
-        "PNG {}: empty image ({width}x{height})",
-        path.display()
-    );
+pub fn write_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    rgb: &[[u8; 3]],
+) -> Result<(), FileError> {
+    if width == 0 || height == 0 {
+        return Err(FileError::unfit(
+            path,
+            format!("empty PNG image ({width}x{height})"),
+        ));
+    }
     const PNG_MAX: usize = (1 << 31) - 1;
-    ensure!(
-        width <= PNG_MAX && height <= PNG_MAX,
-        "PNG {}: {width}x{height} exceeds the PNG size limit",
-        path.display()
-    );
-    let n = width.checked_mul(height);
-    ensure!(
-        n == Some(rgb.len()),
-        "PNG {}: {} pixels given for {width}x{height}",
-        path.display(),
-        rgb.len()
-    );
+    if width > PNG_MAX || height > PNG_MAX {
+        return Err(FileError::unfit(
+            path,
+            format!("{width}x{height} exceeds the PNG size limit"),
+        ));
+    }
+    if width.checked_mul(height) != Some(rgb.len()) {
+        return Err(FileError::unfit(
+            path,
+            format!("{} pixels given for a {width}x{height} PNG", rgb.len()),
+        ));
+    }
     let mut data = Vec::with_capacity(rgb.len() * 3);
     for row in rgb.chunks_exact(width).rev() {
         data.extend(row.iter().flatten());
     }
 
     if path.file_name().is_none() {
-        bail!("PNG {}: not a file path", path.display());
+        return Err(FileError::unfit(path, "not a file path for a PNG"));
     }
-    crate::output::write_atomically(path, |tmp| {
-        write_png_file(tmp, width as u32, height as u32, &data)
+    crate::output::write_file_atomically(path, |tmp| {
+        write_png_file(tmp, width as u32, height as u32, &data).map_err(|e| match e {
+            png::EncodingError::IoError(source) => FileError::write(path, source),
+            e => FileError::encode(path, e),
+        })
     })
 }
 
 /// Encodes packed RGB8 rows (top row first) to `path` and syncs the file.
-fn write_png_file(path: &Path, width: u32, height: u32, data: &[u8]) -> anyhow::Result<()> {
-    let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
+fn write_png_file(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[u8],
+) -> Result<(), png::EncodingError> {
+    let file = File::create(path)?;
     let mut out = BufWriter::new(file);
     let mut encoder = png::Encoder::new(&mut out, width, height);
     encoder.set_color(png::ColorType::Rgb);
@@ -105,7 +119,7 @@ pub fn write_field_preview(
     valid: &[bool],
     width: usize,
     height: usize,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     write_png(
         path,
         width,
@@ -121,7 +135,7 @@ pub fn write_gradient_preview(
     valid: &[bool],
     width: usize,
     height: usize,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     write_png(
         path,
         width,

@@ -4,8 +4,7 @@
 use super::base64::{b64_decode, b64_len};
 use super::{Vti, comment_unescape};
 use crate::field::Field;
-use crate::output::EXACT;
-use anyhow::{Context, bail};
+use crate::output::{EXACT, FileError};
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -20,12 +19,11 @@ fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
 
 /// Reads a volume written by [`write_vti`](super::write_vti) back: grid, exact sums, sample and
 /// batch counts, metadata. (A reader of this tool's own files, not of every `.vti`.)
-pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let not_ours =
-        |what: &str| anyhow::anyhow!("{}: {what} (not an ftpd3d volume?)", path.display());
+pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
+    let bytes = std::fs::read(path).map_err(|source| FileError::read(path, source))?;
+    let not_ours = |what: &str| FileError::format(path, format!("{what} (not an ftpd3d volume?)"));
     if !bytes.trim_ascii_end().ends_with(b"</VTKFile>") {
-        bail!(not_ours("truncated: no closing </VTKFile>"));
+        return Err(not_ours("truncated: no closing </VTKFile>"));
     }
     let tag = b"<AppendedData";
     let at = bytes
@@ -39,19 +37,19 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
             .ok_or_else(|| not_ours("no '_' starting the appended data"))?;
     let head = std::str::from_utf8(&bytes[..at]).map_err(|_| not_ours("header is not UTF-8"))?;
     if !head.contains("byte_order=\"LittleEndian\"") || !head.contains("header_type=\"UInt64\"") {
-        bail!(not_ours(
-            "expected byte_order LittleEndian and header_type UInt64"
+        return Err(not_ours(
+            "expected byte_order LittleEndian and header_type UInt64",
         ));
     }
     if !bytes[at..underscore].starts_with(b"<AppendedData encoding=\"base64\"") {
-        bail!(not_ours("appended data is not base64"));
+        return Err(not_ours("appended data is not base64"));
     }
     let data = &bytes[underscore + 1..];
     let image = head
         .lines()
         .find(|l| l.trim_start().starts_with("<ImageData"))
         .ok_or_else(|| not_ours("no <ImageData>"))?;
-    let nums = |name: &str| -> anyhow::Result<Vec<f64>> {
+    let nums = |name: &str| -> Result<Vec<f64>, FileError> {
         attr(image, name)
             .ok_or_else(|| not_ours(&format!("no {name}")))?
             .split_whitespace()
@@ -69,7 +67,7 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
         || ext[2] != 0.0
         || ext[4] != 0.0
     {
-        bail!(not_ours("unexpected WholeExtent, Origin or Spacing"));
+        return Err(not_ours("unexpected WholeExtent, Origin or Spacing"));
     }
     // Whole, non-negative extents, and no more voxels than the appended data could hold (every
     // voxel takes bytes in each array): a damaged header is refused before anything is allocated.
@@ -77,7 +75,7 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
         .iter()
         .any(|&e| !(0.0..=1e15).contains(&e) || e.fract() != 0.0)
     {
-        bail!(not_ours("unexpected WholeExtent"));
+        return Err(not_ours("unexpected WholeExtent"));
     }
     let dims = [ext[1], ext[3], ext[5]].map(|e| e as usize + 1);
     let n = dims
@@ -104,21 +102,18 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
         }
     }
     if offsets.contains_key("exact.batch.sigma") && !offsets.contains_key("exact.sum.w.w") {
-        bail!(
-            "{}: written by an earlier ftpd3d, whose standard error came from batch σ sums; the \
-             per-sample product sums the error needs now are not in it, so it cannot be merged: \
-             run it again",
-            path.display()
-        );
+        return Err(FileError::EarlierVersion {
+            path: path.to_path_buf(),
+        });
     }
     // Written before the standard error was taken over groups of samples: see `legacy_groups`.
     let legacy = !offsets.contains_key("groups");
-    let block = |name: &str, ty: &str, size: usize| -> anyhow::Result<Vec<u8>> {
+    let block = |name: &str, ty: &str, size: usize| -> Result<Vec<u8>, FileError> {
         let (t, off) = offsets
             .get(name)
             .ok_or_else(|| not_ours(&format!("no array '{name}'")))?;
         if t != ty {
-            bail!(not_ours(&format!("array '{name}' is {t}, expected {ty}")));
+            return Err(not_ours(&format!("array '{name}' is {t}, expected {ty}")));
         }
         let chars = b64_len(8 + (n * size) as u64) as usize;
         let decoded = off
@@ -129,7 +124,7 @@ pub fn read_vti(path: &Path) -> anyhow::Result<Vti> {
             .ok_or_else(|| not_ours(&format!("array '{name}' is truncated or not base64")))?;
         let len = u64::from_le_bytes(decoded[..8].try_into().expect("8 bytes"));
         if len != (n * size) as u64 {
-            bail!(not_ours(&format!(
+            return Err(not_ours(&format!(
                 "array '{name}' has {len} bytes, expected {}",
                 n * size
             )));

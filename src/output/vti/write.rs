@@ -5,8 +5,7 @@ use super::base64::{B64, b64_len};
 use super::{comment_escape, gradient_magnitude};
 use crate::field::Field;
 use crate::ftpd::Weighting;
-use crate::output::{EXACT, f32_of, write_atomically};
-use anyhow::{Context, bail};
+use crate::output::{EXACT, FileError, f32_of, write_file_atomically};
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -49,7 +48,12 @@ fn triple(v: DVec3) -> String {
 /// Writes a volume (`field.depth` ≥ 1 layers of `width` × `height` voxels) with the first point at
 /// `origin` (the centre of voxel (0, 0, 0)) and `spacing` between points. Written to a temporary
 /// name, then renamed.
-pub fn write_vti(path: &Path, field: &Field, origin: DVec3, spacing: DVec3) -> anyhow::Result<()> {
+pub fn write_vti(
+    path: &Path,
+    field: &Field,
+    origin: DVec3,
+    spacing: DVec3,
+) -> Result<(), FileError> {
     write_vti_with(path, field, origin, spacing, &[])
 }
 
@@ -62,31 +66,35 @@ pub fn write_vti_with(
     origin: DVec3,
     spacing: DVec3,
     extra: &[(&str, Vec<f64>)],
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     let dims = [field.width, field.height, field.depth];
     let n = dims.iter().product::<usize>();
     if n == 0 || n != field.cells.len() {
-        bail!(
-            "{}: a {}x{}x{} volume with {} cells",
-            path.display(),
-            dims[0],
-            dims[1],
-            dims[2],
-            field.cells.len()
-        );
+        return Err(FileError::unfit(
+            path,
+            format!(
+                "a {}x{}x{} volume with {} cells",
+                dims[0],
+                dims[1],
+                dims[2],
+                field.cells.len()
+            ),
+        ));
     }
     if !(origin.is_finite() && spacing.is_finite() && spacing.min_element() > 0.0) {
-        bail!(
-            "{}: origin {origin} and spacing {spacing} must be finite, spacing > 0",
-            path.display()
-        );
+        return Err(FileError::unfit(
+            path,
+            format!("origin {origin} and spacing {spacing} must be finite, spacing > 0"),
+        ));
     }
     if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
-        bail!(
-            "{}: a voxel holds {} samples, more than the UInt32 'samples' array can count",
-            path.display(),
-            c.n
-        );
+        return Err(FileError::unfit(
+            path,
+            format!(
+                "a voxel holds {} samples, more than the UInt32 'samples' array can count",
+                c.n
+            ),
+        ));
     }
     let vals = field.values();
     let grad = gradient_magnitude(&vals, dims, spacing);
@@ -184,11 +192,10 @@ pub fn write_vti_with(
     }
     for (name, values) in extra {
         if values.len() != n {
-            bail!(
-                "{}: array '{name}' has {} values for {n} voxels",
-                path.display(),
-                values.len()
-            );
+            return Err(FileError::unfit(
+                path,
+                format!("array '{name}' has {} values for {n} voxels", values.len()),
+            ));
         }
         arrays.push(Array {
             name: (*name).to_string(),
@@ -200,11 +207,11 @@ pub fn write_vti_with(
     }
 
     let header = header(dims, origin, spacing, &field.meta, &arrays, n);
-    write_atomically(path, |tmp| {
-        let file = std::fs::File::create(tmp)
-            .with_context(|| format!("{}: cannot create", tmp.display()))?;
+    let io = |source| FileError::write(path, source);
+    write_file_atomically(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(io)?;
         let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
-        w.write_all(header.as_bytes())?;
+        w.write_all(header.as_bytes()).map_err(io)?;
         let (mut raw, mut text) = (Vec::with_capacity(1 << 16), Vec::with_capacity(1 << 17));
         for a in &arrays {
             let mut enc = B64::default();
@@ -214,22 +221,22 @@ pub fn write_vti_with(
                 if raw.len() >= 1 << 16 {
                     enc.push(&raw, &mut text);
                     raw.clear();
-                    w.write_all(&text)?;
+                    w.write_all(&text).map_err(io)?;
                     text.clear();
                 }
             }
             enc.push(&raw, &mut text);
             raw.clear();
             enc.finish(&mut text);
-            w.write_all(&text)?;
+            w.write_all(&text).map_err(io)?;
             text.clear();
         }
-        w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")?;
+        w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
+            .map_err(io)?;
         w.into_inner()
-            .map_err(|e| e.into_error())?
+            .map_err(|e| io(e.into_error()))?
             .sync_all()
-            .with_context(|| format!("{}: cannot flush", tmp.display()))?;
-        Ok(())
+            .map_err(io)
     })
 }
 
