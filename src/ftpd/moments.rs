@@ -77,6 +77,18 @@ pub struct CellValue {
     pub estimated: bool,
 }
 
+impl CellValue {
+    /// The standard error relative to σ, as the outputs show it (`ftpd.relerr`): 0 where σ is
+    /// undefined or 0.
+    pub fn relative_error(&self) -> f64 {
+        if self.valid && self.sigma > 0.0 {
+            self.stderr / self.sigma
+        } else {
+            0.0
+        }
+    }
+}
+
 /// FTPD from normalised moments: `sqrt(m2) + sqrt(max(0, m2 - m1²))` (eq. 14).
 #[inline]
 pub fn sigma_from(m1: f64, m2: f64) -> f64 {

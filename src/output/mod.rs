@@ -3,6 +3,7 @@
 //! failed run never leaves a truncated output.
 
 mod error;
+mod exact;
 pub mod exr;
 pub mod plot;
 pub mod png;
@@ -11,7 +12,6 @@ pub mod vti;
 pub use error::{FileError, OutputError};
 
 use crate::field::Field;
-use crate::ftpd::moments::Moments;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -180,52 +180,6 @@ pub fn write_previews(
 ) -> Result<(), FileError> {
     png::write_field_preview(&path.with_extension("png"), sigma, valid, w, h)?;
     png::write_gradient_preview(&path.with_extension("grad.png"), sigma, valid, w, h)
-}
-
-/// The sums every output keeps exactly (EXR as hi/lo u32 pairs, VTI as Float64), by name, with
-/// accessors: with the sample, batch and group counts they are a cell's whole [`Moments`], so fields read
-/// back merge bit for bit.
-pub(crate) type Getter = fn(&Moments) -> f64;
-pub(crate) type Setter = fn(&mut Moments, f64);
-pub(crate) const EXACT: &[(&str, Getter, Setter)] = &[
-    ("sum.w", |m| m.s0, |m, v| m.s0 = v),
-    ("sum.wd", |m| m.s1, |m, v| m.s1 = v),
-    ("sum.wd2", |m| m.s2, |m, v| m.s2 = v),
-    ("sum.fluence.R", |m| m.fluence.x, |m, v| m.fluence.x = v),
-    ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
-    ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
-    ("sum.w.w", |m| m.cross[0], |m, v| m.cross[0] = v),
-    ("sum.w.wd", |m| m.cross[1], |m, v| m.cross[1] = v),
-    ("sum.w.wd2", |m| m.cross[2], |m, v| m.cross[2] = v),
-    ("sum.wd.wd", |m| m.cross[3], |m, v| m.cross[3] = v),
-    ("sum.wd.wd2", |m| m.cross[4], |m, v| m.cross[4] = v),
-    ("sum.wd2.wd2", |m| m.cross[5], |m, v| m.cross[5] = v),
-    ("sum3.w.w.w", |m| m.cube[0], |m, v| m.cube[0] = v),
-    ("sum3.w.w.wd", |m| m.cube[1], |m, v| m.cube[1] = v),
-    ("sum3.w.w.wd2", |m| m.cube[2], |m, v| m.cube[2] = v),
-    ("sum3.w.wd.wd", |m| m.cube[3], |m, v| m.cube[3] = v),
-    ("sum3.w.wd.wd2", |m| m.cube[4], |m, v| m.cube[4] = v),
-    ("sum3.w.wd2.wd2", |m| m.cube[5], |m, v| m.cube[5] = v),
-    ("sum3.wd.wd.wd", |m| m.cube[6], |m, v| m.cube[6] = v),
-    ("sum3.wd.wd.wd2", |m| m.cube[7], |m, v| m.cube[7] = v),
-    ("sum3.wd.wd2.wd2", |m| m.cube[8], |m, v| m.cube[8] = v),
-    ("sum3.wd2.wd2.wd2", |m| m.cube[9], |m, v| m.cube[9] = v),
-];
-
-/// Whether an exact sum is one of the triple product sums, which files written before the
-/// standard error was taken over groups of samples lack: such files read with every sample as its
-/// own group and these sums 0 (no skewness correction for their part; [`legacy_groups`]).
-pub(crate) fn is_triple_sum(name: &str) -> bool {
-    name.starts_with("sum3.")
-}
-
-/// A field read from a file without group counts: each sample was its own unit of the standard
-/// error (the product sums were per sample), and the triple product sums are unknown (0).
-pub(crate) fn legacy_groups(field: &mut crate::field::Field) {
-    for c in &mut field.cells {
-        c.groups = c.n;
-        c.cube = [0.0; 10];
-    }
 }
 
 /// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).

@@ -4,24 +4,59 @@
 use super::base64::{b64_decode, b64_len};
 use super::{Vti, comment_unescape};
 use crate::field::Field;
-use crate::output::{EXACT, FileError};
+use crate::output::FileError;
+use crate::output::exact::{ExactArrays, read_exact};
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::path::Path;
-
-/// The value of `name="..."` in an XML tag.
-fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
-    let key = format!(" {name}=\"");
-    let start = tag.find(&key)? + key.len();
-    let len = tag[start..].find('"')?;
-    Some(&tag[start..start + len])
-}
 
 /// Reads a volume written by [`write_vti`](super::write_vti) back: grid, exact sums, sample and
 /// batch counts, metadata. (A reader of this tool's own files, not of every `.vti`.)
 pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
     let bytes = std::fs::read(path).map_err(|source| FileError::read(path, source))?;
-    let not_ours = |what: &str| FileError::format(path, format!("{what} (not an ftpd3d volume?)"));
+    let (head, data) = split(path, &bytes)?;
+    let grid = grid(path, head, data.len())?;
+    let (arrays, meta) = arrays_and_comments(path, head)?;
+    if arrays.contains_key("exact.batch.sigma") && !arrays.contains_key("exact.sum.w.w") {
+        return Err(FileError::EarlierVersion {
+            path: path.to_path_buf(),
+        });
+    }
+    let file = Appended {
+        path,
+        data,
+        arrays,
+        n: grid.n,
+    };
+    let [nx, ny, nz] = grid.dims;
+    let mut field = Field::new(nx, ny, nz);
+    field.meta = meta;
+    read_exact(&mut field, &file)?;
+    let mut extra = BTreeMap::new();
+    for (name, (ty, _)) in &file.arrays {
+        if name.starts_with("pass.") && ty == "Float64" {
+            extra.insert(name.clone(), file.float64s(name)?);
+        }
+    }
+    // Every attribute reads as what it should be, or the file is refused naming it.
+    field.info(&path.display().to_string())?;
+    Ok(Vti {
+        field,
+        origin: grid.origin,
+        spacing: grid.spacing,
+        extra,
+    })
+}
+
+/// The error for a file that is not one of this tool's volumes, or is damaged.
+fn not_ours(path: &Path, what: &str) -> FileError {
+    FileError::format(path, format!("{what} (not an ftpd3d volume?)"))
+}
+
+/// The XML header (everything before `<AppendedData`) and the base64 appended data (after its
+/// `_`), once the file is whole and of the layout the writer gives.
+fn split<'a>(path: &Path, bytes: &'a [u8]) -> Result<(&'a str, &'a [u8]), FileError> {
+    let not_ours = |what: &str| not_ours(path, what);
     if !bytes.trim_ascii_end().ends_with(b"</VTKFile>") {
         return Err(not_ours("truncated: no closing </VTKFile>"));
     }
@@ -44,7 +79,22 @@ pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
     if !bytes[at..underscore].starts_with(b"<AppendedData encoding=\"base64\"") {
         return Err(not_ours("appended data is not base64"));
     }
-    let data = &bytes[underscore + 1..];
+    Ok((head, &bytes[underscore + 1..]))
+}
+
+/// The image's grid: points per axis, their count, the first point and the spacing.
+struct Grid {
+    dims: [usize; 3],
+    n: usize,
+    origin: DVec3,
+    spacing: DVec3,
+}
+
+/// The grid of the `<ImageData>` tag of `head`, refused when damaged: whole, non-negative extents
+/// from 0, and no more voxels than `data_len` bytes of appended data could hold (every voxel takes
+/// bytes in each array), so that nothing is allocated for a damaged header.
+fn grid(path: &Path, head: &str, data_len: usize) -> Result<Grid, FileError> {
+    let not_ours = |what: &str| not_ours(path, what);
     let image = head
         .lines()
         .find(|l| l.trim_start().starts_with("<ImageData"))
@@ -69,8 +119,6 @@ pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
     {
         return Err(not_ours("unexpected WholeExtent, Origin or Spacing"));
     }
-    // Whole, non-negative extents, and no more voxels than the appended data could hold (every
-    // voxel takes bytes in each array): a damaged header is refused before anything is allocated.
     if [ext[1], ext[3], ext[5]]
         .iter()
         .any(|&e| !(0.0..=1e15).contains(&e) || e.fract() != 0.0)
@@ -81,35 +129,68 @@ pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
     let n = dims
         .iter()
         .try_fold(1usize, |a, &d| a.checked_mul(d))
-        .filter(|&n| n <= data.len())
+        .filter(|&n| n <= data_len)
         .ok_or_else(|| not_ours("more voxels than the appended data holds"))?;
-    let mut field = Field::new(dims[0], dims[1], dims[2]);
-    let mut offsets = BTreeMap::new();
+    Ok(Grid {
+        dims,
+        n,
+        origin: DVec3::new(o[0], o[1], o[2]),
+        spacing: DVec3::new(s[0], s[1], s[2]),
+    })
+}
+
+/// The arrays the header lists (name → type and offset into the appended data) and the run's
+/// description from its comments.
+type ArrayIndex = BTreeMap<String, (String, usize)>;
+
+fn arrays_and_comments(
+    path: &Path,
+    head: &str,
+) -> Result<(ArrayIndex, BTreeMap<String, String>), FileError> {
+    let mut arrays = BTreeMap::new();
+    let mut meta = BTreeMap::new();
     for l in head.lines() {
         let l = l.trim();
         if l.starts_with("<DataArray")
             && let (Some(name), Some(ty), Some(off)) =
                 (attr(l, "Name"), attr(l, "type"), attr(l, "offset"))
         {
-            let off: usize = off.parse().map_err(|_| not_ours("bad offset"))?;
-            offsets.insert(name.to_string(), (ty.to_string(), off));
+            let off: usize = off.parse().map_err(|_| not_ours(path, "bad offset"))?;
+            arrays.insert(name.to_string(), (ty.to_string(), off));
         } else if let Some(kv) = l
             .strip_prefix("<!-- ftpd3d ")
             .and_then(|r| r.strip_suffix(" -->"))
             && let Some((k, v)) = kv.split_once('=')
         {
-            field.meta.insert(comment_unescape(k), comment_unescape(v));
+            meta.insert(comment_unescape(k), comment_unescape(v));
         }
     }
-    if offsets.contains_key("exact.batch.sigma") && !offsets.contains_key("exact.sum.w.w") {
-        return Err(FileError::EarlierVersion {
-            path: path.to_path_buf(),
-        });
-    }
-    // Written before the standard error was taken over groups of samples: see `legacy_groups`.
-    let legacy = !offsets.contains_key("groups");
-    let block = |name: &str, ty: &str, size: usize| -> Result<Vec<u8>, FileError> {
-        let (t, off) = offsets
+    Ok((arrays, meta))
+}
+
+/// The value of `name="..."` in an XML tag.
+fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let key = format!(" {name}=\"");
+    let start = tag.find(&key)? + key.len();
+    let len = tag[start..].find('"')?;
+    Some(&tag[start..start + len])
+}
+
+/// The appended data of a file and the arrays in it, `n` values each.
+struct Appended<'a> {
+    path: &'a Path,
+    data: &'a [u8],
+    arrays: ArrayIndex,
+    n: usize,
+}
+
+impl Appended<'_> {
+    /// The bytes of array `name`, which must be of VTK type `ty` with `size` bytes a value.
+    fn block(&self, name: &str, ty: &str, size: usize) -> Result<Vec<u8>, FileError> {
+        let not_ours = |what: &str| not_ours(self.path, what);
+        let n = self.n;
+        let (t, off) = self
+            .arrays
             .get(name)
             .ok_or_else(|| not_ours(&format!("no array '{name}'")))?;
         if t != ty {
@@ -118,7 +199,7 @@ pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
         let chars = b64_len(8 + (n * size) as u64) as usize;
         let decoded = off
             .checked_add(chars)
-            .and_then(|end| data.get(*off..end))
+            .and_then(|end| self.data.get(*off..end))
             .and_then(b64_decode)
             .filter(|d| d.len() == 8 + n * size)
             .ok_or_else(|| not_ours(&format!("array '{name}' is truncated or not base64")))?;
@@ -130,60 +211,39 @@ pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
             )));
         }
         Ok(decoded[8..].to_vec())
-    };
-    for (i, c) in block("samples", "UInt32", 4)?.chunks_exact(4).enumerate() {
-        field.cells[i].n = u32::from_le_bytes(c.try_into().expect("4 bytes")) as u64;
     }
-    for (i, c) in block("batches", "UInt32", 4)?.chunks_exact(4).enumerate() {
-        field.cells[i].batches = u32::from_le_bytes(c.try_into().expect("4 bytes")) as u64;
+
+    /// The Float64 array `name`.
+    fn float64s(&self, name: &str) -> Result<Vec<f64>, FileError> {
+        Ok(self
+            .block(name, "Float64", 8)?
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect())
     }
-    if legacy {
-        crate::output::legacy_groups(&mut field);
-    } else {
-        for (i, c) in block("groups", "UInt32", 4)?.chunks_exact(4).enumerate() {
-            field.cells[i].groups = u32::from_le_bytes(c.try_into().expect("4 bytes")) as u64;
-        }
+}
+
+impl ExactArrays for Appended<'_> {
+    fn has_groups(&self) -> bool {
+        self.arrays.contains_key("groups")
     }
-    for &(name, _, set) in EXACT {
-        if legacy && crate::output::is_triple_sum(name) {
-            continue;
-        }
-        let b = block(&format!("exact.{name}"), "Float64", 8)?;
-        for (i, c) in b.chunks_exact(8).enumerate() {
-            set(
-                &mut field.cells[i],
-                f64::from_le_bytes(c.try_into().expect("8 bytes")),
-            );
-        }
+
+    fn counts(&self, name: &str) -> Result<Vec<u64>, FileError> {
+        Ok(self
+            .block(name, "UInt32", 4)?
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")) as u64)
+            .collect())
     }
-    for (k, name) in ["sum.w.comp", "sum.wd.comp", "sum.wd2.comp"]
-        .into_iter()
-        .enumerate()
-    {
-        let b = block(&format!("exact.{name}"), "Float64", 8)?;
-        for (i, c) in b.chunks_exact(8).enumerate() {
-            field.cells[i].comp[k] = f64::from_le_bytes(c.try_into().expect("8 bytes"));
-        }
+
+    fn sums(&self, name: &str) -> Result<Vec<f64>, FileError> {
+        self.float64s(&format!("exact.{name}"))
     }
-    let mut extra = BTreeMap::new();
-    for (name, (ty, _)) in &offsets {
-        if name.starts_with("pass.") && ty == "Float64" {
-            let b = block(name, "Float64", 8)?;
-            let v = b
-                .chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-                .collect();
-            extra.insert(name.clone(), v);
-        }
+
+    /// Required: a volume without the compensations is refused.
+    fn compensation(&self, name: &str) -> Result<Option<Vec<f64>>, FileError> {
+        self.sums(name).map(Some)
     }
-    // Every attribute reads as what it should be, or the file is refused naming it.
-    field.info(&path.display().to_string())?;
-    Ok(Vti {
-        field,
-        origin: DVec3::new(o[0], o[1], o[2]),
-        spacing: DVec3::new(s[0], s[1], s[2]),
-        extra,
-    })
 }
 
 #[cfg(test)]
