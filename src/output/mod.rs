@@ -1,6 +1,10 @@
 //! Writers: OpenEXR for 2D fields, VTK XML ImageData (`.vti`) for volumes, PNG previews. Every file
 //! is written under a temporary name in the destination directory and renamed into place, so a
 //! failed run never leaves a truncated output.
+//!
+//! The EXR and VTI files keep each cell's accumulator exactly (`exact`), so that their readers
+//! give back fields that merge and resume bit for bit. Reading and writing fail with a
+//! [`FileError`] naming the file; [`OutputError`] says why an output path cannot take a file.
 
 mod error;
 mod exact;

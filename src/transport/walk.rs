@@ -498,13 +498,7 @@ impl PathState {
         if !trace::visible::<K>(at.scene, o, hit.p + ls.wi * ls.dist) {
             return;
         }
-        let w = if ls.delta {
-            1.0
-        } else {
-            let p_bsdf = bsdf.pdf_in::<K::Space>(v.lobe, v.wo, ls.wi, hit.ng, hit.ns);
-            power_heuristic(ls.pdf, p_bsdf)
-        };
-        self.l += self.beta * f * ls.li * (w / ls.pdf);
+        self.add_sampled_light::<K>(v, f, ls.li, ls.wi, ls.pdf, ls.delta);
     }
 
     /// A sample of the lights' images in the planar mirrors from `v`
@@ -532,13 +526,31 @@ impl PathState {
         let Some(li) = mirror::connect_virtual::<K>(at.scene, hit.p, o, &vs, &mut st.rays) else {
             return;
         };
-        let w = if vs.delta {
+        self.add_sampled_light::<K>(v, f, li, vs.wi, vs.pdf, vs.delta);
+    }
+
+    /// Adds light `li` that reaches `v` from `wi` through the BSDF value `f`, found by a
+    /// light-sampling strategy of density `pdf` (a Dirac delta when `delta`: BSDF sampling cannot
+    /// find it, and it counts in full), weighted against BSDF sampling by the power heuristic.
+    #[inline(always)]
+    fn add_sampled_light<K: Kernel>(
+        &mut self,
+        v: &Vertex<'_, <K::Space as Space>::Lobe>,
+        f: Rgb,
+        li: Rgb,
+        wi: DVec3,
+        pdf: f64,
+        delta: bool,
+    ) {
+        let w = if delta {
             1.0
         } else {
-            let p_bsdf = bsdf.pdf_in::<K::Space>(v.lobe, v.wo, vs.wi, hit.ng, hit.ns);
-            power_heuristic(vs.pdf, p_bsdf)
+            let p_bsdf = v
+                .bsdf
+                .pdf_in::<K::Space>(v.lobe, v.wo, wi, v.hit.ng, v.hit.ns);
+            power_heuristic(pdf, p_bsdf)
         };
-        self.l += self.beta * f * li * (w / vs.pdf);
+        self.l += self.beta * f * li * (w / pdf);
     }
 
     /// In scenes with planar mirrors: after the path left `hit` as `bs` says, the vertex whose
