@@ -272,18 +272,18 @@ pub fn radiance_mis<K: Kernel>(
     s: &mut Sampler,
     st: &mut RadianceStats,
 ) -> Radiance {
-    let at = Lit::<K>::of(scene);
+    let view = SceneView::<K>::of(scene);
     let mut out = Radiance::default();
-    let mut path = PathState::start(x, at.has_mirrors, start);
+    let mut path = PathState::start(x, view.has_mirrors, start);
     let mut origin = x;
     let mut d = look;
     loop {
         st.rays += 1;
         let Some(hit) = trace::intersect::<K>(scene, origin, d, f64::INFINITY) else {
-            path.escaped::<K>(&at, d, &mut out);
+            path.escaped::<K>(&view, d, &mut out);
             break;
         };
-        path.emission::<K>(&at, x, &hit, d, &mut out);
+        path.emission::<K>(&view, x, &hit, d, &mut out);
         if path.depth >= max_bounces {
             break;
         }
@@ -298,18 +298,18 @@ pub fn radiance_mis<K: Kernel>(
             origin,
         };
         // Next-event estimation on surfaces with a non-delta lobe.
-        if !bsdf.is_delta() && !at.lights.is_empty() {
-            path.next_event::<K>(&at, &v, s, st);
+        if !bsdf.is_delta() && !view.lights.is_empty() {
+            path.next_event::<K>(&view, &v, s, st);
         }
         // The lights' images in planar mirrors, where the path could still reach them by BSDF
         // sampling (the mirror point scatters only below the bounce cap).
-        if at.has_mirrors && !bsdf.is_delta() && path.depth + 1 < max_bounces {
-            path.mirror_images::<K>(&at, &v, s, st);
+        if view.has_mirrors && !bsdf.is_delta() && path.depth + 1 < max_bounces {
+            path.mirror_images::<K>(&view, &v, s, st);
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
         let sampled = bsdf.sample_in(
-            at.sp,
+            view.sp,
             lobe,
             wo,
             hit.ng,
@@ -322,8 +322,8 @@ pub fn radiance_mis<K: Kernel>(
         let Some(bs) = sampled else {
             break;
         };
-        if at.has_mirrors {
-            path.note_mirror(at.mirrors, &hit, &bs);
+        if view.has_mirrors {
+            path.note_mirror(view.mirrors, &hit, &bs);
         }
         if !path.scatter::<K>(&hit, &bs, s) {
             break;
@@ -336,7 +336,7 @@ pub fn radiance_mis<K: Kernel>(
 }
 
 /// What every vertex of a radiance path reads: the scene as kernel `K`'s space sees it.
-struct Lit<'a, K: Kernel> {
+struct SceneView<'a, K: Kernel> {
     scene: &'a Scene,
     sp: &'a K::Space,
     lights: &'a Lights<<K::Space as Space>::Shape>,
@@ -345,12 +345,12 @@ struct Lit<'a, K: Kernel> {
     has_mirrors: bool,
 }
 
-impl<'a, K: Kernel> Lit<'a, K> {
+impl<'a, K: Kernel> SceneView<'a, K> {
     #[inline(always)]
     fn of(scene: &'a Scene) -> Self {
         let lights = K::Space::lights(scene);
         let mirrors = K::Space::mirrors(scene);
-        Lit {
+        SceneView {
             scene,
             sp: K::Space::of(scene),
             lights,
@@ -432,16 +432,16 @@ impl PathState {
 
     /// Leaving the scene along `d`: the sky and a sun disc, if there are any.
     #[inline(always)]
-    fn escaped<K: Kernel>(&mut self, at: &Lit<'_, K>, d: DVec3, out: &mut Radiance) {
-        if !at.lights.has_infinite() {
+    fn escaped<K: Kernel>(&mut self, view: &SceneView<'_, K>, d: DVec3, out: &mut Radiance) {
+        if !view.lights.has_infinite() {
             return;
         }
         if self.depth == 0 {
             // The start direction's own MIS is its caller's (`escaped` again, per light).
-            at.lights.escaped::<K::Space>(d, |le, _| out.direct += le);
+            view.lights.escaped::<K::Space>(d, |le, _| out.direct += le);
             out.escaped = true;
         } else {
-            at.lights.escaped::<K::Space>(d, |le, p_light| {
+            view.lights.escaped::<K::Space>(d, |le, p_light| {
                 let w = self.found_light_weight(|_| p_light);
                 self.l += self.beta * le * w;
             });
@@ -453,22 +453,22 @@ impl PathState {
     #[inline(always)]
     fn emission<K: Kernel>(
         &mut self,
-        at: &Lit<'_, K>,
+        view: &SceneView<'_, K>,
         x: DVec3,
         hit: &Hit,
         d: DVec3,
         out: &mut Radiance,
     ) {
-        let le = at.scene.emitted(hit, -d);
+        let le = view.scene.emitted(hit, -d);
         if le == Rgb::ZERO {
             return;
         }
         if self.depth == 0 {
             out.direct = le;
-            out.direct_pdf = at.lights.pdf_hit::<K::Space>(x, hit.prim, hit.p);
+            out.direct_pdf = view.lights.pdf_hit::<K::Space>(x, hit.prim, hit.p);
         } else {
             let w = self
-                .found_light_weight(|from| at.lights.pdf_hit::<K::Space>(from, hit.prim, hit.p));
+                .found_light_weight(|from| view.lights.pdf_hit::<K::Space>(from, hit.prim, hit.p));
             self.l += self.beta * le * w;
         }
     }
@@ -477,7 +477,7 @@ impl PathState {
     #[inline(always)]
     fn next_event<K: Kernel>(
         &mut self,
-        at: &Lit<'_, K>,
+        view: &SceneView<'_, K>,
         v: &Vertex<'_, <K::Space as Space>::Lobe>,
         s: &mut Sampler,
         st: &mut RadianceStats,
@@ -485,17 +485,17 @@ impl PathState {
         let (hit, bsdf) = (v.hit, v.bsdf);
         let u_l = s.next_f64();
         let u = s.next_2d();
-        let Some(mut ls) = at.lights.sample(at.sp, hit.p, u_l, u) else {
+        let Some(mut ls) = view.lights.sample(view.sp, hit.p, u_l, u) else {
             return;
         };
-        light::texture_light_sample(at.scene, &mut ls, hit.p);
+        light::texture_light_sample(view.scene, &mut ls, hit.p);
         let f = bsdf.eval_in::<K::Space>(v.lobe, v.wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
         if f == Rgb::ZERO {
             return;
         }
         st.rays += 1;
-        let o = at.scene.spawn_origin_from(hit, ls.wi, v.origin);
-        if !trace::visible::<K>(at.scene, o, hit.p + ls.wi * ls.dist) {
+        let o = view.scene.spawn_origin_from(hit, ls.wi, v.origin);
+        if !trace::visible::<K>(view.scene, o, hit.p + ls.wi * ls.dist) {
             return;
         }
         self.add_sampled_light::<K>(v, f, ls.li, ls.wi, ls.pdf, ls.delta);
@@ -506,7 +506,7 @@ impl PathState {
     #[inline(always)]
     fn mirror_images<K: Kernel>(
         &mut self,
-        at: &Lit<'_, K>,
+        view: &SceneView<'_, K>,
         v: &Vertex<'_, <K::Space as Space>::Lobe>,
         s: &mut Sampler,
         st: &mut RadianceStats,
@@ -515,15 +515,15 @@ impl PathState {
         let u_m = s.next_f64();
         let u_l = s.next_f64();
         let u = s.next_2d();
-        let Some(vs) = mirror::sample_virtual(at.scene, at.sp, hit.p, u_m, u_l, u) else {
+        let Some(vs) = mirror::sample_virtual(view.scene, view.sp, hit.p, u_m, u_l, u) else {
             return;
         };
         let f = bsdf.eval_in::<K::Space>(v.lobe, v.wo, vs.wi, hit.ng, hit.ns, Mode::Radiance);
         if f == Rgb::ZERO {
             return;
         }
-        let o = at.scene.spawn_origin_from(hit, vs.wi, v.origin);
-        let Some(li) = mirror::connect_virtual::<K>(at.scene, hit.p, o, &vs, &mut st.rays) else {
+        let o = view.scene.spawn_origin_from(hit, vs.wi, v.origin);
+        let Some(li) = mirror::connect_virtual::<K>(view.scene, hit.p, o, &vs, &mut st.rays) else {
             return;
         };
         self.add_sampled_light::<K>(v, f, li, vs.wi, vs.pdf, vs.delta);
