@@ -16,7 +16,7 @@
 //! on closed enums: a branch a scene never takes is always predicted and costs nothing measurable,
 //! and work for an absent effect is still never done (there is no Fresnel term to evaluate where no
 //! material is a dielectric, no light to sample where there is none). What a run simulates and skips
-//! is listed by `--explain` ([`crate::scene::Features`]).
+//! is listed by [`crate::ftpd::effects::effects`], from the scene's [`crate::scene::Features`].
 //!
 //! This module names scene data only: every layer from transport up may name a kernel.
 

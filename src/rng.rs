@@ -44,11 +44,10 @@ pub fn hash_unit(words: &[u32]) -> f64 {
 pub const QMC_DIMS: u32 = 8;
 
 /// Samples per scrambled Sobol' sequence: one independent unit of the standard error. Longer
-/// sequences stratify more (unweighted Cornell box, squared error against independent points:
-/// groups of 8 0.68, of 16 0.70, of 32 0.57, of 64 0.48 at 128 spp; 0.75, 0.81, 0.71, 0.68 at
-/// 512), but leave each cell fewer units to estimate its error from, and the factor for few
-/// units ([`crate::ftpd::moments::Moments::stderr`]) widens the bars: at 128 spp groups of 32 (4
-/// per cell) give bars about 1.6× as wide as groups of 8, and a z variance of 0.80 against 1.15.
+/// sequences stratify more, but leave each cell fewer units to estimate its error from, and the
+/// correction for few units ([`crate::ftpd::moments::Moments::stderr`]) then widens the error
+/// bars by far more than the stratification narrows the error: short groups keep the bars tight
+/// and honest at the sample counts runs take.
 pub const QMC_GROUP: u32 = 8;
 
 /// Points of one scrambled sequence `sobol_burley` can give; a batch with more samples takes
@@ -64,8 +63,7 @@ type ByteVectors = [[[u32; 4]; 256]; 2];
 /// For each set of four dimensions, the XOR of the (bit-reversed) Sobol' direction vectors of each
 /// value of the shuffled index's top byte (`[0]`) and second byte (`[1]`): `sobol_int4_rev`
 /// XORs one vector per set bit of those 16 bits, so two lookups give the same result without
-/// its loop (about 60 instructions per set on the 16-bit indices scrambling gives). Built from
-/// `sobol_int4_rev` itself.
+/// its loop over the bits. Built from `sobol_int4_rev` itself.
 static SOBOL_BYTES: LazyLock<Box<[ByteVectors; QMC_SETS]>> = LazyLock::new(|| {
     let mut t = Box::new([[[[0u32; 4]; 256]; 2]; QMC_SETS]);
     for (set, bytes) in t.iter_mut().enumerate() {
@@ -119,8 +117,8 @@ impl SobolKeys {
 
     /// Every dimension of the point whose shuffled index is `shuffled`: [`SobolKeys::point`]'s
     /// numbers bit for bit, as f64. The Owen scramble runs lane by lane on scalar integers, where
-    /// a 32-bit multiplication is one instruction (`Int4`'s takes about eleven with SSE2, which
-    /// has no such multiplication); the bit reversal stays four lanes at a time.
+    /// a 32-bit multiplication is one instruction (`Int4`'s is emulated by a sequence of them on
+    /// SSE2, which has no such multiplication); the bit reversal stays four lanes at a time.
     #[inline]
     fn points(&self, shuffled: u32, out: &mut [f64; QMC_DIMS as usize]) {
         let (hi, lo) = (
@@ -219,9 +217,10 @@ impl Sampler {
     }
 
     /// Every dimension of the current QMC point into `point`, when its first number is drawn (the
-    /// samples that draw a point use all of its sets). Not inlined: with the point's code inlined
-    /// into every call site, all of them were slower (2 % more instructions per radiance-weighted
-    /// sample on the stair wall, which never draws a point).
+    /// samples that draw a point use all of its sets). Not inlined: the point's code is large and
+    /// runs once per sample, while [`Sampler::next_f64`] is called at every bounce; inlined into
+    /// each call site it slows every draw, those of samples that never draw a point included
+    /// (radiance weighting).
     #[inline(never)]
     fn next_point(&mut self) {
         if self.keyed != Some(self.group) {

@@ -130,7 +130,7 @@ pub fn write_progress_with(
 ) -> anyhow::Result<()> {
     let mut extra = progress_arrays(progress);
     extra.extend(more);
-    write_outputs_with(field, path, png, extra)
+    Ok(write_outputs_with(field, path, png, extra)?)
 }
 
 /// [`write_progress`] for a volume: the `.vti`, whose `pass.done` and `pass.units` arrays are
@@ -156,14 +156,14 @@ pub fn write_volume_progress_with(
 ) -> anyhow::Result<()> {
     let mut extra = progress_arrays(progress);
     extra.extend(more);
-    output::write_volume_outputs_with(
+    Ok(output::write_volume_outputs_with(
         field,
         volume.vtk_origin(),
         volume.spacing,
         path,
         png,
         &extra,
-    )
+    )?)
 }
 
 /// The per-cell arrays of a pass interrupted part-way (none between passes).

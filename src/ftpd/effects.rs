@@ -1,9 +1,9 @@
-//! What a run simulates and what it skips ("simulate only what the scene calls for"), as
-//! `--explain` prints it. Each entry states a fact about the code paths a run takes: the kernel
-//! ([`crate::kernel`]) decides the radiance estimate and flatland at compile time, and the rest is
-//! decided at run time by the data (a material kind no triangle uses is never evaluated, light
-//! sampling is never called in a scene without lights, shading normals are interpolated only
-//! where the scene has vertex normals).
+//! What a run simulates and what it skips ("simulate only what the scene calls for"), for a
+//! caller to show before or beside a run. Each entry states a fact about the code paths a run
+//! takes: the kernel ([`crate::kernel`]) decides the radiance estimate and flatland at compile
+//! time, and the rest is decided at run time by the data (a material kind no triangle uses is
+//! never evaluated, light sampling is never called in a scene without lights, shading normals are
+//! interpolated only where the scene has vertex normals).
 
 use super::{Params, Weighting, kernel_for};
 use crate::scene::Scene;
@@ -17,25 +17,35 @@ pub struct Effect {
     pub why: &'static str,
 }
 
+/// Why light transport that needs the radiance estimate is skipped by a kernel without it.
+const NO_RADIANCE: &str = "no radiance estimate";
+
 /// The effects of a run of `p` on `scene`, in a fixed order.
 pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
     let f = &scene.features;
     let k = kernel_for(p);
-    let has_lights = if p.flat.is_some() {
-        scene.flat.as_ref().is_some_and(|fl| !fl.lights.is_empty())
-    } else {
-        !scene.lights.is_empty()
-    };
     let radiance = k.radiance;
-    let mirrors = if p.flat.is_some() {
-        scene.flat.as_ref().is_some_and(|fl| !fl.mirrors.is_empty())
+    // Lights and planar mirrors as the run's space sees them (flatland: those in the plane).
+    let (has_lights, mirrors) = if p.flat.is_some() {
+        scene.flat.as_ref().map_or((false, false), |fl| {
+            (!fl.lights.is_empty(), !fl.mirrors.is_empty())
+        })
     } else {
-        !scene.mirrors.is_empty()
+        (!scene.lights.is_empty(), !scene.mirrors.is_empty())
     };
     let e = |name, simulated, why| Effect {
         name,
         simulated,
         why: if simulated { "" } else { why },
+    };
+    // An effect of the radiance estimate: simulated where the kernel has it and the scene calls
+    // for it.
+    let lit = |name, present, why| {
+        e(
+            name,
+            radiance && present,
+            if radiance { why } else { NO_RADIANCE },
+        )
     };
     vec![
         e(
@@ -60,66 +70,20 @@ pub fn effects(scene: &Scene, p: &Params) -> Vec<Effect> {
                 "not needed by this weighting"
             },
         ),
-        e(
-            "area-lights",
-            radiance && f.area_lights,
-            if radiance {
-                "no emissive triangle"
-            } else {
-                "no radiance estimate"
-            },
-        ),
-        e(
-            "point-lights",
-            radiance && f.point_lights,
-            if radiance {
-                "no point light"
-            } else {
-                "no radiance estimate"
-            },
-        ),
-        e(
-            "spot-lights",
-            radiance && f.spot_lights,
-            if radiance {
-                "no spot light"
-            } else {
-                "no radiance estimate"
-            },
-        ),
-        e(
-            "sun",
-            radiance && f.sun,
-            if radiance {
-                "no sun"
-            } else {
-                "no radiance estimate"
-            },
-        ),
-        e(
+        lit("area-lights", f.area_lights, "no emissive triangle"),
+        lit("point-lights", f.point_lights, "no point light"),
+        lit("spot-lights", f.spot_lights, "no spot light"),
+        lit("sun", f.sun, "no sun"),
+        lit(
             "sky",
-            radiance && f.sky,
-            if radiance {
-                "no sky: rays that leave the scene collect nothing"
-            } else {
-                "no radiance estimate"
-            },
+            f.sky,
+            "no sky: rays that leave the scene collect nothing",
         ),
-        e(
-            "light-sampling",
-            radiance && has_lights,
-            if radiance {
-                "no light to sample"
-            } else {
-                "no radiance estimate"
-            },
-        ),
-        e(
+        lit("light-sampling", has_lights, "no light to sample"),
+        lit(
             "mirror-images",
-            radiance && has_lights && mirrors,
-            if !radiance {
-                "no radiance estimate"
-            } else if !has_lights {
+            has_lights && mirrors,
+            if !has_lights {
                 "no light to sample"
             } else {
                 "no planar perfect mirror: lights are not sampled through mirrors"

@@ -306,10 +306,9 @@ pub fn sample_point(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sam
 
 /// Called before a sample's start (its point in the cell) is drawn: radiance-weighted samples draw
 /// every number, the start's included, from the random stream. With radiance weighting the
-/// scrambled Sobol' points gave no measurable gain (its error is in the rare light paths), and
-/// computing a point cost about 240 instructions per sample with `sobol_burley::sample_4d` (four
-/// dimensions at once; about 150 with [`crate::rng`]'s tables), 10 % of a stair-wall sample, even
-/// when only the start's two dimensions are used.
+/// scrambled Sobol' points do not reduce the error (it lies in the rare light paths), while
+/// computing a point is a noticeable share of a cheap sample, even when only the start's two
+/// dimensions are used.
 #[inline]
 pub fn before_start(p: &Params, s: &mut Sampler) {
     if p.weighting == Weighting::Radiance {

@@ -77,6 +77,18 @@ pub struct CellValue {
     pub estimated: bool,
 }
 
+impl CellValue {
+    /// The standard error relative to σ, as the outputs show it (`ftpd.relerr`): 0 where σ is
+    /// undefined or 0.
+    pub fn relative_error(&self) -> f64 {
+        if self.valid && self.sigma > 0.0 {
+            self.stderr / self.sigma
+        } else {
+            0.0
+        }
+    }
+}
+
 /// FTPD from normalised moments: `sqrt(m2) + sqrt(max(0, m2 - m1²))` (eq. 14).
 #[inline]
 pub fn sigma_from(m1: f64, m2: f64) -> f64 {
@@ -274,26 +286,25 @@ impl Moments {
     /// Σψᵢ = 0 at the sample means. The units are independent, so Var σ ≈ Σψᵢ² / (G(G − 1)),
     /// and Σψᵢ² expands into the six product sums in [`Moments::cross`]. The points of one scrambled
     /// Sobol' group are stratified against each other, so a group, not a sample, is the unit: with
-    /// samples as units the variance missed the stratification's gain and the error bars of
-    /// 64-point sequences were 1.2× too wide.
+    /// samples as units the variance would miss the stratification's gain and the error bars would
+    /// be too wide.
     ///
     /// The error over this estimate is not of unit variance when ψ is skewed (rare large
     /// contributions: radiance paths carrying 100× the mean, pairs split by an edge): a cell that
     /// has not met them yet has both a low σ̂ and a low estimate of its error. To second order
     /// (the Edgeworth expansion of the studentized mean; "The Bootstrap and Edgeworth
-    /// Expansion", Springer 1992, section 2.6) the variance of (σ̂ − σ)/se is 1 + (2 + 7γ²/4)/G, with γ the
-    /// skewness of ψ. Its 1 + 2/G is the first-order part of the variance of Student's t with
-    /// G − 1 degrees of freedom, (G − 1)/(G − 3), exact for normal ψ; the returned error includes
-    /// the factor (G − 1)/(G − 3) + 7γ²/(4G) (3 below four units, where the t variance is
-    /// infinite: its value at four), which at 8 groups (64 spp) brought the z variance closer to 1
-    /// than 1 + (2 + 7γ²/4)/G (Cornell box: 1.29 against 1.40 radiance-weighted, 1.50 against
-    /// 1.67 unweighted). γ is estimated from the triple product sums in [`Moments::cube`] (Σψᵢ³)
-    /// and bounded by the largest skewness G values can have (√G). So the error is wider than Var σ̂ alone where few units hold a skewed
-    /// contribution, and tends to it as units accumulate. The sample's γ understates a heavy
-    /// tail's, so at few units the factor removes part of the excess, not all: half of it at 64
-    /// samples of an exponential contribution (the test
-    /// `skewness_factor_brings_z_variance_towards_one_at_few_samples`), and on the Cornell box the
-    /// z variance against a 16× reference fell from 1.42 to 1.16 at 128 spp (radiance weighting).
+    /// Expansion", Springer 1992, section 2.6) the variance of (σ̂ − σ)/se is 1 + (2 + 7γ²/4)/G,
+    /// with γ the skewness of ψ. Its 1 + 2/G is the first-order part of the variance of Student's
+    /// t with G − 1 degrees of freedom, (G − 1)/(G − 3), exact for normal ψ; the returned error
+    /// includes the factor (G − 1)/(G − 3) + 7γ²/(4G) (3 below four units, where the t variance is
+    /// infinite: its value at four), which brings the z variance closer to 1 at few groups than
+    /// 1 + (2 + 7γ²/4)/G does. γ is estimated from the triple product sums in [`Moments::cube`]
+    /// (Σψᵢ³) and bounded by the largest skewness G values can have (√G). So the error is wider
+    /// than Var σ̂ alone where few units hold a skewed contribution, and tends to it as units
+    /// accumulate. The sample's γ understates a heavy tail's, so at few units the factor removes
+    /// part of the excess, not all (the test
+    /// `skewness_factor_brings_z_variance_towards_one_at_few_samples` holds it to at least a third
+    /// of it for an exponential contribution).
     ///
     /// √v has an infinite derivative at v = 0 (where Δ barely varies): when the standard error of
     /// v itself, s_v, exceeds 4v, the linearisation of √v is no longer valid and the estimate is

@@ -32,39 +32,63 @@
 use crate::field::Field;
 use crate::ftpd::Weighting;
 use crate::ftpd::moments::Moments;
-use crate::output::{EXACT, f32_of};
-use crate::run_info::DomainKind;
-use anyhow::{Context, bail};
+use crate::output::exact::{EXACT, EXACT_COMP, ExactArrays, read_exact};
+use crate::output::{FileError, f32_of, write_file_atomically};
+use crate::run_info::{DomainKind, RunInfo};
 use exr::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
-
-/// The compensations of the weighted sums, stored exactly like [`EXACT`]; files without them read
-/// as zero compensation.
-const EXACT_COMP: &[(&str, usize)] = &[("sum.w.comp", 0), ("sum.wd.comp", 1), ("sum.wd2.comp", 2)];
+// The prelude brings `exr::Result`; the functions here return the room's errors.
+use std::result::Result;
 
 /// Writes a 2D field (depth 1) with optional extra f32 channels (e.g. `grad.x`), each one value per
 /// cell in field order. Written to a temporary name, then renamed.
-pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyhow::Result<()> {
+pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> Result<(), FileError> {
     let (w, h) = (field.width, field.height);
     if field.depth != 1 || w == 0 || h == 0 {
-        bail!(
-            "{}: an EXR holds one 2D slice (got {}x{}x{})",
-            path.display(),
-            w,
-            h,
-            field.depth
-        );
+        return Err(FileError::unfit(
+            path,
+            format!("an EXR holds one 2D slice (got {w}x{h}x{})", field.depth),
+        ));
     }
-    // Field row 0 is the bottom (v minimal); EXR row 0 is the top.
-    let order: Vec<usize> = (0..h)
+    // The description decides the colour channels (and a malformed one is refused before writing).
+    let info = field.info(&path.display().to_string())?;
+    let order = file_order(w, h);
+    let view = view_channels(path, field, &info, extra, &order)?;
+    let exact = exact_channels(path, field, &order)?;
+    let image = two_parts(w, h, &field.meta, view, exact);
+    write_file_atomically(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| match e {
+            exr::error::Error::Io(source) => FileError::write(path, source),
+            e => FileError::encode(path, e),
+        })
+    })
+}
+
+/// The field index of each pixel in file order: field row 0 is the bottom (v minimal), EXR row 0
+/// the top. (The map is its own inverse.)
+fn file_order(w: usize, h: usize) -> Vec<usize> {
+    (0..h)
         .rev()
         .flat_map(|j| (0..w).map(move |i| j * w + i))
-        .collect();
+        .collect()
+}
+
+type Channels = Vec<AnyChannel<FlatSamples>>;
+
+/// Part 0's f32 channels, for viewing: σ (and as grey), its moments and error, weight, validity,
+/// the rounded sums and counts, the fluence or a camera's beauty image, and `extra`.
+fn view_channels(
+    path: &Path,
+    field: &Field,
+    info: &RunInfo,
+    extra: &[(&str, Vec<f64>)],
+    order: &[usize],
+) -> Result<Channels, FileError> {
     let vals = field.values();
     let per =
         |f: &dyn Fn(usize) -> f64| -> Vec<f32> { order.iter().map(|&k| f32_of(f(k))).collect() };
-    let mut chans: Vec<AnyChannel<FlatSamples>> = Vec::new();
+    let mut chans = Channels::new();
     let mut f32ch =
         |name: &str, data: Vec<f32>| chans.push(AnyChannel::new(name, FlatSamples::F32(data)));
     f32ch("ftpd", per(&|k| vals[k].sigma));
@@ -76,16 +100,7 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     f32ch("ftpd.mean", per(&|k| vals[k].mean));
     f32ch("ftpd.m2", per(&|k| vals[k].m2));
     f32ch("ftpd.stderr", per(&|k| vals[k].stderr));
-    f32ch(
-        "ftpd.relerr",
-        per(&|k| {
-            if vals[k].valid && vals[k].sigma > 0.0 {
-                vals[k].stderr / vals[k].sigma
-            } else {
-                0.0
-            }
-        }),
-    );
+    f32ch("ftpd.relerr", per(&|k| vals[k].relative_error()));
     f32ch("weight", per(&|k| vals[k].weight));
     f32ch("valid", per(&|k| if vals[k].valid { 1.0 } else { 0.0 }));
     f32ch("sum.w", per(&|k| field.cells[k].sums().0));
@@ -93,83 +108,80 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
     f32ch("sum.wd2", per(&|k| field.cells[k].sums().2));
     f32ch("samples", per(&|k| field.cells[k].n as f64));
     f32ch("batches", per(&|k| field.cells[k].batches as f64));
-    // The description decides the colour channels (and a malformed one is refused before writing).
-    let info = field.info(&path.display().to_string())?;
-    if info.domain == Some(DomainKind::Camera) {
-        // Camera runs keep the beauty image's radiance in the fluence sums.
-        let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
-        f32ch("radiance.R", per(&|k| fl[k].x));
-        f32ch("radiance.G", per(&|k| fl[k].y));
-        f32ch("radiance.B", per(&|k| fl[k].z));
+    // Camera runs keep the beauty image's radiance in the fluence sums.
+    let colour = if info.domain == Some(DomainKind::Camera) {
+        Some("radiance")
     } else if info.weighting == Some(Weighting::Radiance) {
+        Some("fluence")
+    } else {
+        None
+    };
+    if let Some(prefix) = colour {
         let fl: Vec<_> = field.cells.iter().map(Moments::fluence).collect();
-        f32ch("fluence.R", per(&|k| fl[k].x));
-        f32ch("fluence.G", per(&|k| fl[k].y));
-        f32ch("fluence.B", per(&|k| fl[k].z));
+        f32ch(&format!("{prefix}.R"), per(&|k| fl[k].x));
+        f32ch(&format!("{prefix}.G"), per(&|k| fl[k].y));
+        f32ch(&format!("{prefix}.B"), per(&|k| fl[k].z));
     }
     for (name, data) in extra {
-        if data.len() != w * h {
-            bail!("channel {name}: {} values for {} cells", data.len(), w * h);
+        if data.len() != order.len() {
+            return Err(FileError::unfit(
+                path,
+                format!(
+                    "channel {name}: {} values for {} cells",
+                    data.len(),
+                    order.len()
+                ),
+            ));
         }
         f32ch(name, per(&|k| data[k]));
     }
-    let mut exact_chans: Vec<AnyChannel<FlatSamples>> = Vec::new();
-    let mut u32ch = |name: String, data: Vec<u32>| {
-        exact_chans.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)))
-    };
-    if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
-        bail!(
-            "{}: a cell holds {} samples, more than an EXR u32 channel can count",
-            path.display(),
-            c.n
-        );
-    }
-    u32ch(
-        "samples".into(),
-        order.iter().map(|&k| field.cells[k].n as u32).collect(),
-    );
-    u32ch(
-        "batches".into(),
-        order
-            .iter()
-            .map(|&k| field.cells[k].batches.min(u32::MAX as u64) as u32)
-            .collect(),
-    );
-    u32ch(
-        "groups".into(),
-        order
-            .iter()
-            .map(|&k| field.cells[k].groups as u32)
-            .collect(),
-    );
-    let bits_of = |get: &dyn Fn(&Moments) -> f64| -> Vec<u64> {
-        order
-            .iter()
-            .map(|&k| get(&field.cells[k]).to_bits())
-            .collect()
-    };
-    let mut exact: Vec<(&str, Vec<u64>)> = EXACT
-        .iter()
-        .map(|(name, get, _)| (*name, bits_of(get)))
-        .collect();
-    exact.extend(
-        EXACT_COMP
-            .iter()
-            .map(|(name, c)| (*name, bits_of(&|m: &Moments| m.comp[*c]))),
-    );
-    for (name, bits) in exact {
-        u32ch(
-            format!("exact.{name}.hi"),
-            bits.iter().map(|b| (b >> 32) as u32).collect(),
-        );
-        u32ch(
-            format!("exact.{name}.lo"),
-            bits.iter().map(|b| *b as u32).collect(),
-        );
-    }
+    Ok(chans)
+}
 
+/// Part 1's u32 channels: the exact counts, and the bits of every exact sum as hi/lo pairs.
+fn exact_channels(path: &Path, field: &Field, order: &[usize]) -> Result<Channels, FileError> {
+    if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
+        return Err(FileError::unfit(
+            path,
+            format!(
+                "a cell holds {} samples, more than an EXR u32 channel can count",
+                c.n
+            ),
+        ));
+    }
+    let cells = &field.cells;
+    let per =
+        |f: &dyn Fn(&Moments) -> u32| -> Vec<u32> { order.iter().map(|&k| f(&cells[k])).collect() };
+    let mut chans = Channels::new();
+    let mut u32ch =
+        |name: &str, data: Vec<u32>| chans.push(AnyChannel::new(name, FlatSamples::U32(data)));
+    u32ch("samples", per(&|c| c.n as u32));
+    u32ch("batches", per(&|c| c.batches.min(u32::MAX as u64) as u32));
+    u32ch("groups", per(&|c| c.groups as u32));
+    for (name, get, _) in EXACT.iter().chain(EXACT_COMP) {
+        u32ch(
+            &format!("exact.{name}.hi"),
+            per(&|c| (get(c).to_bits() >> 32) as u32),
+        );
+        u32ch(
+            &format!("exact.{name}.lo"),
+            per(&|c| get(c).to_bits() as u32),
+        );
+    }
+    Ok(chans)
+}
+
+/// The two-part image: `ftpd` (the view, with the run's description as `ftpd3d.<key>` text
+/// attributes) and `exact`.
+fn two_parts(
+    w: usize,
+    h: usize,
+    meta: &BTreeMap<String, String>,
+    view: Channels,
+    exact: Channels,
+) -> Image<Layers<AnyChannels<FlatSamples>>> {
     let mut attrs = LayerAttributes::named("ftpd");
-    for (k, v) in &field.meta {
+    for (k, v) in meta {
         attrs.other.insert(
             Text::from(format!("ftpd3d.{k}").as_str()),
             AttributeValue::Text(Text::from(v.as_str())),
@@ -179,46 +191,41 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> anyh
         (w, h),
         attrs,
         Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(chans.into()),
+        AnyChannels::sort(view.into()),
     );
     let exact = Layer::new(
         (w, h),
         LayerAttributes::named("exact"),
         Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(exact_chans.into()),
+        AnyChannels::sort(exact.into()),
     );
-    let image = Image::from_layers(
+    Image::from_layers(
         ImageAttributes::new(IntegerBounds::from_dimensions((w, h))),
         vec![view, exact],
-    );
-    crate::output::write_atomically(path, |tmp| {
-        image
-            .write()
-            .to_file(tmp)
-            .map_err(|e| anyhow::anyhow!("{e}"))
-    })
+    )
 }
 
 type AnyImage = Image<Layers<AnyChannels<FlatSamples>>>;
 
 /// Every part of an EXR file, all channels and attributes.
-fn read_image(path: &Path) -> anyhow::Result<AnyImage> {
+fn read_image(path: &Path) -> Result<AnyImage, FileError> {
+    let file = std::fs::File::open(path).map_err(|source| FileError::read(path, source))?;
     let image: AnyImage = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .all_layers()
         .all_attributes()
-        .from_file(path)
-        .map_err(|e| anyhow::anyhow!("{}: not a readable EXR file ({e})", path.display()))?;
+        .from_unbuffered(file)
+        .map_err(|e| FileError::format(path, format!("not a readable EXR file ({e})")))?;
     let Some(first) = image.layer_data.first() else {
-        bail!("{}: an EXR file without image parts", path.display());
+        return Err(FileError::format(path, "an EXR file without image parts"));
     };
     if image.layer_data.iter().any(|l| l.size != first.size) {
-        bail!(
-            "{}: its parts differ in size (not an ftpd3d field)",
-            path.display()
-        );
+        return Err(FileError::format(
+            path,
+            "its parts differ in size (not an ftpd3d field)",
+        ));
     }
     Ok(image)
 }
@@ -239,98 +246,105 @@ fn find_channel<'a>(
 }
 
 /// Reads a field written by [`write_exr`] back (exact sums, sample counts, metadata).
-pub fn read_exr(path: &Path) -> anyhow::Result<Field> {
+pub fn read_exr(path: &Path) -> Result<Field, FileError> {
     let image = read_image(path)?;
-    let size = image.layer_data[0].size;
-    let (w, h) = (size.x(), size.y());
-    let has = |name: &str| find_channel(&image, name, |_| true).is_some();
-    if has("exact.batch.sigma.hi") && !has("exact.sum.w.w.hi") {
-        bail!(
-            "{}: written by an earlier ftpd3d, whose standard error came from batch σ sums; the \
-             per-sample product sums the error needs now are not in it, so it cannot be merged or \
-             resumed: run it again",
-            path.display()
-        );
+    let file = ExrArrays::of(path, &image);
+    if file.has("exact.batch.sigma.hi") && !file.has("exact.sum.w.w.hi") {
+        return Err(FileError::EarlierVersion {
+            path: path.to_path_buf(),
+        });
     }
-    // Written before the standard error was taken over groups of samples: see `legacy_groups`.
-    let legacy = !has("groups");
-    let chan = |name: &str| -> anyhow::Result<&FlatSamples> {
-        find_channel(&image, name, |d| matches!(d, FlatSamples::U32(_))).with_context(|| {
-            format!(
-                "{}: channel '{name}' missing (not an ftpd3d field?)",
-                path.display()
-            )
-        })
-    };
-    let u32s = |name: &str| -> anyhow::Result<Vec<u32>> {
-        match chan(name)? {
-            FlatSamples::U32(v) => Ok(v.clone()),
-            _ => bail!("{}: channel '{name}' is not u32", path.display()),
-        }
-    };
-    let mut field = Field::new(w, h, 1);
-    // EXR row r holds field row h-1-r.
-    let idx = |e: usize| -> usize { (h - 1 - e / w) * w + e % w };
-    for (e, n) in u32s("samples")?.into_iter().enumerate() {
-        field.cells[idx(e)].n = n as u64;
-    }
-    for (e, n) in u32s("batches")?.into_iter().enumerate() {
-        field.cells[idx(e)].batches = n as u64;
-    }
-    if legacy {
-        crate::output::legacy_groups(&mut field);
-    } else {
-        for (e, n) in u32s("groups")?.into_iter().enumerate() {
-            field.cells[idx(e)].groups = n as u64;
-        }
-    }
-    for (name, _, set) in EXACT {
-        if legacy && crate::output::is_triple_sum(name) {
-            continue;
-        }
-        let hi = u32s(&format!("exact.{name}.hi"))?;
-        let lo = u32s(&format!("exact.{name}.lo"))?;
-        for e in 0..w * h {
-            set(
-                &mut field.cells[idx(e)],
-                f64::from_bits(((hi[e] as u64) << 32) | lo[e] as u64),
-            );
-        }
-    }
-    for (name, k) in EXACT_COMP {
-        let (hi, lo) = (format!("exact.{name}.hi"), format!("exact.{name}.lo"));
-        if chan(&hi).is_err() {
-            continue; // written before the sums were compensated
-        }
-        let (hi, lo) = (u32s(&hi)?, u32s(&lo)?);
-        for e in 0..w * h {
-            field.cells[idx(e)].comp[*k] = f64::from_bits(((hi[e] as u64) << 32) | lo[e] as u64);
-        }
-    }
-    let mut meta = BTreeMap::new();
+    let mut field = Field::new(file.w, file.h, 1);
+    read_exact(&mut field, &file)?;
     for (k, v) in image.layer_data.iter().flat_map(|l| &l.attributes.other) {
         if let (Some(key), AttributeValue::Text(t)) = (k.to_string().strip_prefix("ftpd3d."), v) {
-            meta.insert(key.to_string(), t.to_string());
+            field.meta.insert(key.to_string(), t.to_string());
         }
     }
-    field.meta = meta;
     // Every attribute reads as what it should be, or the file is refused naming it.
     field.info(&path.display().to_string())?;
     Ok(field)
 }
 
+/// The u32 channels of an EXR file as the exact accumulator's arrays, in field order.
+struct ExrArrays<'a> {
+    path: &'a Path,
+    image: &'a AnyImage,
+    w: usize,
+    h: usize,
+}
+
+impl<'a> ExrArrays<'a> {
+    fn of(path: &'a Path, image: &'a AnyImage) -> Self {
+        let size = image.layer_data[0].size;
+        ExrArrays {
+            path,
+            image,
+            w: size.x(),
+            h: size.y(),
+        }
+    }
+
+    /// Whether any part has a channel `name`, of any type.
+    fn has(&self, name: &str) -> bool {
+        find_channel(self.image, name, |_| true).is_some()
+    }
+
+    /// The u32 channel `name`, in field order.
+    fn u32s(&self, name: &str) -> Result<Vec<u32>, FileError> {
+        let Some(FlatSamples::U32(v)) =
+            find_channel(self.image, name, |d| matches!(d, FlatSamples::U32(_)))
+        else {
+            return Err(FileError::format(
+                self.path,
+                format!("channel '{name}' missing (not an ftpd3d field?)"),
+            ));
+        };
+        Ok(file_order(self.w, self.h)
+            .into_iter()
+            .map(|e| v[e])
+            .collect())
+    }
+}
+
+impl ExactArrays for ExrArrays<'_> {
+    fn has_groups(&self) -> bool {
+        self.has("groups")
+    }
+
+    fn counts(&self, name: &str) -> Result<Vec<u64>, FileError> {
+        Ok(self.u32s(name)?.into_iter().map(u64::from).collect())
+    }
+
+    fn sums(&self, name: &str) -> Result<Vec<f64>, FileError> {
+        let hi = self.u32s(&format!("exact.{name}.hi"))?;
+        let lo = self.u32s(&format!("exact.{name}.lo"))?;
+        Ok(hi
+            .into_iter()
+            .zip(lo)
+            .map(|(hi, lo)| f64::from_bits(((hi as u64) << 32) | lo as u64))
+            .collect())
+    }
+
+    fn compensation(&self, name: &str) -> Result<Option<Vec<f64>>, FileError> {
+        let hi = format!("exact.{name}.hi");
+        if find_channel(self.image, &hi, |d| matches!(d, FlatSamples::U32(_))).is_none() {
+            return Ok(None); // written before the sums were compensated
+        }
+        self.sums(name).map(Some)
+    }
+}
+
 /// Reads one channel of an EXR as f32 in field order (row 0 = bottom), for tests and tools: the
 /// first part that has it (part 0's f32 view before part 1's exact u32 counts).
-pub fn read_channel(path: &Path, name: &str) -> anyhow::Result<(usize, usize, Vec<f32>)> {
+pub fn read_channel(path: &Path, name: &str) -> Result<(usize, usize, Vec<f32>), FileError> {
     let image = read_image(path)?;
     let size = image.layer_data[0].size;
     let (w, h) = (size.x(), size.y());
-    let c = find_channel(&image, name, |_| true)
-        .with_context(|| format!("{}: no channel '{name}'", path.display()))?;
+    let c = find_channel(&image, name, |_| true).ok_or_else(|| FileError::NoChannel {
+        path: path.to_path_buf(),
+        name: name.to_string(),
+    })?;
     let v: Vec<f32> = c.values_as_f32().collect();
-    let mut out = vec![0.0; w * h];
-    for (e, x) in v.into_iter().enumerate() {
-        out[(h - 1 - e / w) * w + e % w] = x;
-    }
-    Ok((w, h, out))
+    Ok((w, h, file_order(w, h).into_iter().map(|e| v[e]).collect()))
 }

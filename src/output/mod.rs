@@ -1,15 +1,21 @@
 //! Writers: OpenEXR for 2D fields, VTK XML ImageData (`.vti`) for volumes, PNG previews. Every file
 //! is written under a temporary name in the destination directory and renamed into place, so a
 //! failed run never leaves a truncated output.
+//!
+//! The EXR and VTI files keep each cell's accumulator exactly (`exact`), so that their readers
+//! give back fields that merge and resume bit for bit. Reading and writing fail with a
+//! [`FileError`] naming the file; [`OutputError`] says why an output path cannot take a file.
 
+mod error;
+mod exact;
 pub mod exr;
 pub mod plot;
 pub mod png;
 pub mod vti;
 
+pub use error::{FileError, OutputError};
+
 use crate::field::Field;
-use crate::ftpd::moments::Moments;
-use anyhow::Context;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -41,11 +47,12 @@ pub fn temp_path(path: &Path) -> PathBuf {
 }
 
 /// Runs `write` on a temporary path and renames the result to `path`; removes the temporary file
-/// when writing fails.
-pub fn write_atomically(
+/// when writing fails. `write`'s errors come back as they are (the writers of this room name
+/// `path` in them, not the temporary name); a failed rename is [`FileError::Rename`].
+pub fn write_file_atomically<E: From<FileError>>(
     path: &Path,
-    write: impl FnOnce(&Path) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), E> {
     let tmp = temp_path(path);
     if let Ok(mut list) = IN_PROGRESS.lock() {
         list.push(tmp.clone());
@@ -55,37 +62,29 @@ pub fn write_atomically(
         list.retain(|p| p != &tmp);
     }
     match result {
-        Ok(()) => std::fs::rename(&tmp, path).with_context(|| {
-            format!(
-                "{}: cannot move the finished file into place",
-                path.display()
-            )
+        Ok(()) => std::fs::rename(&tmp, path).map_err(|source| {
+            FileError::Rename {
+                path: path.to_path_buf(),
+                source,
+            }
+            .into()
         }),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
-            Err(e.context(format!("{}: writing failed", path.display())))
+            Err(e)
         }
     }
 }
 
-/// Why an output path cannot take the file (the command line names the `-o` flag:
-/// `crate::cli::errors`).
-#[derive(Debug, thiserror::Error)]
-pub enum OutputError {
-    #[error("output {path}: cannot create directory {dir}")]
-    CreateDir {
-        path: PathBuf,
-        dir: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("output {path}: is a directory")]
-    IsDirectory { path: PathBuf },
-    #[error("output {path}: directory {dir} is not writable")]
-    NotWritable {
-        path: PathBuf,
-        dir: PathBuf,
-        source: std::io::Error,
-    },
+/// [`write_file_atomically`] for writers whose errors are `anyhow`'s (reports, SVG, CSV): a
+/// failure reads `<path>: writing failed: <cause>`.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    write_file_atomically(path, |tmp| {
+        write(tmp).map_err(|e| e.context(format!("{}: writing failed", path.display())))
+    })
 }
 
 /// Fails early when `path`'s directory cannot take a new file (before hours of work).
@@ -116,7 +115,7 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
 /// Writes the EXR (with the Sobel gradient of σ as `grad.x`/`grad.y`, per cell) and, when asked,
 /// PNG previews next to it: `<name>.png` (σ, equalised CIELAB map) and `<name>.grad.png` (gradient
 /// direction as hue, magnitude as lightness).
-pub fn write_outputs(field: &Field, path: &Path, png: bool) -> anyhow::Result<()> {
+pub fn write_outputs(field: &Field, path: &Path, png: bool) -> Result<(), FileError> {
     write_outputs_with(field, path, png, Vec::new())
 }
 
@@ -126,7 +125,7 @@ pub fn write_outputs_with(
     path: &Path,
     png: bool,
     mut extra: Vec<(&str, Vec<f64>)>,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     let sigma = field.sigma();
     let valid = field.valid();
     let (w, h) = (field.width, field.height);
@@ -149,7 +148,7 @@ pub fn write_volume_outputs(
     spacing: DVec3,
     path: &Path,
     png: bool,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     write_volume_outputs_with(field, origin, spacing, path, png, &[])
 }
 
@@ -161,7 +160,7 @@ pub fn write_volume_outputs_with(
     path: &Path,
     png: bool,
     extra: &[(&str, Vec<f64>)],
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     vti::write_vti_with(path, field, origin, spacing, extra)?;
     if png {
         let (w, h) = (field.width, field.height);
@@ -182,55 +181,9 @@ pub fn write_previews(
     valid: &[bool],
     w: usize,
     h: usize,
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     png::write_field_preview(&path.with_extension("png"), sigma, valid, w, h)?;
     png::write_gradient_preview(&path.with_extension("grad.png"), sigma, valid, w, h)
-}
-
-/// The sums every output keeps exactly (EXR as hi/lo u32 pairs, VTI as Float64), by name, with
-/// accessors: with the sample, batch and group counts they are a cell's whole [`Moments`], so fields read
-/// back merge bit for bit.
-pub(crate) type Getter = fn(&Moments) -> f64;
-pub(crate) type Setter = fn(&mut Moments, f64);
-pub(crate) const EXACT: &[(&str, Getter, Setter)] = &[
-    ("sum.w", |m| m.s0, |m, v| m.s0 = v),
-    ("sum.wd", |m| m.s1, |m, v| m.s1 = v),
-    ("sum.wd2", |m| m.s2, |m, v| m.s2 = v),
-    ("sum.fluence.R", |m| m.fluence.x, |m, v| m.fluence.x = v),
-    ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
-    ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
-    ("sum.w.w", |m| m.cross[0], |m, v| m.cross[0] = v),
-    ("sum.w.wd", |m| m.cross[1], |m, v| m.cross[1] = v),
-    ("sum.w.wd2", |m| m.cross[2], |m, v| m.cross[2] = v),
-    ("sum.wd.wd", |m| m.cross[3], |m, v| m.cross[3] = v),
-    ("sum.wd.wd2", |m| m.cross[4], |m, v| m.cross[4] = v),
-    ("sum.wd2.wd2", |m| m.cross[5], |m, v| m.cross[5] = v),
-    ("sum3.w.w.w", |m| m.cube[0], |m, v| m.cube[0] = v),
-    ("sum3.w.w.wd", |m| m.cube[1], |m, v| m.cube[1] = v),
-    ("sum3.w.w.wd2", |m| m.cube[2], |m, v| m.cube[2] = v),
-    ("sum3.w.wd.wd", |m| m.cube[3], |m, v| m.cube[3] = v),
-    ("sum3.w.wd.wd2", |m| m.cube[4], |m, v| m.cube[4] = v),
-    ("sum3.w.wd2.wd2", |m| m.cube[5], |m, v| m.cube[5] = v),
-    ("sum3.wd.wd.wd", |m| m.cube[6], |m, v| m.cube[6] = v),
-    ("sum3.wd.wd.wd2", |m| m.cube[7], |m, v| m.cube[7] = v),
-    ("sum3.wd.wd2.wd2", |m| m.cube[8], |m, v| m.cube[8] = v),
-    ("sum3.wd2.wd2.wd2", |m| m.cube[9], |m, v| m.cube[9] = v),
-];
-
-/// Whether an exact sum is one of the triple product sums, which files written before the
-/// standard error was taken over groups of samples lack: such files read with every sample as its
-/// own group and these sums 0 (no skewness correction for their part; [`legacy_groups`]).
-pub(crate) fn is_triple_sum(name: &str) -> bool {
-    name.starts_with("sum3.")
-}
-
-/// A field read from a file without group counts: each sample was its own unit of the standard
-/// error (the product sums were per sample), and the triple product sums are unknown (0).
-pub(crate) fn legacy_groups(field: &mut crate::field::Field) {
-    for c in &mut field.cells {
-        c.groups = c.n;
-        c.cube = [0.0; 10];
-    }
 }
 
 /// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).

@@ -1,7 +1,8 @@
 //! Log-log line plots as PNG (plotters, bitmap backend). Text is drawn with a bundled subset of the
 //! DejaVu Sans font through ab_glyph (`assets/fonts/`), so no system font library is needed.
 
-use anyhow::Context;
+use crate::output::FileError;
+use plotters::coord::combinators::WithKeyPoints;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 use std::path::Path;
@@ -77,13 +78,25 @@ fn log_ticks(r: &std::ops::Range<f64>) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// Widens [lo, hi] by a factor on each side (log axes), and makes an empty range non-empty.
-fn log_range(lo: f64, hi: f64) -> std::ops::Range<f64> {
+fn log_range((lo, hi): (f64, f64)) -> std::ops::Range<f64> {
     let (lo, hi) = if lo < hi {
         (lo, hi)
     } else {
         (lo * 0.5, lo * 2.0)
     };
     (lo / 1.3)..(hi * 1.3)
+}
+
+/// Whether a point can be drawn on log axes: positive and finite.
+fn drawable(&(x, y): &(f64, f64)) -> bool {
+    x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite()
+}
+
+/// The smallest and largest of `values`.
+fn min_max(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    })
 }
 
 /// Draws the series on log-log axes and writes a `size` PNG (atomically).
@@ -94,108 +107,25 @@ pub fn write_loglog_png(
     x_label: &str,
     y_label: &str,
     series: &[Series],
-) -> anyhow::Result<()> {
+) -> Result<(), FileError> {
     register();
     let (w, h) = size;
     let pos: Vec<(f64, f64)> = series
         .iter()
         .flat_map(|s| s.points.iter().copied())
-        .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+        .filter(drawable)
         .collect();
-    anyhow::ensure!(
-        !pos.is_empty(),
-        "plot {}: no positive finite points to draw on log axes",
-        path.display()
-    );
-    let fold = |f: fn(&(f64, f64)) -> f64| {
-        pos.iter()
-            .map(f)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v), b.max(v))
-            })
-    };
-    let (x0, x1) = fold(|p| p.0);
-    let (y0, y1) = fold(|p| p.1);
-    let axis = |r: std::ops::Range<f64>| {
-        let (bold, light) = log_ticks(&r);
-        r.log_scale().with_key_points(bold).with_light_points(light)
-    };
-    let mut buf = vec![0u8; w as usize * h as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("plot {}: {e}", path.display());
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(42)
-            .y_label_area_size(64)
-            .build_cartesian_2d(axis(log_range(x0, x1)), axis(log_range(y0, y1)))
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .x_label_formatter(&|v| tick(*v))
-            .y_label_formatter(&|v| tick(*v))
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 16))
-            .bold_line_style(RGBColor(222, 222, 222))
-            .light_line_style(RGBColor(240, 240, 240))
-            .draw()
-            .map_err(|e| err(&e))?;
-        for s in series {
-            let c = RGBColor(s.color.0, s.color.1, s.color.2);
-            let pts: Vec<(f64, f64)> = s
-                .points
-                .iter()
-                .copied()
-                .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
-                .collect();
-            if pts.is_empty() {
-                continue;
-            }
-            let legend = match s.line {
-                Line::Markers => {
-                    chart
-                        .draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled())))
-                        .map_err(|e| err(&e))?;
-                    chart
-                        .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-                        .map_err(|e| err(&e))?
-                }
-                Line::Squares => {
-                    chart
-                        .draw_series(pts.iter().map(|&(x, y)| {
-                            EmptyElement::at((x, y))
-                                + Rectangle::new([(-4, -4), (4, 4)], c.filled())
-                        }))
-                        .map_err(|e| err(&e))?;
-                    chart
-                        .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-                        .map_err(|e| err(&e))?
-                }
-                Line::Dashed => chart
-                    .draw_series(DashedLineSeries::new(pts.clone(), 8, 5, c.stroke_width(2)))
-                    .map_err(|e| err(&e))?,
-                Line::Thin => chart
-                    .draw_series(LineSeries::new(pts.clone(), c.stroke_width(1)))
-                    .map_err(|e| err(&e))?,
-            };
-            legend.label(s.label.as_str()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 22, y)], c.stroke_width(2))
-            });
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .draw()
-            .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
+    if pos.is_empty() {
+        return Err(FileError::unfit(
+            path,
+            "a plot without positive finite points to draw on log axes",
+        ));
     }
+    let x = log_range(min_max(pos.iter().map(|p| p.0)));
+    let y = log_range(min_max(pos.iter().map(|p| p.1)));
+    let mut buf = vec![0u8; w as usize * h as usize * 3];
+    draw(&mut buf, size, (title, x_label, y_label), (x, y), series)
+        .map_err(|e| FileError::encode(path, format!("plot: {e}")))?;
     // write_png takes row 0 as the bottom row; the bitmap's row 0 is the top.
     let rgb: Vec<[u8; 3]> = buf
         .chunks_exact(w as usize * 3)
@@ -203,7 +133,88 @@ pub fn write_loglog_png(
         .flat_map(|row| row.chunks_exact(3).map(|p| [p[0], p[1], p[2]]))
         .collect();
     crate::output::png::write_png(path, w as usize, h as usize, &rgb)
-        .with_context(|| format!("plot {}", path.display()))
+}
+
+type DrawResult = Result<(), Box<dyn std::error::Error>>;
+
+/// Draws the chart into the RGB bitmap `buf` of `size`: title and axis labels, log axes over the
+/// ranges with their ticks and grid, every series, and the legend.
+fn draw(
+    buf: &mut [u8],
+    size: (u32, u32),
+    (title, x_label, y_label): (&str, &str, &str),
+    (x, y): (std::ops::Range<f64>, std::ops::Range<f64>),
+    series: &[Series],
+) -> DrawResult {
+    let axis = |r: std::ops::Range<f64>| {
+        let (bold, light) = log_ticks(&r);
+        r.log_scale().with_key_points(bold).with_light_points(light)
+    };
+    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(64)
+        .build_cartesian_2d(axis(x), axis(y))?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 16))
+        .bold_line_style(RGBColor(222, 222, 222))
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()?;
+    for s in series {
+        draw_series(&mut chart, s)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// A chart on log-log axes with their chosen ticks, drawn into a bitmap.
+type LogAxis = WithKeyPoints<LogCoord<f64>>;
+type LogLogChart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogAxis, LogAxis>>;
+
+/// One series in its style ([`Line`]), with its legend entry; nothing for a series without a
+/// drawable point.
+fn draw_series(chart: &mut LogLogChart<'_, '_>, s: &Series) -> DrawResult {
+    let c = RGBColor(s.color.0, s.color.1, s.color.2);
+    let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(drawable).collect();
+    if pts.is_empty() {
+        return Ok(());
+    }
+    let legend = match s.line {
+        Line::Markers => {
+            chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled())))?;
+            chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+        }
+        Line::Squares => {
+            chart.draw_series(pts.iter().map(|&(x, y)| {
+                EmptyElement::at((x, y)) + Rectangle::new([(-4, -4), (4, 4)], c.filled())
+            }))?;
+            chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+        }
+        Line::Dashed => {
+            chart.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, c.stroke_width(2)))?
+        }
+        Line::Thin => chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(1)))?,
+    };
+    legend
+        .label(s.label.as_str())
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], c.stroke_width(2)));
+    Ok(())
 }
 
 #[cfg(test)]

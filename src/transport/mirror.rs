@@ -3,15 +3,16 @@
 //! estimation cannot find it (the mirror is a Dirac delta), so without this only paths that happen
 //! to hit the mirror and then the light carry it, rarely and with large weights.
 //!
-//! A virtual sample chooses a plane of the scene's [`Mirrors`] (in proportion to its area), reflects
-//! `x` across it to `x'`, samples a light from `x'` as usual (point `y`, direction `wi'`, density
-//! `p`), and reflects the direction back: `wi = reflect(wi')`. Reflection is an isometry, so `p` is
-//! also the density of `wi` at `x` (per steradian, or per radian in flatland), the distance to the
-//! image `y*` is the unfolded path length (a point light's `I / d²` is right), and the segment
-//! `x' → y` meets the plane exactly where `x → y*` does. The sample counts only when the ray from
-//! `x` towards `y*` first hits a triangle of that plane, and the mirror point sees `y`. Both the
-//! densities with which this and BSDF sampling produce the path `x → mirror → y` are known, so the
-//! two are combined by multiple importance sampling (`crate::transport::walk`).
+//! A virtual sample chooses a plane of the scene's [`Mirrors`](crate::scene::mirror::Mirrors) (in
+//! proportion to its area), reflects `x` across it to `x'`, samples a light from `x'` as usual
+//! (point `y`, direction `wi'`, density `p`), and reflects the direction back: `wi = reflect(wi')`.
+//! Reflection is an isometry, so `p` is also the density of `wi` at `x` (per steradian, or per
+//! radian in flatland), the distance to the image `y*` is the unfolded path length (a point light's
+//! `I / d²` is right), and the segment `x' → y` meets the plane exactly where `x → y*` does. The
+//! sample counts only when the ray from `x` towards `y*` first hits a triangle of that plane, and
+//! the mirror point sees `y`. Both the densities with which this and BSDF sampling produce the path
+//! `x → mirror → y` are known, so the two are combined by multiple importance sampling
+//! (`crate::transport::walk`).
 
 use crate::kernel::{Kernel, Space};
 use crate::math::Rgb;
@@ -25,7 +26,7 @@ use glam::DVec3;
 pub struct VirtualSample {
     /// Unit direction from the receiver towards the light's image (towards the mirror).
     pub wi: DVec3,
-    /// The mirror plane (index into [`Mirrors::planes`]).
+    /// The mirror plane (index into [`Mirrors::planes`](crate::scene::mirror::Mirrors::planes)).
     pub plane: usize,
     /// Distance from the receiver to the plane along `wi`.
     pub t_mirror: f64,

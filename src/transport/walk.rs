@@ -12,10 +12,30 @@
 use crate::kernel::{Kernel, Space};
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
-use crate::scene::Scene;
-use crate::transport::bsdf::Mode;
-use crate::transport::trace;
+use crate::scene::light::Lights;
+use crate::scene::material::Bsdf;
+use crate::scene::mirror::Mirrors;
+use crate::scene::{Hit, Scene};
+use crate::transport::bsdf::{BsdfSample, Mode};
+use crate::transport::{light, mirror, trace};
 use glam::DVec3;
+
+/// The scattering model at `hit` and its Phong lobe's constants, for kernel `$K`: the material's,
+/// or the model its textures give there, which then lives in `$slot`, a local the caller declares
+/// (`let textured;`). A macro, not a function: returning the textured model through an `Option`
+/// slot of the caller was measurably slower per sample than this local.
+macro_rules! bsdf_at {
+    ($K:ident, $scene:expr, $hit:expr, $slot:ident) => {{
+        let (bsdf, lobe) = $K::Space::scatter($scene, $hit.material);
+        match $scene.textured_bsdf($hit) {
+            Some(b) => {
+                $slot = ($K::Space::textured_lobe(&b, lobe), b);
+                (&$slot.1, &$slot.0)
+            }
+            None => (bsdf, lobe),
+        }
+    }};
+}
 
 /// Where a walk ended and what it carried.
 #[derive(Clone, Copy, Debug)]
@@ -98,16 +118,8 @@ pub fn walk_counted<K: Kernel>(
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
-        // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
-        let (bsdf, lobe) = match scene.textured_bsdf(&hit) {
-            Some(b) => {
-                textured = (K::Space::textured_lobe(&b, lobe), b);
-                (&textured.1, &textured.0)
-            }
-            None => (bsdf, lobe),
-        };
+        let (bsdf, lobe) = bsdf_at!(K, scene, &hit, textured);
         let sampled = bsdf.sample_in(sp, lobe, -d, hit.ng, hit.ns, u_lobe, u, s, Mode::Importance);
         let Some(bs) = sampled else {
             return (None, rays);
@@ -260,180 +272,323 @@ pub fn radiance_mis<K: Kernel>(
     s: &mut Sampler,
     st: &mut RadianceStats,
 ) -> Radiance {
-    let sp = K::Space::of(scene);
-    let lights = K::Space::lights(scene);
-    let lights_empty = lights.is_empty();
+    let view = SceneView::<K>::of(scene);
     let mut out = Radiance::default();
-    let mut l = Rgb::ZERO;
-    let mut beta = Rgb::ONE;
+    let mut path = PathState::start(x, view.has_mirrors, start);
     let mut origin = x;
     let mut d = look;
-    let mut prev_p = x;
-    let mut prev_pdf = 0.0;
-    let mut prev_delta = true; // the start direction is given, like a camera ray
-    let mut eta_scale = 1.0;
-    let mut depth = 0;
-    let mirrors = K::Space::mirrors(scene);
-    let has_mirrors = !mirrors.is_empty() && !lights_empty;
-    // The last non-specular vertex (before a mirror) and, once the path has reflected in a planar
-    // mirror from there, its image (`through`).
-    let mut before: Option<MirrorMis> =
-        (has_mirrors && start.virtual_fraction > 0.0).then_some(MirrorMis {
-            p: x,
-            pdf: start.pdf,
-            scale: start.virtual_fraction,
-            balance: true,
-        });
-    let mut through: Option<MirrorMis> = None;
     loop {
         st.rays += 1;
         let Some(hit) = trace::intersect::<K>(scene, origin, d, f64::INFINITY) else {
-            // Leaving the scene: the sky and a sun disc, if there are any.
-            if lights.has_infinite() {
-                if depth == 0 {
-                    // The start direction's own MIS is its caller's (`escaped` again, per light).
-                    lights.escaped::<K::Space>(d, |le, _| out.direct += le);
-                    out.escaped = true;
-                } else {
-                    lights.escaped::<K::Space>(d, |le, p_light| {
-                        let w = if let Some(m) = through {
-                            heuristic(m.pdf, m.scale * p_light, m.balance)
-                        } else if prev_delta {
-                            1.0
-                        } else {
-                            power_heuristic(prev_pdf, p_light)
-                        };
-                        l += beta * le * w;
-                    });
-                }
-            }
+            path.escaped::<K>(&view, d, &mut out);
             break;
         };
-        if depth == 0 {
-            let le = scene.emitted(&hit, -d);
-            if le != Rgb::ZERO {
-                out.direct = le;
-                out.direct_pdf = lights.pdf_hit::<K::Space>(x, hit.prim, hit.p);
-            }
-        } else {
-            let le = scene.emitted(&hit, -d);
-            if le != Rgb::ZERO {
-                let w = if let Some(m) = through {
-                    let p_light = lights.pdf_hit::<K::Space>(m.p, hit.prim, hit.p);
-                    heuristic(m.pdf, m.scale * p_light, m.balance)
-                } else if prev_delta {
-                    1.0
-                } else {
-                    let p_light = lights.pdf_hit::<K::Space>(prev_p, hit.prim, hit.p);
-                    power_heuristic(prev_pdf, p_light)
-                };
-                l += beta * le * w;
-            }
-        }
-        if depth >= max_bounces {
+        path.emission::<K>(&view, x, &hit, d, &mut out);
+        if path.depth >= max_bounces {
             break;
         }
-        let (bsdf, lobe) = K::Space::scatter(scene, hit.material);
-        // Written out at both sites: a helper with an `Option` slot cost 0.2 % per sample.
         let textured;
-        let (bsdf, lobe) = match scene.textured_bsdf(&hit) {
-            Some(b) => {
-                textured = (K::Space::textured_lobe(&b, lobe), b);
-                (&textured.1, &textured.0)
-            }
-            None => (bsdf, lobe),
-        };
+        let (bsdf, lobe) = bsdf_at!(K, scene, &hit, textured);
         let wo = -d;
+        let v = Vertex {
+            hit: &hit,
+            bsdf,
+            lobe,
+            wo,
+            origin,
+        };
         // Next-event estimation on surfaces with a non-delta lobe.
-        if !bsdf.is_delta() && !lights_empty {
-            let u_l = s.next_f64();
-            let u = s.next_2d();
-            if let Some(mut ls) = lights.sample(sp, hit.p, u_l, u) {
-                crate::transport::light::texture_light_sample(scene, &mut ls, hit.p);
-                let f = bsdf.eval_in::<K::Space>(lobe, wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
-                if f != Rgb::ZERO {
-                    st.rays += 1;
-                    let o = scene.spawn_origin_from(&hit, ls.wi, origin);
-                    if trace::visible::<K>(scene, o, hit.p + ls.wi * ls.dist) {
-                        let w = if ls.delta {
-                            1.0
-                        } else {
-                            let p_bsdf = bsdf.pdf_in::<K::Space>(lobe, wo, ls.wi, hit.ng, hit.ns);
-                            power_heuristic(ls.pdf, p_bsdf)
-                        };
-                        l += beta * f * ls.li * (w / ls.pdf);
-                    }
-                }
-            }
+        if !bsdf.is_delta() && !view.lights.is_empty() {
+            path.next_event::<K>(&view, &v, s, st);
         }
         // The lights' images in planar mirrors, where the path could still reach them by BSDF
         // sampling (the mirror point scatters only below the bounce cap).
-        if has_mirrors && !bsdf.is_delta() && depth + 1 < max_bounces {
-            let u_m = s.next_f64();
-            let u_l = s.next_f64();
-            let u = s.next_2d();
-            if let Some(vs) =
-                crate::transport::mirror::sample_virtual(scene, sp, hit.p, u_m, u_l, u)
-            {
-                let f = bsdf.eval_in::<K::Space>(lobe, wo, vs.wi, hit.ng, hit.ns, Mode::Radiance);
-                if f != Rgb::ZERO {
-                    let o = scene.spawn_origin_from(&hit, vs.wi, origin);
-                    if let Some(li) = crate::transport::mirror::connect_virtual::<K>(
-                        scene,
-                        hit.p,
-                        o,
-                        &vs,
-                        &mut st.rays,
-                    ) {
-                        let w = if vs.delta {
-                            1.0
-                        } else {
-                            let p_bsdf = bsdf.pdf_in::<K::Space>(lobe, wo, vs.wi, hit.ng, hit.ns);
-                            power_heuristic(vs.pdf, p_bsdf)
-                        };
-                        l += beta * f * li * (w / vs.pdf);
-                    }
-                }
-            }
+        if view.has_mirrors && !bsdf.is_delta() && path.depth + 1 < max_bounces {
+            path.mirror_images::<K>(&view, &v, s, st);
         }
         let u_lobe = s.next_f64();
         let u = s.next_2d();
-        let sampled = bsdf.sample_in(sp, lobe, wo, hit.ng, hit.ns, u_lobe, u, s, Mode::Radiance);
+        let sampled = bsdf.sample_in(
+            view.sp,
+            lobe,
+            wo,
+            hit.ng,
+            hit.ns,
+            u_lobe,
+            u,
+            s,
+            Mode::Radiance,
+        );
         let Some(bs) = sampled else {
             break;
         };
-        if has_mirrors {
-            // Through a planar mirror from the last non-specular vertex: the next light found is
-            // also found by that vertex's virtual-light sample.
-            through = match (before, bs.delta, mirrors.plane_of(hit.prim)) {
-                (Some(m), true, Some(k)) => Some(MirrorMis {
-                    p: mirrors.planes[k as usize].reflect_point(m.p),
-                    scale: m.scale * mirrors.prob(k as usize),
-                    ..m
-                }),
-                _ => None,
-            };
-            before = (!bs.delta).then_some(MirrorMis {
-                p: hit.p,
-                pdf: bs.pdf,
-                scale: 1.0,
-                balance: false,
-            });
+        if view.has_mirrors {
+            path.note_mirror(view.mirrors, &hit, &bs);
         }
-        beta *= bs.weight;
-        if bs.etap != 1.0 {
-            eta_scale *= bs.etap.powi(K::Space::DIMS - 1);
-        }
-        depth += 1;
-        if !survives(&mut beta, eta_scale, depth, s) {
+        if !path.scatter::<K>(&hit, &bs, s) {
             break;
         }
         origin = scene.spawn_origin_from(&hit, bs.wi, origin);
-        prev_p = hit.p;
-        prev_pdf = bs.pdf;
-        prev_delta = bs.delta;
         d = bs.wi;
     }
-    out.rest = l;
+    out.rest = path.l;
     out
+}
+
+/// What every vertex of a radiance path reads: the scene as kernel `K`'s space sees it.
+struct SceneView<'a, K: Kernel> {
+    scene: &'a Scene,
+    sp: &'a K::Space,
+    lights: &'a Lights<<K::Space as Space>::Shape>,
+    mirrors: &'a Mirrors,
+    /// The scene has planar mirrors and lights to see in them.
+    has_mirrors: bool,
+}
+
+impl<'a, K: Kernel> SceneView<'a, K> {
+    #[inline(always)]
+    fn of(scene: &'a Scene) -> Self {
+        let lights = K::Space::lights(scene);
+        let mirrors = K::Space::mirrors(scene);
+        SceneView {
+            scene,
+            sp: K::Space::of(scene),
+            lights,
+            mirrors,
+            has_mirrors: !mirrors.is_empty() && !lights.is_empty(),
+        }
+    }
+}
+
+/// A scattering vertex of a radiance path: the hit, its scattering model (with the lobe's
+/// constants `L`), the direction back along the path, and the origin of the ray that found it
+/// (rays that leave the hit are offset from it: [`Scene::spawn_origin_from`]).
+struct Vertex<'a, L> {
+    hit: &'a Hit,
+    bsdf: &'a Bsdf,
+    lobe: &'a L,
+    wo: DVec3,
+    origin: DVec3,
+}
+
+/// A radiance path between two of its vertices: what it has gathered and carries, and what the
+/// multiple-importance weight of the next light it finds needs.
+struct PathState {
+    /// Radiance gathered so far, but for the emission the start ray sees ([`Radiance::direct`]).
+    l: Rgb,
+    /// Throughput.
+    beta: Rgb,
+    /// The last vertex, the density with which the path left it, and whether by a delta lobe
+    /// (light found next then counts in full).
+    prev_p: DVec3,
+    prev_pdf: f64,
+    prev_delta: bool,
+    /// The last non-specular vertex (before a mirror) and, once the path has reflected in a
+    /// planar mirror from there, its image (`through`).
+    before: Option<MirrorMis>,
+    through: Option<MirrorMis>,
+    /// The product of etap^(d−1) over the refractions so far ([`survives`]).
+    eta_scale: f64,
+    /// Scattering events so far.
+    depth: u32,
+}
+
+impl PathState {
+    /// A path from `x`, whose start direction the caller drew as `start` says.
+    #[inline(always)]
+    fn start(x: DVec3, has_mirrors: bool, start: StartMis) -> Self {
+        PathState {
+            l: Rgb::ZERO,
+            beta: Rgb::ONE,
+            prev_p: x,
+            prev_pdf: 0.0,
+            prev_delta: true, // the start direction is given, like a camera ray
+            before: (has_mirrors && start.virtual_fraction > 0.0).then_some(MirrorMis {
+                p: x,
+                pdf: start.pdf,
+                scale: start.virtual_fraction,
+                balance: true,
+            }),
+            through: None,
+            eta_scale: 1.0,
+            depth: 0,
+        }
+    }
+
+    /// The weight of light the path finds by BSDF sampling (an emitter hit, or the sky and sun
+    /// when it leaves the scene) against sampling that light from the last vertex, or from its
+    /// image in the mirror the path reflected in; `p_light` is the light-sampling density from a
+    /// point.
+    #[inline(always)]
+    fn found_light_weight(&self, p_light: impl Fn(DVec3) -> f64) -> f64 {
+        if let Some(m) = self.through {
+            heuristic(m.pdf, m.scale * p_light(m.p), m.balance)
+        } else if self.prev_delta {
+            1.0
+        } else {
+            power_heuristic(self.prev_pdf, p_light(self.prev_p))
+        }
+    }
+
+    /// Leaving the scene along `d`: the sky and a sun disc, if there are any.
+    #[inline(always)]
+    fn escaped<K: Kernel>(&mut self, view: &SceneView<'_, K>, d: DVec3, out: &mut Radiance) {
+        if !view.lights.has_infinite() {
+            return;
+        }
+        if self.depth == 0 {
+            // The start direction's own MIS is its caller's (`escaped` again, per light).
+            view.lights.escaped::<K::Space>(d, |le, _| out.direct += le);
+            out.escaped = true;
+        } else {
+            view.lights.escaped::<K::Space>(d, |le, p_light| {
+                let w = self.found_light_weight(|_| p_light);
+                self.l += self.beta * le * w;
+            });
+        }
+    }
+
+    /// The emission `hit` shows back along `d`: the start ray's goes to `out.direct` with the
+    /// density with which light sampling from `x` picks that point, later ones are weighted.
+    #[inline(always)]
+    fn emission<K: Kernel>(
+        &mut self,
+        view: &SceneView<'_, K>,
+        x: DVec3,
+        hit: &Hit,
+        d: DVec3,
+        out: &mut Radiance,
+    ) {
+        let le = view.scene.emitted(hit, -d);
+        if le == Rgb::ZERO {
+            return;
+        }
+        if self.depth == 0 {
+            out.direct = le;
+            out.direct_pdf = view.lights.pdf_hit::<K::Space>(x, hit.prim, hit.p);
+        } else {
+            let w = self
+                .found_light_weight(|from| view.lights.pdf_hit::<K::Space>(from, hit.prim, hit.p));
+            self.l += self.beta * le * w;
+        }
+    }
+
+    /// Next-event estimation at `v`: a light sample, weighted against BSDF sampling.
+    #[inline(always)]
+    fn next_event<K: Kernel>(
+        &mut self,
+        view: &SceneView<'_, K>,
+        v: &Vertex<'_, <K::Space as Space>::Lobe>,
+        s: &mut Sampler,
+        st: &mut RadianceStats,
+    ) {
+        let (hit, bsdf) = (v.hit, v.bsdf);
+        let u_l = s.next_f64();
+        let u = s.next_2d();
+        let Some(mut ls) = view.lights.sample(view.sp, hit.p, u_l, u) else {
+            return;
+        };
+        light::texture_light_sample(view.scene, &mut ls, hit.p);
+        let f = bsdf.eval_in::<K::Space>(v.lobe, v.wo, ls.wi, hit.ng, hit.ns, Mode::Radiance);
+        if f == Rgb::ZERO {
+            return;
+        }
+        st.rays += 1;
+        let o = view.scene.spawn_origin_from(hit, ls.wi, v.origin);
+        if !trace::visible::<K>(view.scene, o, hit.p + ls.wi * ls.dist) {
+            return;
+        }
+        self.add_sampled_light::<K>(v, f, ls.li, ls.wi, ls.pdf, ls.delta);
+    }
+
+    /// A sample of the lights' images in the planar mirrors from `v`
+    /// ([`crate::transport::mirror`]), weighted against BSDF sampling.
+    #[inline(always)]
+    fn mirror_images<K: Kernel>(
+        &mut self,
+        view: &SceneView<'_, K>,
+        v: &Vertex<'_, <K::Space as Space>::Lobe>,
+        s: &mut Sampler,
+        st: &mut RadianceStats,
+    ) {
+        let (hit, bsdf) = (v.hit, v.bsdf);
+        let u_m = s.next_f64();
+        let u_l = s.next_f64();
+        let u = s.next_2d();
+        let Some(vs) = mirror::sample_virtual(view.scene, view.sp, hit.p, u_m, u_l, u) else {
+            return;
+        };
+        let f = bsdf.eval_in::<K::Space>(v.lobe, v.wo, vs.wi, hit.ng, hit.ns, Mode::Radiance);
+        if f == Rgb::ZERO {
+            return;
+        }
+        let o = view.scene.spawn_origin_from(hit, vs.wi, v.origin);
+        let Some(li) = mirror::connect_virtual::<K>(view.scene, hit.p, o, &vs, &mut st.rays) else {
+            return;
+        };
+        self.add_sampled_light::<K>(v, f, li, vs.wi, vs.pdf, vs.delta);
+    }
+
+    /// Adds light `li` that reaches `v` from `wi` through the BSDF value `f`, found by a
+    /// light-sampling strategy of density `pdf` (a Dirac delta when `delta`: BSDF sampling cannot
+    /// find it, and it counts in full), weighted against BSDF sampling by the power heuristic.
+    #[inline(always)]
+    fn add_sampled_light<K: Kernel>(
+        &mut self,
+        v: &Vertex<'_, <K::Space as Space>::Lobe>,
+        f: Rgb,
+        li: Rgb,
+        wi: DVec3,
+        pdf: f64,
+        delta: bool,
+    ) {
+        let w = if delta {
+            1.0
+        } else {
+            let p_bsdf = v
+                .bsdf
+                .pdf_in::<K::Space>(v.lobe, v.wo, wi, v.hit.ng, v.hit.ns);
+            power_heuristic(pdf, p_bsdf)
+        };
+        self.l += self.beta * f * li * (w / pdf);
+    }
+
+    /// In scenes with planar mirrors: after the path left `hit` as `bs` says, the vertex whose
+    /// virtual-light sample also finds the next light. Through a planar mirror from the last
+    /// non-specular vertex, that vertex's image; otherwise none.
+    #[inline(always)]
+    fn note_mirror(&mut self, mirrors: &Mirrors, hit: &Hit, bs: &BsdfSample) {
+        self.through = match (self.before, bs.delta, mirrors.plane_of(hit.prim)) {
+            (Some(m), true, Some(k)) => Some(MirrorMis {
+                p: mirrors.planes[k as usize].reflect_point(m.p),
+                scale: m.scale * mirrors.prob(k as usize),
+                ..m
+            }),
+            _ => None,
+        };
+        self.before = (!bs.delta).then_some(MirrorMis {
+            p: hit.p,
+            pdf: bs.pdf,
+            scale: 1.0,
+            balance: false,
+        });
+    }
+
+    /// The path scatters at `hit` as `bs` says; false when Russian roulette ends it
+    /// ([`survives`]).
+    #[inline(always)]
+    fn scatter<K: Kernel>(&mut self, hit: &Hit, bs: &BsdfSample, s: &mut Sampler) -> bool {
+        self.beta *= bs.weight;
+        if bs.etap != 1.0 {
+            self.eta_scale *= bs.etap.powi(K::Space::DIMS - 1);
+        }
+        self.depth += 1;
+        if !survives(&mut self.beta, self.eta_scale, self.depth, s) {
+            return false;
+        }
+        self.prev_p = hit.p;
+        self.prev_pdf = bs.pdf;
+        self.prev_delta = bs.delta;
+        true
+    }
 }

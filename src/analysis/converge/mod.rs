@@ -240,7 +240,7 @@ fn read_reference(job: &ConvergeJob) -> Result<Option<(String, Field)>, Converge
     }
     let field = crate::output::exr::read_exr(p).map_err(|source| ConvergeError::ReadReference {
         path: p.clone(),
-        source,
+        source: source.into(),
     })?;
     Ok(Some((p.display().to_string(), field)))
 }

@@ -196,7 +196,7 @@ pub fn plot(report: &Report, path: &Path, size: (u32, u32)) -> anyhow::Result<()
         .map_or(report.scene.as_os_str(), |n| n)
         .to_string_lossy()
         .into_owned();
-    plot::write_loglog_png(
+    Ok(plot::write_loglog_png(
         path,
         size,
         &format!(
@@ -206,5 +206,5 @@ pub fn plot(report: &Report, path: &Path, size: (u32, u32)) -> anyhow::Result<()
         "wall time (s)",
         "error of FTPD σ",
         &series,
-    )
+    )?)
 }

@@ -101,5 +101,5 @@ pub fn write_overlay_png(
             dot(p[0], p[1], c);
         }
     }
-    crate::output::png::write_png(path, bw, bh, &img)
+    Ok(crate::output::png::write_png(path, bw, bh, &img)?)
 }

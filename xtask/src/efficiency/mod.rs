@@ -234,7 +234,7 @@ impl Case<'_> {
             .work_dir
             .join(format!("{stem}_{w}_r{}_ref{ref_spp}.exr", job.res));
         if job.keep_references && ref_path.exists() {
-            return ftpd3d::output::exr::read_exr(&ref_path);
+            return Ok(ftpd3d::output::exr::read_exr(&ref_path)?);
         }
         let f = run_binary(
             &job.baseline,

@@ -1,0 +1,175 @@
+//! Building the Embree scene: one triangle geometry over the shared arrays, or, with cut-outs, an
+//! opaque geometry and a filtered one over the same vertices; then the commit.
+
+use super::cutout::{Cutouts, cutout_filter};
+use super::device::{AccelError, check, device};
+use super::{Accel, SharedArray};
+use embree_sys as sys;
+use glam::Vec3;
+use std::ffi::c_void;
+
+/// Gives `scene` a triangle geometry with id `id` that reads `triangles` over `positions` in
+/// place; with `filter_data`, the cut-out filters and that pointer as the geometry's user data (a
+/// live [`Cutouts`] the caller keeps alive).
+fn attach(
+    dev: sys::RTCDevice,
+    scene: sys::RTCScene,
+    id: u32,
+    positions: &SharedArray<Vec3>,
+    triangles: &SharedArray<[u32; 3]>,
+    filter_data: Option<*mut c_void>,
+) -> Result<(), AccelError> {
+    // SAFETY: dev is live; the geometry is released after being attached (the scene keeps a
+    // reference), or below on error.
+    let geom = unsafe { sys::rtcNewGeometry(dev, sys::RTCGeometryType_RTC_GEOMETRY_TYPE_TRIANGLE) };
+    check(dev, "rtcNewGeometry")?;
+    // SAFETY: geom is live. The arrays are Vec3 (three f32, 12 bytes, `glam`'s layout without
+    // SIMD alignment) and [u32; 3] (12 bytes), 4-byte aligned as Embree requires, of exactly the
+    // item counts given, followed by SHARED_PAD zeroed elements (24 bytes), so Embree's 16-byte
+    // loads of the last vertex stay inside the allocation. They are never changed (`SharedArray`
+    // has no mutable access) and outlive the Embree scene: the caller's `Accel` holds a reference
+    // to each (the index arrays of cut-out scenes through its `Cutouts`) and releases the scene
+    // before dropping them (on error too, since the `Accel` is dropped then).
+    unsafe {
+        sys::rtcSetSharedGeometryBuffer(
+            geom,
+            sys::RTCBufferType_RTC_BUFFER_TYPE_VERTEX,
+            0,
+            sys::RTCFormat_RTC_FORMAT_FLOAT3,
+            positions.padded_ptr() as *const c_void,
+            0,
+            12,
+            positions.len(),
+        );
+        sys::rtcSetSharedGeometryBuffer(
+            geom,
+            sys::RTCBufferType_RTC_BUFFER_TYPE_INDEX,
+            0,
+            sys::RTCFormat_RTC_FORMAT_UINT3,
+            triangles.padded_ptr() as *const c_void,
+            0,
+            12,
+            triangles.len(),
+        );
+    }
+    if let Err(e) = check(dev, "shared geometry buffers") {
+        // SAFETY: geom is live and not yet attached.
+        unsafe { sys::rtcReleaseGeometry(geom) };
+        return Err(e);
+    }
+    if let Some(user) = filter_data {
+        // SAFETY: geom is live; `user` points to a `Cutouts` that the caller keeps alive and
+        // unmoved as long as the scene exists, which is what `cutout_filter` reads.
+        unsafe {
+            sys::rtcSetGeometryUserData(geom, user);
+            sys::rtcSetGeometryIntersectFilterFunction(geom, Some(cutout_filter));
+            sys::rtcSetGeometryOccludedFilterFunction(geom, Some(cutout_filter));
+        }
+    }
+    // SAFETY: geom and scene are live; after attaching, the scene holds its own reference, so
+    // releasing ours is the documented pattern.
+    unsafe {
+        sys::rtcCommitGeometry(geom);
+        sys::rtcAttachGeometryByID(scene, geom, id);
+        sys::rtcReleaseGeometry(geom);
+    }
+    check(dev, "geometry commit")
+}
+
+impl Accel {
+    /// Builds and commits a scene of `triangles` over `positions`. Embree reads both arrays in
+    /// place, for as long as the scene exists: the `Accel` keeps a reference to each. Triangles
+    /// must index valid vertices (the scene loader guarantees it and drops degenerate ones).
+    pub fn new(
+        positions: &SharedArray<Vec3>,
+        triangles: &SharedArray<[u32; 3]>,
+    ) -> Result<Accel, AccelError> {
+        Accel::with_cutouts(positions, triangles, &[])
+    }
+
+    /// As [`Accel::new`], with the triangles whose indices are in `cutout` (strictly increasing)
+    /// in a geometry of their own that has Embree's intersection and occlusion filters, so that
+    /// rays pass through them where [`Accel::set_cut_test`] says; the other triangles' geometry
+    /// has no filter and costs what it did. Hits and point queries report indices into
+    /// `triangles` either way. With cut-outs, each geometry reads an index array of its own.
+    pub fn with_cutouts(
+        positions: &SharedArray<Vec3>,
+        triangles: &SharedArray<[u32; 3]>,
+        cutout: &[u32],
+    ) -> Result<Accel, AccelError> {
+        if triangles.len() >= u32::MAX as usize || positions.len() >= u32::MAX as usize {
+            return Err(AccelError::TooLarge(triangles.len(), positions.len()));
+        }
+        debug_assert!(
+            triangles
+                .iter()
+                .flatten()
+                .all(|&i| (i as usize) < positions.len())
+        );
+        debug_assert!(cutout.windows(2).all(|w| w[0] < w[1]));
+        debug_assert!(cutout.iter().all(|&i| (i as usize) < triangles.len()));
+        let dev = device()?;
+        // SAFETY: dev is a live device; the scene is released by Drop (or below on error).
+        let scene = unsafe { sys::rtcNewScene(dev) };
+        check(dev, "rtcNewScene")?;
+        let mut accel = Accel {
+            scene,
+            shared_positions: positions.clone(),
+            shared_triangles: triangles.clone(),
+            cutouts: None,
+        };
+        // SAFETY: scene is live. Robust mode avoids optimisations that can let rays slip through
+        // shared edges and vertices, which the FTPD walks cross often.
+        unsafe {
+            sys::rtcSetSceneFlags(scene, sys::RTCSceneFlags_RTC_SCENE_FLAG_ROBUST);
+            sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality_RTC_BUILD_QUALITY_HIGH);
+        }
+        if cutout.is_empty() {
+            if !triangles.is_empty() {
+                attach(
+                    dev,
+                    scene,
+                    0,
+                    &accel.shared_positions,
+                    &accel.shared_triangles,
+                    None,
+                )?;
+            }
+        } else {
+            let mut is_cut = vec![false; triangles.len()];
+            for &i in cutout {
+                is_cut[i as usize] = true;
+            }
+            let opaque: Vec<u32> = (0..triangles.len() as u32)
+                .filter(|&i| !is_cut[i as usize])
+                .collect();
+            let pick = |ids: &[u32]| {
+                SharedArray::new(ids.iter().map(|&i| triangles[i as usize]).collect())
+            };
+            let cuts = Box::new(Cutouts {
+                indices: [pick(&opaque), pick(cutout)],
+                opaque,
+                cut: cutout.to_vec(),
+                test: None,
+            });
+            let user = &*cuts as *const Cutouts as *mut c_void;
+            let [opaque_tris, cut_tris] = cuts.indices.clone();
+            accel.cutouts = Some(cuts);
+            if !opaque_tris.is_empty() {
+                attach(dev, scene, 0, &accel.shared_positions, &opaque_tris, None)?;
+            }
+            attach(
+                dev,
+                scene,
+                1,
+                &accel.shared_positions,
+                &cut_tris,
+                Some(user),
+            )?;
+        }
+        // SAFETY: scene is live and fully described.
+        unsafe { sys::rtcCommitScene(scene) };
+        check(dev, "rtcCommitScene")?;
+        Ok(accel)
+    }
+}

@@ -1,0 +1,110 @@
+//! The exact accumulator as files keep it: every sum of a cell's [`Moments`] by name, bit for bit
+//! (EXR as hi/lo u32 pairs, VTI as Float64), and the one way both readers fill a field from them,
+//! so that fields read back merge and resume bit for bit.
+
+use crate::field::Field;
+use crate::ftpd::moments::Moments;
+use crate::output::FileError;
+
+/// How an exact sum is read from and written to a cell's accumulator.
+pub(crate) type Getter = fn(&Moments) -> f64;
+pub(crate) type Setter = fn(&mut Moments, f64);
+
+/// The sums every output keeps exactly, by name, with accessors: with the sample, batch and group
+/// counts and the compensations ([`EXACT_COMP`]) they are a cell's whole [`Moments`].
+pub(crate) const EXACT: &[(&str, Getter, Setter)] = &[
+    ("sum.w", |m| m.s0, |m, v| m.s0 = v),
+    ("sum.wd", |m| m.s1, |m, v| m.s1 = v),
+    ("sum.wd2", |m| m.s2, |m, v| m.s2 = v),
+    ("sum.fluence.R", |m| m.fluence.x, |m, v| m.fluence.x = v),
+    ("sum.fluence.G", |m| m.fluence.y, |m, v| m.fluence.y = v),
+    ("sum.fluence.B", |m| m.fluence.z, |m, v| m.fluence.z = v),
+    ("sum.w.w", |m| m.cross[0], |m, v| m.cross[0] = v),
+    ("sum.w.wd", |m| m.cross[1], |m, v| m.cross[1] = v),
+    ("sum.w.wd2", |m| m.cross[2], |m, v| m.cross[2] = v),
+    ("sum.wd.wd", |m| m.cross[3], |m, v| m.cross[3] = v),
+    ("sum.wd.wd2", |m| m.cross[4], |m, v| m.cross[4] = v),
+    ("sum.wd2.wd2", |m| m.cross[5], |m, v| m.cross[5] = v),
+    ("sum3.w.w.w", |m| m.cube[0], |m, v| m.cube[0] = v),
+    ("sum3.w.w.wd", |m| m.cube[1], |m, v| m.cube[1] = v),
+    ("sum3.w.w.wd2", |m| m.cube[2], |m, v| m.cube[2] = v),
+    ("sum3.w.wd.wd", |m| m.cube[3], |m, v| m.cube[3] = v),
+    ("sum3.w.wd.wd2", |m| m.cube[4], |m, v| m.cube[4] = v),
+    ("sum3.w.wd2.wd2", |m| m.cube[5], |m, v| m.cube[5] = v),
+    ("sum3.wd.wd.wd", |m| m.cube[6], |m, v| m.cube[6] = v),
+    ("sum3.wd.wd.wd2", |m| m.cube[7], |m, v| m.cube[7] = v),
+    ("sum3.wd.wd2.wd2", |m| m.cube[8], |m, v| m.cube[8] = v),
+    ("sum3.wd2.wd2.wd2", |m| m.cube[9], |m, v| m.cube[9] = v),
+];
+
+/// The Neumaier compensations of the weighted sums, kept exactly like [`EXACT`], after it.
+pub(crate) const EXACT_COMP: &[(&str, Getter, Setter)] = &[
+    ("sum.w.comp", |m| m.comp[0], |m, v| m.comp[0] = v),
+    ("sum.wd.comp", |m| m.comp[1], |m, v| m.comp[1] = v),
+    ("sum.wd2.comp", |m| m.comp[2], |m, v| m.comp[2] = v),
+];
+
+/// Whether an exact sum is one of the triple product sums, which files written before the
+/// standard error was taken over groups of samples lack: such files read with every sample as its
+/// own group and these sums 0 (no skewness correction for their part; [`legacy_groups`]).
+fn is_triple_sum(name: &str) -> bool {
+    name.starts_with("sum3.")
+}
+
+/// A field read from a file without group counts: each sample was its own unit of the standard
+/// error (the product sums were per sample), and the triple product sums are unknown (0).
+fn legacy_groups(field: &mut Field) {
+    for c in &mut field.cells {
+        c.groups = c.n;
+        c.cube = [0.0; 10];
+    }
+}
+
+/// A file's per-cell arrays under the names of the exact accumulator, each read as one value per
+/// cell in field order: what [`read_exact`] fills a field from.
+pub(crate) trait ExactArrays {
+    /// Whether the file has the group counts (files written before the standard error was taken
+    /// over groups of samples lack them: [`legacy_groups`]).
+    fn has_groups(&self) -> bool;
+    /// The count `name`: `samples`, `batches` or `groups`.
+    fn counts(&self, name: &str) -> Result<Vec<u64>, FileError>;
+    /// The exact sum `name` of [`EXACT`].
+    fn sums(&self, name: &str) -> Result<Vec<f64>, FileError>;
+    /// The compensation `name` of [`EXACT_COMP`]; `None` where the format reads a file without
+    /// it as uncompensated sums (EXR files of versions before the compensation).
+    fn compensation(&self, name: &str) -> Result<Option<Vec<f64>>, FileError>;
+}
+
+/// Fills `field` (sized as the file) with the counts, exact sums and compensations of `file`.
+pub(crate) fn read_exact(field: &mut Field, file: &impl ExactArrays) -> Result<(), FileError> {
+    let legacy = !file.has_groups();
+    for (c, n) in field.cells.iter_mut().zip(file.counts("samples")?) {
+        c.n = n;
+    }
+    for (c, n) in field.cells.iter_mut().zip(file.counts("batches")?) {
+        c.batches = n;
+    }
+    if legacy {
+        legacy_groups(field);
+    } else {
+        for (c, n) in field.cells.iter_mut().zip(file.counts("groups")?) {
+            c.groups = n;
+        }
+    }
+    for &(name, _, set) in EXACT {
+        if legacy && is_triple_sum(name) {
+            continue;
+        }
+        for (c, x) in field.cells.iter_mut().zip(file.sums(name)?) {
+            set(c, x);
+        }
+    }
+    for &(name, _, set) in EXACT_COMP {
+        if let Some(values) = file.compensation(name)? {
+            for (c, x) in field.cells.iter_mut().zip(values) {
+                set(c, x);
+            }
+        }
+    }
+    Ok(())
+}
