@@ -174,7 +174,7 @@ impl EnvMap {
     /// Reads `.exr` (the first RGB(A) layer) or `.hdr` (Radiance RGBE).
     pub fn load(path: &Path, scale: f64, rotation_deg: f64) -> anyhow::Result<EnvMap> {
         let name = path.display().to_string();
-        let ext = crate::scene::load::extension(path);
+        let ext = crate::scene::files::extension(path);
         let (w, h, texels) = match ext.as_deref() {
             Some("exr") => {
                 use exr::prelude::*;

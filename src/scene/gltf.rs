@@ -58,11 +58,15 @@
 //! world −Z with world +Y up, `yfov`, `aspectRatio`); orthographic ones are skipped with a warning.
 
 use crate::math::Rgb;
+use crate::scene::files::percent_decode;
+use crate::scene::light::Light;
 use crate::scene::material::Bsdf;
+use crate::scene::material::Material;
 use crate::scene::material::{Alpha, AlphaMode, MetallicRoughness, TextureRef};
-use crate::scene::material::{Material, conserve_energy};
+use crate::scene::model::{Camera, LoadReport, Scene};
+use crate::scene::pbr::is_lambertian;
+pub use crate::scene::pbr::{MAX_PHONG_EXPONENT, pbr_lobes, phong_exponent};
 use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
-use crate::scene::{Camera, Light, LoadReport, Scene};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::khr_lights_punctual::Kind as LightKind;
 use ::gltf::mesh::{Mode, Semantic};
@@ -73,9 +77,6 @@ use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
-
-/// Largest Phong exponent the mapping produces; reaching it means a mirror.
-pub const MAX_PHONG_EXPONENT: f64 = 1e6;
 
 /// Bytes an accessor without a buffer view (all zeros, maybe sparse) may expand to.
 const MAX_IMPLICIT_ACCESSOR_BYTES: usize = 1 << 30;
@@ -453,27 +454,6 @@ fn decode_data_uri(uri: &str) -> Result<Vec<u8>, String> {
     base64::engine::general_purpose::STANDARD_PAD_INDIFFERENT
         .decode(payload.trim())
         .map_err(|e| format!("invalid base64 in data URI: {e}"))
-}
-
-/// Undoes `%XX` escapes of a relative URI (invalid escapes are kept as they are).
-fn percent_decode(uri: &str) -> String {
-    let b = uri.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        let hex = |c: u8| (c as char).to_digit(16);
-        if b[i] == b'%'
-            && i + 2 < b.len()
-            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
-        {
-            out.push((h * 16 + l) as u8);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8_lossy(&out).into_owned()
 }
 
 /// `kind 'name'` when the object has a non-empty name, `kind #index` otherwise.
@@ -1210,15 +1190,6 @@ impl Default for PbrParams {
     }
 }
 
-/// Phong exponent equivalent to a GGX roughness: α = r², n = 2/α² − 2, clamped to [1, 10⁶].
-pub fn phong_exponent(roughness: f64) -> f64 {
-    let alpha = roughness.clamp(0.0, 1.0).powi(2);
-    if alpha <= 0.0 {
-        return MAX_PHONG_EXPONENT;
-    }
-    (2.0 / (alpha * alpha) - 2.0).clamp(1.0, MAX_PHONG_EXPONENT)
-}
-
 impl PbrParams {
     /// Base colour, metallic and roughness as the mapping uses them: clamped to [0, 1], and
     /// glTF's defaults where non-finite (out-of-range JSON numbers).
@@ -1231,32 +1202,6 @@ impl PbrParams {
             finite_or(self.roughness, 1.0),
         )
     }
-}
-
-/// The Lambertian corner of the mapping: a rough dielectric (m ≤ 0.05, r ≥ 0.9).
-#[inline]
-fn is_lambertian(metallic: f64, roughness: f64) -> bool {
-    metallic <= 0.05 && roughness >= 0.9
-}
-
-/// The glossy model's albedos and Phong exponent for base colour `base`, metallic `metallic` and
-/// roughness `roughness` (the module table's rows below transmission): in the Lambertian corner
-/// `kd` = base and `ks` = 0; elsewhere `kd` = base·(1 − m), `ks` = mix(0.04, base, m), scaled down
-/// where `kd + ks` exceeds 1, and n = [`phong_exponent`]`(r)`. Metallic and roughness are clamped
-/// to [0, 1], the base colour to ≥ 0. Used at load for constant materials ([`map_pbr`]) and at
-/// each hit for materials with a metallic-roughness texture ([`MetallicRoughness::bsdf`]).
-#[inline]
-pub fn pbr_lobes(base: Rgb, metallic: f64, roughness: f64) -> (Rgb, Rgb, f64) {
-    let (m, r) = (metallic.clamp(0.0, 1.0), roughness.clamp(0.0, 1.0));
-    // Float base-colour texels may be negative.
-    let base = base.max(Rgb::ZERO);
-    let (mut kd, mut ks) = if is_lambertian(m, r) {
-        (base, Rgb::ZERO)
-    } else {
-        (base * (1.0 - m), Rgb::splat(0.04).lerp(base, m))
-    };
-    conserve_energy(&mut kd, &mut ks);
-    (kd, ks, phong_exponent(r))
 }
 
 /// Maps metallic-roughness parameters onto the material model (the module table).
@@ -1391,20 +1336,6 @@ mod tests {
                 ks: Rgb::splat(0.9)
             }
         );
-    }
-
-    #[test]
-    fn gltf_phong_exponent_follows_roughness() {
-        assert_eq!(phong_exponent(1.0), 1.0);
-        assert_eq!(phong_exponent(0.0), MAX_PHONG_EXPONENT);
-        // r = 0.5: α = 0.25, n = 2/0.0625 − 2 = 30.
-        assert!((phong_exponent(0.5) - 30.0).abs() < 1e-12);
-        let mut last = 0.0;
-        for k in (0..=100).rev() {
-            let n = phong_exponent(k as f64 / 100.0);
-            assert!(n >= last);
-            last = n;
-        }
     }
 
     #[test]
@@ -1570,12 +1501,5 @@ mod tests {
         glb.extend(100u32.to_le_bytes());
         let e = check_glb_header(&glb).unwrap_err();
         assert!(e.contains("declares 100 bytes"), "{e}");
-    }
-
-    #[test]
-    fn gltf_percent_decoding() {
-        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
-        assert_eq!(percent_decode("100%"), "100%");
-        assert_eq!(percent_decode("x%zz"), "x%zz");
     }
 }

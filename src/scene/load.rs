@@ -2,7 +2,10 @@
 //! point lights, cameras and named slices. The scene's [`Features`] are computed here, once, after
 //! every light (the file's, the sidecar's, the command line's) is in.
 
-use crate::scene::{self, Scene};
+pub use crate::scene::files::extension;
+use crate::scene::light::Light;
+use crate::scene::model::Scene;
+use crate::scene::{gltf, obj, sidecar};
 use anyhow::{Context, bail};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -28,10 +31,10 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
 }
 
 /// Loads a scene and adds point lights (position, radiant intensity) to it.
-pub fn load_scene_with_lights(path: &Path, lights: &[scene::Light]) -> anyhow::Result<Scene> {
+pub fn load_scene_with_lights(path: &Path, lights: &[Light]) -> anyhow::Result<Scene> {
     let mut scene = match extension(path).as_deref() {
         Some("toml") => {
-            let sc = scene::sidecar::read(path)?;
+            let sc = sidecar::read(path)?;
             let mesh = path.parent().unwrap_or(Path::new(".")).join(&sc.mesh);
             if extension(&mesh).as_deref() == Some("toml") {
                 bail!(
@@ -42,7 +45,7 @@ pub fn load_scene_with_lights(path: &Path, lights: &[scene::Light]) -> anyhow::R
             }
             let mut scene = load_mesh(&mesh)
                 .with_context(|| format!("{}: loading its mesh", path.display()))?;
-            scene::sidecar::apply(&sc, path, &mut scene)?;
+            sidecar::apply(&sc, path, &mut scene)?;
             scene.named_slices = sc
                 .slice
                 .iter()
@@ -58,13 +61,6 @@ pub fn load_scene_with_lights(path: &Path, lights: &[scene::Light]) -> anyhow::R
     Ok(scene)
 }
 
-/// A path's extension in lower case.
-pub fn extension(path: &Path) -> Option<String> {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-}
-
 /// Loads a mesh file; its report's `parse_seconds` is the time of everything but the BVH build.
 fn load_mesh(path: &Path) -> anyhow::Result<Scene> {
     let start = std::time::Instant::now();
@@ -76,8 +72,8 @@ fn load_mesh(path: &Path) -> anyhow::Result<Scene> {
 
 fn load_mesh_by_extension(path: &Path) -> anyhow::Result<Scene> {
     match extension(path).as_deref() {
-        Some("obj") => scene::obj::load(path, strict()),
-        Some("gltf" | "glb") => scene::gltf::load(path),
+        Some("obj") => obj::load(path, strict()),
+        Some("gltf" | "glb") => gltf::load(path),
         Some(other) => bail!(
             "{}: unsupported scene format '.{other}' (supported: .obj, .gltf, .glb, .toml)",
             path.display()

@@ -23,8 +23,8 @@
 //!   (`transport::light::texture_light_sample`).
 
 use crate::math::Rgb;
-use crate::scene::LoadReport;
 use crate::scene::material::{Alpha, AlphaMode, Bsdf, Material, TextureRef};
+use crate::scene::model::LoadReport;
 use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
 use rayon::prelude::*;
 use std::collections::HashMap;

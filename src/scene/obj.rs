@@ -4,9 +4,10 @@
 
 use crate::math::Rgb;
 use crate::scene::material::Bsdf;
-use crate::scene::material::{Material, conserve_energy};
+use crate::scene::material::Material;
+use crate::scene::model::{LoadReport, Scene, Shading, TexCoords};
 use crate::scene::obj_parse::{self, Oddity, Statement, Tally};
-use crate::scene::{LoadReport, Scene, Shading, TexCoords};
+use crate::scene::pbr::conserve_energy;
 use anyhow::{Context, bail};
 use glam::Vec3;
 use std::collections::HashMap;

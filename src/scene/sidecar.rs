@@ -40,7 +40,8 @@
 //! ```
 
 use crate::scene::env::{EnvMap, Environment};
-use crate::scene::{Camera, Light, Scene};
+use crate::scene::light::{DEFAULT_SUN_DIAMETER_DEG, Light};
+use crate::scene::model::{Camera, Scene};
 use anyhow::{Context, bail};
 use glam::DVec3;
 use serde::Deserialize;
@@ -157,9 +158,7 @@ pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
         }
     }
     for (i, l) in sc.sun.iter().enumerate() {
-        let d = l
-            .diameter_deg
-            .unwrap_or(crate::scene::DEFAULT_SUN_DIAMETER_DEG);
+        let d = l.diameter_deg.unwrap_or(DEFAULT_SUN_DIAMETER_DEG);
         if !dir_ok(&l.direction) || !rgb_ok(&l.irradiance) || !(0.0..180.0).contains(&d) {
             bail!(
                 "{}: sun #{}: direction must be finite and not zero, irradiance finite and ≥ 0, \
@@ -225,9 +224,7 @@ pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> anyhow::Result<()>
         });
     }
     for l in &sc.sun {
-        let d = l
-            .diameter_deg
-            .unwrap_or(crate::scene::DEFAULT_SUN_DIAMETER_DEG);
+        let d = l.diameter_deg.unwrap_or(DEFAULT_SUN_DIAMETER_DEG);
         scene.add_light(Light::distant(
             DVec3::from(l.direction).normalize(),
             DVec3::from(l.irradiance),

@@ -158,7 +158,7 @@ impl Texture {
     /// Decodes `path`: PNG, JPEG, TGA, HDR through `image`, EXR through `exr`.
     pub fn load(path: &Path, encoding: Encoding) -> anyhow::Result<Texture> {
         let name = path.display().to_string();
-        let ext = crate::scene::load::extension(path);
+        let ext = crate::scene::files::extension(path);
         if ext.as_deref() == Some("exr") {
             use exr::prelude::*;
             let img = read_first_rgba_layer_from_file(
