@@ -5,6 +5,7 @@
 
 use crate::accel::{Accel, SharedArray};
 use crate::math::Rgb;
+use crate::scene::cutout::{cut_materials, cut_triangles};
 use crate::scene::features::Features;
 use crate::scene::geometry::{Aabb, triangle_normal};
 use crate::scene::light::{Light, LightSet};
@@ -13,6 +14,7 @@ use crate::scene::mirror::Mirrors;
 use crate::scene::model::{LoadReport, Scene, Shading, TexCoords, TriHit};
 use crate::scene::texture::TextureSet;
 use glam::{DVec3, Vec2, Vec3};
+use rayon::prelude::*;
 use std::path::Path;
 
 impl Scene {
@@ -72,95 +74,21 @@ impl Scene {
         let n = triangles.len();
         report.triangles_read += n;
         let textured = materials.iter().any(|m| m.maps.reads_textures());
-        let mut texcoords = match texcoords {
-            TexCoords::PerVertex(v) if textured && v.len() == positions.len() => {
-                TexCoords::PerVertex(v)
-            }
-            TexCoords::PerCorner { table, corners } if textured => {
-                assert_eq!(corners.len(), n);
-                TexCoords::PerCorner { table, corners }
-            }
-            _ => TexCoords::None,
-        };
-        let (normals, mut corners) = match shading {
-            Shading::None => (Vec::new(), None),
-            Shading::PerVertex(v) if v.len() == positions.len() => (v, None),
-            Shading::PerVertex(_) => (Vec::new(), None),
-            Shading::PerCorner(c) => {
-                assert_eq!(c.len(), n);
-                (Vec::new(), Some(c))
-            }
-        };
-        let max_material = materials.len().saturating_sub(1) as u32;
-        // The hit records, in parallel; a degenerate triangle's gets a NaN normal and is dropped
-        // below (all arrays compacted in place, in order).
-        use rayon::prelude::*;
-        let mut tri_hit: Vec<TriHit> = crate::accel::vec_with_huge_pages(n);
-        {
-            tri_hit.par_extend(triangles.par_iter().zip(&tri_material).map(|(tri, &m)| {
-                let ng = triangle_normal(&positions, tri).unwrap_or(DVec3::NAN);
-                let m = m.min(max_material);
-                TriHit {
-                    ng,
-                    p: if ng.x.is_nan() {
-                        [Vec3::ZERO; 3]
-                    } else {
-                        tri.map(|v| positions[v as usize])
-                    },
-                    material: m,
-                }
-            }));
-        }
+        let mut texcoords = kept_texcoords(texcoords, textured, positions.len(), n);
+        let (normals, mut corners) = split_shading(shading, positions.len(), n);
+        let mut tri_hit = hit_records(&positions, &triangles, &tri_material, materials.len());
         let dropped = tri_hit.par_iter().filter(|h| h.ng.x.is_nan()).count();
         report.degenerate_dropped += dropped;
-        let mut kept = n;
-        if dropped > 0 {
-            kept = 0;
-            for k in 0..n {
-                if tri_hit[k].ng.x.is_nan() {
-                    continue;
-                }
-                triangles[kept] = triangles[k];
-                tri_hit[kept] = tri_hit[k];
-                if let Some(c) = corners.as_mut() {
-                    c[kept] = c[k];
-                }
-                if let TexCoords::PerCorner { corners, .. } = &mut texcoords {
-                    corners[kept] = corners[k];
-                }
-                kept += 1;
-            }
-            if let TexCoords::PerCorner { corners, .. } = &mut texcoords {
-                corners.truncate(kept);
-                corners.shrink_to_fit();
-            }
-            tri_hit.truncate(kept);
-            triangles.truncate(kept);
-            triangles.shrink_to_fit();
-        }
+        let kept = if dropped > 0 {
+            drop_degenerate(&mut tri_hit, &mut triangles, &mut corners, &mut texcoords)
+        } else {
+            n
+        };
         tri_material.clear();
         tri_material.par_extend(tri_hit.par_iter().map(|h| h.material));
         tri_material.shrink_to_fit();
-        // Bounds of the kept triangles' vertices, in their order (as a sequential loader would:
-        // min and max of a signed zero depend on the order).
-        let mut bounds = Aabb::EMPTY;
-        for h in &tri_hit {
-            for p in h.p {
-                bounds.grow(p.as_dvec3());
-            }
-        }
-        let tri_shading = match corners {
-            Some(mut c) => {
-                c.truncate(kept);
-                c
-            }
-            None if !normals.is_empty() => {
-                let mut s = crate::accel::vec_with_huge_pages(kept);
-                s.extend(triangles.iter().map(|t| t.map(|v| normals[v as usize])));
-                s
-            }
-            None => Vec::new(),
-        };
+        let bounds = bounds_of(&tri_hit);
+        let tri_shading = shading_records(corners, &normals, &triangles, kept);
         let extent = {
             let d = bounds.diagonal();
             if d > 0.0 && d.is_finite() { d } else { 1.0 }
@@ -181,47 +109,10 @@ impl Scene {
             0.5 * extent,
         );
         let mut features = Features::of(&materials, &tri_material, &lights);
-        let mirrors = Mirrors::detect(
-            tri_hit.len(),
-            &materials,
-            &tri_material,
-            |i| tri_hit[i].ng,
-            |i| tri_hit[i].p.map(|v| v.as_dvec3()),
-            |i| {
-                let [a, b, c] = tri_hit[i].p.map(|v| v.as_dvec3());
-                0.5 * (b - a).cross(c - a).length()
-            },
-            |i| {
-                tri_shading.get(i).is_none_or(|ns| {
-                    ns.iter()
-                        .all(|n| n.as_dvec3().normalize_or_zero().dot(tri_hit[i].ng) > 1.0 - 1e-9)
-                })
-            },
-            extent,
-        );
+        let mirrors = planar_mirrors(&tri_hit, &tri_shading, &materials, &tri_material, extent);
         features.planar_mirrors = !mirrors.is_empty();
-        // Cut-outs: the triangles of materials with alpha, in a geometry of their own. An emitter
-        // stays opaque (its light samples would otherwise land on cut-out texels).
-        let mut cut_materials = vec![false; materials.len()];
-        for (k, m) in materials.iter().enumerate() {
-            if m.maps.alpha.as_ref().is_some_and(|a| !a.is_opaque()) {
-                if m.emission == Rgb::ZERO {
-                    cut_materials[k] = true;
-                } else {
-                    report.warnings.push(format!(
-                        "material '{}' emits light: its alpha is ignored (emitters are opaque)",
-                        m.name
-                    ));
-                }
-            }
-        }
-        let cutout: Vec<u32> = if cut_materials.contains(&true) {
-            (0..triangles.len() as u32)
-                .filter(|&i| cut_materials[tri_material[i as usize] as usize])
-                .collect()
-        } else {
-            Vec::new()
-        };
+        let cut_materials = cut_materials(&materials, &mut report);
+        let cutout = cut_triangles(&cut_materials, &tri_material);
         features.cutouts = !cutout.is_empty();
         // Embree reads these two in place: from here on they are immutable.
         let (positions, triangles) = (SharedArray::new(positions), SharedArray::new(triangles));
@@ -306,4 +197,158 @@ impl Scene {
         }
         self.lights.push(light);
     }
+}
+
+/// The texture coordinates a scene keeps: only when some material reads a texture, and
+/// per-vertex ones only with one per vertex.
+fn kept_texcoords(texcoords: TexCoords, textured: bool, vertices: usize, n: usize) -> TexCoords {
+    match texcoords {
+        TexCoords::PerVertex(v) if textured && v.len() == vertices => TexCoords::PerVertex(v),
+        TexCoords::PerCorner { table, corners } if textured => {
+            assert_eq!(corners.len(), n);
+            TexCoords::PerCorner { table, corners }
+        }
+        _ => TexCoords::None,
+    }
+}
+
+/// Per-vertex shading normals (empty when there are none, or not one per vertex) or per-corner
+/// ones.
+fn split_shading(
+    shading: Shading,
+    vertices: usize,
+    n: usize,
+) -> (Vec<Vec3>, Option<Vec<[Vec3; 3]>>) {
+    match shading {
+        Shading::None => (Vec::new(), None),
+        Shading::PerVertex(v) if v.len() == vertices => (v, None),
+        Shading::PerVertex(_) => (Vec::new(), None),
+        Shading::PerCorner(c) => {
+            assert_eq!(c.len(), n);
+            (Vec::new(), Some(c))
+        }
+    }
+}
+
+/// The hit records, in parallel, on huge pages; a degenerate triangle's gets a NaN normal, and
+/// [`drop_degenerate`] removes it. Material indices past the table are clamped to its last entry.
+fn hit_records(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    tri_material: &[u32],
+    materials: usize,
+) -> Vec<TriHit> {
+    let max_material = materials.saturating_sub(1) as u32;
+    let mut tri_hit: Vec<TriHit> = crate::accel::vec_with_huge_pages(triangles.len());
+    tri_hit.par_extend(triangles.par_iter().zip(tri_material).map(|(tri, &m)| {
+        let ng = triangle_normal(positions, tri).unwrap_or(DVec3::NAN);
+        let m = m.min(max_material);
+        TriHit {
+            ng,
+            p: if ng.x.is_nan() {
+                [Vec3::ZERO; 3]
+            } else {
+                tri.map(|v| positions[v as usize])
+            },
+            material: m,
+        }
+    }));
+    tri_hit
+}
+
+/// Removes the triangles whose hit record has a NaN normal from every per-triangle array,
+/// compacting them in place, in order; returns how many are kept.
+fn drop_degenerate(
+    tri_hit: &mut Vec<TriHit>,
+    triangles: &mut Vec<[u32; 3]>,
+    corners: &mut Option<Vec<[Vec3; 3]>>,
+    texcoords: &mut TexCoords,
+) -> usize {
+    let mut kept = 0;
+    for k in 0..tri_hit.len() {
+        if tri_hit[k].ng.x.is_nan() {
+            continue;
+        }
+        triangles[kept] = triangles[k];
+        tri_hit[kept] = tri_hit[k];
+        if let Some(c) = corners.as_mut() {
+            c[kept] = c[k];
+        }
+        if let TexCoords::PerCorner { corners, .. } = texcoords {
+            corners[kept] = corners[k];
+        }
+        kept += 1;
+    }
+    if let TexCoords::PerCorner { corners, .. } = texcoords {
+        corners.truncate(kept);
+        corners.shrink_to_fit();
+    }
+    tri_hit.truncate(kept);
+    triangles.truncate(kept);
+    triangles.shrink_to_fit();
+    kept
+}
+
+/// Bounds of the kept triangles' vertices, in their order (as a sequential loader would: min and
+/// max of a signed zero depend on the order).
+fn bounds_of(tri_hit: &[TriHit]) -> Aabb {
+    let mut bounds = Aabb::EMPTY;
+    for h in tri_hit {
+        for p in h.p {
+            bounds.grow(p.as_dvec3());
+        }
+    }
+    bounds
+}
+
+/// The shading normals of each kept triangle's corners (empty without shading normals), so that
+/// a hit reads one record: the per-corner ones as given, or the per-vertex ones gathered, on huge
+/// pages.
+fn shading_records(
+    corners: Option<Vec<[Vec3; 3]>>,
+    normals: &[Vec3],
+    triangles: &[[u32; 3]],
+    kept: usize,
+) -> Vec<[Vec3; 3]> {
+    match corners {
+        Some(mut c) => {
+            c.truncate(kept);
+            c
+        }
+        None if !normals.is_empty() => {
+            let mut s = crate::accel::vec_with_huge_pages(kept);
+            s.extend(triangles.iter().map(|t| t.map(|v| normals[v as usize])));
+            s
+        }
+        None => Vec::new(),
+    }
+}
+
+/// The planar mirrors among the triangles: those of perfect-mirror materials whose shading normals
+/// (if any) agree with the geometric one, grouped by plane.
+fn planar_mirrors(
+    tri_hit: &[TriHit],
+    tri_shading: &[[Vec3; 3]],
+    materials: &[Material],
+    tri_material: &[u32],
+    extent: f64,
+) -> Mirrors {
+    Mirrors::detect(
+        tri_hit.len(),
+        materials,
+        tri_material,
+        |i| tri_hit[i].ng,
+        |i| tri_hit[i].p.map(|v| v.as_dvec3()),
+        |i| {
+            let [a, b, c] = tri_hit[i].p.map(|v| v.as_dvec3());
+            0.5 * (b - a).cross(c - a).length()
+        },
+        |i| {
+            tri_shading.get(i).is_none_or(|ns| {
+                ns.iter()
+                    .all(|n| n.as_dvec3().normalize_or_zero().dot(tri_hit[i].ng) > 1.0 - 1e-9)
+            })
+        },
+        extent,
+    )
 }

@@ -2,9 +2,11 @@
 //! says so. The test is installed on the acceleration structure once the coverage it reads
 //! (factor, texture coordinates, textures) is known, and asked directly by the point query.
 
+use crate::math::Rgb;
 use crate::scene::geometry::{barycentric, closest_point_on_triangle, interpolate_uv};
+use crate::scene::material::Material;
 use crate::scene::material::{Alpha, AlphaMode};
-use crate::scene::model::Scene;
+use crate::scene::model::{LoadReport, Scene};
 use glam::{DVec3, Vec2};
 
 impl Scene {
@@ -21,9 +23,7 @@ impl Scene {
     /// known to be ignored): [`Scene::build`] left it out.
     pub(super) fn install_textured_cut_test(&mut self) {
         if self.accel.has_cutouts() && self.cut_reads_textures() {
-            let cutout: Vec<u32> = (0..self.triangles.len() as u32)
-                .filter(|&t| self.cut_materials[self.tri_material[t as usize] as usize])
-                .collect();
+            let cutout = cut_triangles(&self.cut_materials, &self.tri_material);
             self.install_cut_test(&cutout);
         }
     }
@@ -88,4 +88,34 @@ impl Scene {
         };
         alpha.cut(&self.textures.textures, uv, xi)
     }
+}
+
+/// Per material: whether its triangles are cut-outs (it has alpha that is not opaque). An emitter
+/// stays opaque, with a warning: its light samples would otherwise land on cut-out texels.
+pub(super) fn cut_materials(materials: &[Material], report: &mut LoadReport) -> Vec<bool> {
+    let mut cut = vec![false; materials.len()];
+    for (k, m) in materials.iter().enumerate() {
+        if m.maps.alpha.as_ref().is_some_and(|a| !a.is_opaque()) {
+            if m.emission == Rgb::ZERO {
+                cut[k] = true;
+            } else {
+                report.warnings.push(format!(
+                    "material '{}' emits light: its alpha is ignored (emitters are opaque)",
+                    m.name
+                ));
+            }
+        }
+    }
+    cut
+}
+
+/// The triangles of cut-out materials, in increasing order (the acceleration structure puts them
+/// in a geometry of their own).
+pub(super) fn cut_triangles(cut_materials: &[bool], tri_material: &[u32]) -> Vec<u32> {
+    if !cut_materials.contains(&true) {
+        return Vec::new();
+    }
+    (0..tri_material.len() as u32)
+        .filter(|&i| cut_materials[tri_material[i as usize] as usize])
+        .collect()
 }
