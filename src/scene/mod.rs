@@ -23,7 +23,6 @@
 //! - `offset` — points moved off the surfaces they lie on
 //! - `build` — a scene built from a reader's parts
 //! - `flatland` — a scene prepared for a flatland run
-//! - `mtl_maps`, `obj_parse` — the MTL texture maps; the OBJ statement parser
 //! - `obj`, `gltf`, `sidecar` — the readers
 //! - `load` — the reader for a file's extension
 //!
@@ -45,9 +44,7 @@ pub mod load;
 pub mod material;
 pub mod mirror;
 pub mod model;
-pub mod mtl_maps;
 pub mod obj;
-pub mod obj_parse;
 pub mod offset;
 pub mod pbr;
 pub mod shading;
