@@ -574,6 +574,9 @@ impl RunArgs {
             resume: self.resume.clone(),
             command: Some(command_without_resume()),
             separatrices: self.separatrices()?,
+            load: ftpd3d::scene::LoadOptions {
+                strict: self.strict,
+            },
         })
     }
 
@@ -669,6 +672,7 @@ fn bench(args: &RunArgs) -> anyhow::Result<()> {
         (slice, *window, *res),
         job.flatland,
         &job.render,
+        &job.load,
     )
 }
 
@@ -695,6 +699,7 @@ fn explain(args: &RunArgs) -> anyhow::Result<()> {
         &job.lights,
         &job.estimator,
         flatland,
+        &job.load,
     )?;
     if let Some(sp) = &job.separatrices {
         use std::io::Write as _;
@@ -897,11 +902,6 @@ fn install_signal_handler() {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let strict = match &cli.command {
-        Some(Command::Bench(args)) => args.strict,
-        _ => cli.run.strict,
-    };
-    ftpd3d::scene::load::set_strict(strict);
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench(args).map(|()| None),
         Some(Command::Merge(args)) => merge(args).map(|()| None),

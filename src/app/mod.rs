@@ -26,7 +26,7 @@ use crate::run::{
     prepare_flatland, run_domain_progressive, volume_info,
 };
 use crate::run_info::{DomainKind, RunInfo};
-use crate::scene::load::{extension, load_scene_with_lights};
+use crate::scene::load::{LoadOptions, extension, load_scene_with};
 use crate::scene::{self, Scene};
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -108,6 +108,8 @@ pub struct Job {
     /// Extract separatrices from the finished field (`--separatrices`): extra channels in the
     /// output and the side files of [`crate::analysis::separatrix::side_paths`].
     pub separatrices: Option<SepParams>,
+    /// How the scene file is read (strict loading or not).
+    pub load: LoadOptions,
 }
 
 /// Resolves the camera of a job against the scene.
@@ -247,7 +249,7 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
         check_writable(&job.output)?;
     }
     let t_load = Instant::now();
-    let mut scene = load_scene_with_lights(&job.scene, &job.lights)?;
+    let mut scene = load_scene_with(&job.scene, &job.lights, &job.load)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }

@@ -1,10 +1,11 @@
 //! Error messages as the command line prints them: the library's typed errors
-//! ([`ParamError`], [`DomainError`], [`FlatlandError`]) say what is wrong in its own terms; here they name the flags
-//! that set the values (`--t0`, `--slice`, `--window`, …). Other errors print as they are.
+//! ([`ParamError`], [`DomainError`], [`FlatlandError`], [`LoadError`]) say what is wrong in its own terms; here they name the flags
+//! that set the values (`--t0`, `--slice`, `--window`, `--strict`, …). Other errors print as they are.
 
 use crate::domain::{DomainError, commas};
 use crate::output::OutputError;
 use crate::run::ParamError;
+use crate::scene::LoadError;
 use crate::scene::flat::FlatlandError;
 use std::error::Error;
 
@@ -44,8 +45,20 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
                 format!("{file}: --flatland: {detail}")
             }
         }
+    } else if let Some(l) = e.downcast_ref::<LoadError>() {
+        load(l)
     } else {
         e.to_string()
+    }
+}
+
+/// A scene that failed to load: strict loading named by its flag.
+pub fn load(e: &LoadError) -> String {
+    match e {
+        LoadError::Strict { file, line, what } => {
+            format!("{}:{line}: {what} (--strict)", file.display())
+        }
+        _ => e.to_string(),
     }
 }
 

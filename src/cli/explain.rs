@@ -4,21 +4,23 @@ use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::math::Rgb;
 use crate::run::{EstimatorArgs, prepare_flatland};
 use crate::scene::Light;
-use crate::scene::load::load_scene_with_lights;
+use crate::scene::load::{LoadOptions, load_scene_with};
 use std::io::Write;
 use std::path::Path;
 
 /// Writes the explanation of a run of `estimator` on the scene at `path` (with extra
 /// `lights` from the command line) to `out`; `flatland` is the slice (with its window and resolution) of a
-/// flatland run, whose cross-section it describes too. Warnings of the loader go to stderr.
+/// flatland run, whose cross-section it describes too; `options` say how the scene file is read.
+/// Warnings of the loader go to stderr.
 pub fn explain(
     out: &mut impl Write,
     path: &Path,
     lights: &[crate::scene::Light],
     estimator: &EstimatorArgs,
     flatland: Option<(&SliceArg, Option<[f64; 4]>, usize)>,
+    options: &LoadOptions,
 ) -> anyhow::Result<()> {
-    let mut scene = load_scene_with_lights(path, lights)?;
+    let mut scene = load_scene_with(path, lights, options)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }

@@ -3,7 +3,7 @@
 //! acceleration structure built. Then the scene is immutable but for its textures and the lights
 //! that do not come from triangles.
 
-use crate::accel::{Accel, SharedArray};
+use crate::accel::{Accel, AccelError, SharedArray};
 use crate::math::Rgb;
 use crate::scene::cutout::{cut_materials, cut_triangles};
 use crate::scene::features::Features;
@@ -28,7 +28,7 @@ impl Scene {
         tri_material: Vec<u32>,
         materials: Vec<Material>,
         report: LoadReport,
-    ) -> anyhow::Result<Scene> {
+    ) -> Result<Scene, AccelError> {
         let shading = if normals.len() == positions.len() && !normals.is_empty() {
             Shading::PerVertex(normals)
         } else {
@@ -69,7 +69,7 @@ impl Scene {
         texcoords: TexCoords,
         materials: Vec<Material>,
         mut report: LoadReport,
-    ) -> anyhow::Result<Scene> {
+    ) -> Result<Scene, AccelError> {
         assert_eq!(triangles.len(), tri_material.len());
         let n = triangles.len();
         report.triangles_read += n;

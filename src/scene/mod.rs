@@ -10,8 +10,9 @@
 //! its own (those on one line import none of each other), and the readers build the scene model
 //! without the model knowing them. `tests/layers.rs` reads this list and holds the sources to it.
 //!
-//! - `files`, `geometry`, `pbr` — leaves shared by the rest: file extensions and URIs; boxes,
-//!   triangle normals, barycentrics; the albedo and lobe maths of materials and readers
+//! - `files`, `geometry`, `pbr`, `error` — leaves shared by the rest: file extensions and URIs;
+//!   boxes, triangle normals, barycentrics; the albedo and lobe maths of materials and readers;
+//!   the errors of loading
 //! - `texture`, `env` — decoded images: textures, the environment map
 //! - `material` — scattering models, texture references, cut-out coverage
 //! - `light` — lights and the power tables that choose among them
@@ -32,6 +33,7 @@
 pub mod build;
 pub mod cutout;
 pub mod env;
+pub mod error;
 pub mod features;
 pub mod files;
 pub mod flat;
@@ -51,9 +53,11 @@ pub mod shading;
 pub mod sidecar;
 pub mod texture;
 
+pub use error::{CameraError, ImageError, LoadError};
 pub use features::Features;
 pub use geometry::{Aabb, barycentric, closest_point_on_triangle, interpolate_uv, triangle_normal};
 pub use hit::Hit;
 pub use light::{DEFAULT_SUN_DIAMETER_DEG, Light, LightSet};
+pub use load::LoadOptions;
 pub use material::Material;
 pub use model::{Camera, LoadReport, Scene, Shading, TexCoords};

@@ -2,8 +2,8 @@
 //! validation would panic or say too little; its buffers (the GLB binary chunk, data URIs, files
 //! next to it); and the names messages give its objects.
 
+use crate::scene::error::LoadError;
 use crate::scene::files::percent_decode;
-use anyhow::{Context, anyhow, bail};
 use base64::Engine as _;
 use std::path::Path;
 
@@ -32,19 +32,32 @@ fn json_version(bytes: &[u8]) -> Option<String> {
     Some(v.get("asset")?.get("version")?.as_str()?.to_string())
 }
 
-/// Reads and parses the file at `path` (shown as `file`): the document and the GLB binary chunk,
-/// if any.
-pub(super) fn read(path: &Path, file: &str) -> anyhow::Result<(::gltf::Document, Option<Vec<u8>>)> {
-    let bytes = std::fs::read(path).with_context(|| format!("{file}: cannot read"))?;
-    check_glb_header(&bytes).map_err(|e| anyhow!("{file}: {e}"))?;
-    let invalid = |e: &dyn std::fmt::Display| anyhow!("{file}: not a valid glTF 2.0 file: {e}");
+/// The content of glTF file `path` that cannot be used: `what` says why.
+pub(super) fn malformed(path: &Path, what: String) -> LoadError {
+    LoadError::Malformed {
+        file: path.to_path_buf(),
+        line: None,
+        what,
+    }
+}
+
+/// Reads and parses the file at `path`: the document and the GLB binary chunk, if any.
+pub(super) fn read(path: &Path) -> Result<(::gltf::Document, Option<Vec<u8>>), LoadError> {
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Unreadable {
+        file: path.to_path_buf(),
+        source,
+    })?;
+    check_glb_header(&bytes).map_err(|e| malformed(path, e))?;
+    let invalid =
+        |e: &dyn std::fmt::Display| malformed(path, format!("not a valid glTF 2.0 file: {e}"));
     let ::gltf::Gltf { document, blob } = ::gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|e| match json_version(&bytes) {
             // glTF 1.0 documents are JSON too, but of another schema: say so, not which field
             // failed to parse.
-            Some(v) if !v.starts_with('2') => {
-                anyhow!("{file}: glTF version {v}; only version 2 is supported")
-            }
+            Some(v) if !v.starts_with('2') => malformed(
+                path,
+                format!("glTF version {v}; only version 2 is supported"),
+            ),
             _ => invalid(&e),
         })?;
     drop(bytes);
@@ -133,44 +146,51 @@ pub(super) fn load_buffers(
     path: &Path,
     doc: &::gltf::Document,
     mut blob: Option<Vec<u8>>,
-) -> anyhow::Result<Vec<Vec<u8>>> {
-    let file = path.display();
+) -> Result<Vec<Vec<u8>>, LoadError> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut out = Vec::new();
     for buffer in doc.buffers() {
         let label = named("buffer", buffer.index(), buffer.name());
         let mut data = match buffer.source() {
             ::gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
-                anyhow!(
-                    "{file}: {label} has no URI and there is no (unused) GLB binary chunk to take its data from"
+                malformed(
+                    path,
+                    format!(
+                        "{label} has no URI and there is no (unused) GLB binary chunk to take its data from"
+                    ),
                 )
             })?,
             ::gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
-                decode_data_uri(uri).map_err(|e| anyhow!("{file}: {label}: {e}"))?
+                decode_data_uri(uri).map_err(|e| malformed(path, format!("{label}: {e}")))?
             }
             ::gltf::buffer::Source::Uri(uri) => {
                 let target = dir.join(percent_decode(uri));
                 // Only regular files: /dev/zero or a FIFO would never end.
                 if target.exists() && !target.is_file() {
-                    bail!(
-                        "{file}: {label}: '{uri}' ({}) is not a regular file",
-                        target.display()
-                    );
+                    return Err(malformed(
+                        path,
+                        format!(
+                            "{label}: '{uri}' ({}) is not a regular file",
+                            target.display()
+                        ),
+                    ));
                 }
-                std::fs::read(&target).map_err(|e| {
-                    anyhow!(
-                        "{file}: {label}: cannot read '{uri}' ({}): {e}",
-                        target.display()
-                    )
+                std::fs::read(&target).map_err(|source| LoadError::Referenced {
+                    file: path.to_path_buf(),
+                    what: format!("{label}: cannot read '{uri}' ({})", target.display()),
+                    source,
                 })?
             }
         };
         if data.len() < buffer.length() {
-            bail!(
-                "{file}: {label}: {} bytes of data, but the file declares a byteLength of {}",
-                data.len(),
-                buffer.length()
-            );
+            return Err(malformed(
+                path,
+                format!(
+                    "{label}: {} bytes of data, but the file declares a byteLength of {}",
+                    data.len(),
+                    buffer.length()
+                ),
+            ));
         }
         data.truncate(buffer.length());
         out.push(data);

@@ -2,14 +2,16 @@
 //! once in its mesh's local frame, with its normals and TEXCOORD_0; points and lines are skipped
 //! with a warning.
 
+use crate::scene::error::LoadError;
 use crate::scene::gltf::accessor::{
     dims_name, read_indices, read_uv_f32, read_vec3_f32, type_name,
 };
+use crate::scene::gltf::document::malformed;
 use crate::scene::gltf::document::{Warnings, named};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::{Mode, Semantic};
-use anyhow::anyhow;
 use glam::{Vec2, Vec3};
+use std::path::Path;
 
 /// One triangle primitive in its mesh's local frame.
 pub(super) struct LocalPrimitive {
@@ -22,14 +24,14 @@ pub(super) struct LocalPrimitive {
 }
 
 /// Reads a mesh's triangle primitives (once per mesh, however many nodes use it) from `buffers`;
-/// primitives without a material get `default_material`. Errors name the file `file`.
+/// primitives without a material get `default_material`. Errors name the glTF file `path`.
 pub(super) fn decode_mesh(
     mesh: &::gltf::Mesh,
     buffers: &[Vec<u8>],
     default_material: u32,
-    file: &str,
+    path: &Path,
     warnings: &mut Warnings,
-) -> anyhow::Result<Vec<LocalPrimitive>> {
+) -> Result<Vec<LocalPrimitive>, LoadError> {
     let mesh_label = named("mesh", mesh.index(), mesh.name());
     let mut out = Vec::new();
     for prim in mesh.primitives() {
@@ -55,7 +57,7 @@ pub(super) fn decode_mesh(
         };
         let decoded = read
             .decode(mode, default_material, warnings)
-            .map_err(|e| anyhow!("{file}: {label}: {e}"))?;
+            .map_err(|e| malformed(path, format!("{label}: {e}")))?;
         out.push(decoded);
     }
     Ok(out)

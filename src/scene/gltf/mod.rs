@@ -73,20 +73,22 @@ mod textures;
 pub use crate::scene::pbr::{MAX_PHONG_EXPONENT, pbr_lobes, phong_exponent};
 pub use material::{PbrParams, map_pbr};
 
+use crate::scene::error::LoadError;
 use crate::scene::model::{LoadReport, Scene};
-use anyhow::{Context, bail};
 use document::Warnings;
 use material::Converted;
 use nodes::World;
 use std::path::Path;
 
 /// Loads a `.gltf` or `.glb` file (and the buffers and images it names) into a [`Scene`].
-pub fn load(path: &Path) -> anyhow::Result<Scene> {
+pub fn load(path: &Path) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
     if !path.is_file() {
-        bail!("{file}: no such scene file");
+        return Err(LoadError::NotFound {
+            file: path.to_path_buf(),
+        });
     }
-    let (doc, blob) = document::read(path, &file)?;
+    let (doc, blob) = document::read(path)?;
     let buffers = document::load_buffers(path, &doc, blob)?;
     let mut warnings = Warnings::new(&file);
     let Converted {
@@ -94,7 +96,7 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         default_material,
         requests,
     } = material::convert_materials(&doc, &mut warnings);
-    let mut world = World::new(&file, &buffers, default_material, warnings);
+    let mut world = World::new(path, &buffers, default_material, warnings);
     world.walk(&doc)?;
     let World {
         warnings,
@@ -126,20 +128,26 @@ pub fn load(path: &Path) -> anyhow::Result<Scene> {
         materials,
         report,
     )
-    .with_context(|| format!("{file}: building the scene"))?;
+    .map_err(|source| LoadError::Build {
+        file: path.to_path_buf(),
+        source,
+    })?;
     // As the OBJ loader: a scene without triangles has nothing to deflect light, and no bounds to
     // place a slice or a camera's run lengths in.
     if scene.triangles.is_empty() {
-        if n_triangles == 0 {
-            bail!(
-                "{file}: no geometry: the scene's nodes reference no triangles (primitives of \
-                 mode TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN)"
-            );
-        }
-        bail!(
-            "{file}: no geometry: all {n_triangles} triangles are degenerate (zero area or \
-             non-finite coordinates)"
-        );
+        let what = if n_triangles == 0 {
+            "the scene's nodes reference no triangles (primitives of mode TRIANGLES, \
+             TRIANGLE_STRIP or TRIANGLE_FAN)"
+                .to_string()
+        } else {
+            format!(
+                "all {n_triangles} triangles are degenerate (zero area or non-finite coordinates)"
+            )
+        };
+        return Err(LoadError::NoGeometry {
+            file: path.to_path_buf(),
+            what,
+        });
     }
     scene.set_textures(uvs, textures);
     scene.cameras = cameras;

@@ -4,18 +4,20 @@
 //! and cameras placed by their nodes.
 
 use crate::math::Rgb;
+use crate::scene::error::LoadError;
+use crate::scene::gltf::document::malformed;
 use crate::scene::gltf::document::{Warnings, named};
 use crate::scene::gltf::mesh::{LocalPrimitive, decode_mesh};
 use crate::scene::light::Light;
 use crate::scene::model::Camera;
 use ::gltf::khr_lights_punctual::Kind as LightKind;
-use anyhow::bail;
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec2, Vec3};
 use std::collections::HashMap;
+use std::path::Path;
 
 /// The world-space content of a document's node trees, accumulated by [`World::walk`].
 pub(super) struct World<'a> {
-    file: &'a str,
+    path: &'a Path,
     buffers: &'a [Vec<u8>],
     /// The material of primitives without one.
     default_material: u32,
@@ -37,16 +39,16 @@ pub(super) struct World<'a> {
 }
 
 impl<'a> World<'a> {
-    /// An empty world for the document of file `file` with buffers `buffers`; primitives
+    /// An empty world for the document of file `path` with buffers `buffers`; primitives
     /// without a material get `default_material`.
     pub(super) fn new(
-        file: &'a str,
+        path: &'a Path,
         buffers: &'a [Vec<u8>],
         default_material: u32,
         warnings: Warnings,
     ) -> World<'a> {
         World {
-            file,
+            path,
             buffers,
             default_material,
             meshes: HashMap::new(),
@@ -64,7 +66,7 @@ impl<'a> World<'a> {
     }
 
     /// defines no scene), accumulating world-space geometry, lights and cameras.
-    pub(super) fn walk(&mut self, doc: &::gltf::Document) -> anyhow::Result<()> {
+    pub(super) fn walk(&mut self, doc: &::gltf::Document) -> Result<(), LoadError> {
         let roots: Vec<::gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
             Some(scene) => {
                 if doc.default_scene().is_none() && doc.scenes().len() > 1 {
@@ -107,7 +109,10 @@ impl<'a> World<'a> {
             }
             let world = parent * local_matrix(node.transform());
             if !world.is_finite() {
-                bail!("{}: {label}: non-finite transform", self.file);
+                return Err(malformed(
+                    self.path,
+                    format!("{label}: non-finite transform"),
+                ));
             }
             if let Some(mesh) = node.mesh() {
                 if node.skin().is_some() {
@@ -130,13 +135,13 @@ impl<'a> World<'a> {
     }
 
     /// Appends a copy of `mesh`'s triangle primitives transformed by `world`.
-    fn instance(&mut self, mesh: &::gltf::Mesh, world: DMat4) -> anyhow::Result<()> {
+    fn instance(&mut self, mesh: &::gltf::Mesh, world: DMat4) -> Result<(), LoadError> {
         if !self.meshes.contains_key(&mesh.index()) {
             let decoded = decode_mesh(
                 mesh,
                 self.buffers,
                 self.default_material,
-                self.file,
+                self.path,
                 &mut self.warnings,
             )?;
             self.meshes.insert(mesh.index(), decoded);
@@ -149,7 +154,10 @@ impl<'a> World<'a> {
         for prim in prims {
             let base = self.positions.len();
             if base as u64 + prim.positions.len() as u64 >= u32::MAX as u64 {
-                bail!("{}: more than 2^32 vertices", self.file);
+                return Err(LoadError::TooLarge {
+                    file: self.path.to_path_buf(),
+                    what: "more than 2^32 vertices".into(),
+                });
             }
             self.positions.extend(
                 prim.positions
@@ -201,7 +209,7 @@ impl<'a> World<'a> {
         camera: &::gltf::Camera,
         node: &::gltf::Node,
         world: DMat4,
-    ) -> anyhow::Result<()> {
+    ) -> Result<(), LoadError> {
         let label = named("camera", camera.index(), camera.name());
         // The crate's validation only asks for one of the two blocks; `projection()` unwraps the
         // one that `type` names.
@@ -215,10 +223,12 @@ impl<'a> World<'a> {
                 Checked::Invalid => false,
             };
             if !consistent {
-                bail!(
-                    "{}: {label}: its type has no matching 'perspective' or 'orthographic' block",
-                    self.file
-                );
+                return Err(malformed(
+                    self.path,
+                    format!(
+                        "{label}: its type has no matching 'perspective' or 'orthographic' block"
+                    ),
+                ));
             }
         }
         let name = camera

@@ -2,12 +2,13 @@
 //! data URI, a file next to the glTF file or a buffer view, and the materials pointed at them.
 
 use crate::math::Rgb;
+use crate::scene::error::LoadError;
 use crate::scene::gltf::accessor::view_bytes;
+use crate::scene::gltf::document::malformed;
 use crate::scene::gltf::document::{decode_data_uri, named};
 use crate::scene::gltf::material::{Slot, TextureRequest, pbr_params};
 use crate::scene::material::{Bsdf, Material, MetallicRoughness, TextureRef};
 use crate::scene::texture::{Encoding, Texture, TextureSet};
-use anyhow::{Context, anyhow};
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -19,7 +20,7 @@ pub(super) fn resolve(
     materials: &mut [Material],
     buffers: &[Vec<u8>],
     path: &Path,
-) -> anyhow::Result<TextureSet> {
+) -> Result<TextureSet, LoadError> {
     if requests.is_empty() {
         return Ok(TextureSet::default());
     }
@@ -32,7 +33,7 @@ pub(super) fn resolve(
     let decoded = images
         .par_iter()
         .map(|&(i, e)| decode_image(doc, i, e, buffers, path))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>, _>>()?;
     // Materials whose whole glossy model is rebuilt per hit: their base-colour texture
     // multiplies `baseColorFactor` (not the Lambertian albedo).
     let mut per_hit = vec![false; materials.len()];
@@ -115,25 +116,33 @@ fn decode_image(
     encoding: Encoding,
     buffers: &[Vec<u8>],
     path: &Path,
-) -> anyhow::Result<Texture> {
-    let file = path.display();
+) -> Result<Texture, LoadError> {
     let image = doc
         .images()
         .nth(index)
-        .ok_or_else(|| anyhow!("{file}: image #{index} does not exist"))?;
+        .ok_or_else(|| malformed(path, format!("image #{index} does not exist")))?;
     let label = named("image", index, image.name());
+    // Images held in the file are named by it: "FILE: image 'x'".
+    let held = format!("{}: {label}", path.display());
+    let image_error = |source| LoadError::Image {
+        file: path.to_path_buf(),
+        image: label.clone(),
+        source,
+    };
     match image.source() {
         ::gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
-            let bytes = decode_data_uri(uri).map_err(|e| anyhow!("{file}: {label}: {e}"))?;
-            Texture::from_bytes(&bytes, &format!("{file}: {label}"), encoding)
+            let bytes =
+                decode_data_uri(uri).map_err(|e| malformed(path, format!("{label}: {e}")))?;
+            Texture::from_bytes(&bytes, &held, encoding).map_err(image_error)
         }
         ::gltf::image::Source::Uri { uri, .. } => {
             Texture::load(&path.parent().unwrap_or(Path::new(".")).join(uri), encoding)
-                .with_context(|| format!("{file}: {label}"))
+                .map_err(image_error)
         }
         ::gltf::image::Source::View { view, .. } => {
-            let bytes = view_bytes(&view, buffers).map_err(|e| anyhow!("{file}: {label}: {e}"))?;
-            Texture::from_bytes(bytes, &format!("{file}: {label}"), encoding)
+            let bytes =
+                view_bytes(&view, buffers).map_err(|e| malformed(path, format!("{label}: {e}")))?;
+            Texture::from_bytes(bytes, &held, encoding).map_err(image_error)
         }
     }
 }

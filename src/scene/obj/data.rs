@@ -1,7 +1,7 @@
 //! What the OBJ parser produces: the file's arrays and events ([`ObjData`]), and per chunk of
 //! lines the same with the bookkeeping of indices relative to the chunk ([`Lines`]).
 
-use crate::scene::obj::tolerance::Tally;
+use crate::scene::obj::tolerance::{LineFault, Tally};
 use glam::{Vec2, Vec3};
 
 /// A face corner without a normal or texture-coordinate index.
@@ -47,8 +47,8 @@ pub struct ObjData {
     pub lines: usize,
 }
 
-/// A parse error: the line (1-based, within what was parsed) and the message after `FILE:LINE: `.
-pub(super) type LineError = (usize, String);
+/// A parse error: the line (1-based, within what was parsed) and what is wrong with it.
+pub(super) type LineError = (usize, LineFault);
 
 /// The counts of positions, texture coordinates and normals before a chunk, and its first line.
 #[derive(Clone, Copy, Debug, Default)]

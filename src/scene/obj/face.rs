@@ -4,7 +4,7 @@
 
 use crate::scene::obj::data::{Base, Corner, Lines, MISSING, NORMAL, POSITION, TEXCOORD};
 use crate::scene::obj::token::{next_word, whole_number};
-use crate::scene::obj::tolerance::{Oddity, shown};
+use crate::scene::obj::tolerance::{LineFault, Oddity, shown};
 
 /// An `f` statement: checks every vertex reference, then fans the polygon into triangles.
 pub(super) fn face<'a>(
@@ -14,14 +14,14 @@ pub(super) fn face<'a>(
     strict: bool,
     known: Option<Base>,
     c: &mut Lines,
-) -> Result<(), String> {
+) -> Result<(), LineFault> {
     if strict {
         let n = words.clone().count();
         if n < 3 {
-            return Err(format!(
-                "a face needs at least 3 vertices, this one has {n}: '{}' (--strict)",
+            return Err(LineFault::Strict(format!(
+                "a face needs at least 3 vertices, this one has {n}: '{}'",
                 shown(line)
-            ));
+            )));
         }
     }
     let local = [
@@ -135,7 +135,7 @@ fn face_vertex(
     local: [usize; 3],
     known: Option<Base>,
     need: &mut [i64; 3],
-) -> Result<Corner, String> {
+) -> Result<Corner, LineFault> {
     const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
     const WHATS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
     let mut parts = [""; 3];
@@ -158,9 +158,9 @@ fn face_vertex(
         n += 1;
     }
     if n > 3 || parts[0].is_empty() {
-        return Err(format!(
+        return Err(LineFault::Malformed(format!(
             "malformed face vertex '{r}': expected v, v/vt, v//vn or v/vt/vn"
-        ));
+        )));
     }
     let mut corner = Corner {
         index: [0, MISSING, MISSING],
@@ -171,25 +171,25 @@ fn face_vertex(
             continue; // v//vn
         }
         let Some(i) = whole_number(part) else {
-            return Err(format!(
+            return Err(LineFault::Malformed(format!(
                 "malformed face vertex '{r}': '{part}' is not a whole number"
-            ));
+            )));
         };
         if i == 0 {
-            return Err(format!(
+            return Err(LineFault::Malformed(format!(
                 "face {} index 0 in '{r}': OBJ indices start at 1 (or count back from -1)",
                 WHAT[k]
-            ));
+            )));
         }
         let needs = i.unsigned_abs().min(i64::MAX as u64) as i64 - local[k] as i64;
         match known {
             Some(base) if needs > base.counts[k] as i64 => {
-                return Err(format!(
+                return Err(LineFault::Malformed(format!(
                     "face refers to {} {i} (in '{r}'), but only {} {} are defined before this line",
                     WHAT[k],
                     base.counts[k] + local[k],
                     WHATS[k]
-                ));
+                )));
             }
             _ => need[k] = need[k].max(needs),
         }

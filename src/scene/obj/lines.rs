@@ -6,7 +6,7 @@
 use crate::scene::obj::data::{Base, Event, Lines, Statement};
 use crate::scene::obj::face::{face, fast_face};
 use crate::scene::obj::token::{fast_numbers, latin1, numbers};
-use crate::scene::obj::tolerance::{Oddity, Tally, shown};
+use crate::scene::obj::tolerance::{LineFault, Oddity, Tally, shown};
 use glam::{Vec2, Vec3};
 
 /// The statements the loader uses (`#` starts a comment).
@@ -39,7 +39,7 @@ fn parse_lines(c: &mut Lines, bytes: &[u8], strict: bool, known: Option<Base>, f
             Ok(s) => s,
             Err(_) => {
                 if strict {
-                    c.error = Some((line_no, "not UTF-8 text (--strict)".into()));
+                    c.error = Some((line_no, LineFault::Strict("not UTF-8 text".into())));
                     break;
                 }
                 c.data.oddities[Oddity::NotUtf8 as usize].add(line_no);
@@ -86,7 +86,7 @@ fn statement(
     strict: bool,
     known: Option<Base>,
     c: &mut Lines,
-) -> Result<(), String> {
+) -> Result<(), LineFault> {
     let mut words = line.split_ascii_whitespace();
     let Some(kw) = words.next() else {
         return Ok(());
@@ -117,7 +117,7 @@ fn vertex<'a>(
     line: &str,
     words: impl Iterator<Item = &'a str>,
     c: &mut Lines,
-) -> Result<(), String> {
+) -> Result<(), LineFault> {
     let mut v = [0f32; 8];
     match numbers(words, &mut v) {
         Some(3) | Some(6) => c.data.positions.push(Vec3::new(v[0], v[1], v[2])),
@@ -128,16 +128,16 @@ fn vertex<'a>(
                 .push(Vec3::new(v[0] / w, v[1] / w, v[2] / w));
         }
         Some(4) => {
-            return Err(format!(
+            return Err(LineFault::Malformed(format!(
                 "vertex with w = 0 (a point at infinity): '{}'",
                 shown(line)
-            ));
+            )));
         }
         _ => {
-            return Err(format!(
+            return Err(LineFault::Malformed(format!(
                 "malformed vertex: expected 'v x y z' (optionally w, or r g b) with numbers, got '{}'",
                 shown(line)
-            ));
+            )));
         }
     }
     Ok(())
@@ -148,15 +148,15 @@ fn texcoord<'a>(
     line: &str,
     words: impl Iterator<Item = &'a str>,
     c: &mut Lines,
-) -> Result<(), String> {
+) -> Result<(), LineFault> {
     let mut v = [0f32; 8];
     match numbers(words, &mut v) {
         Some(2 | 3) => c.data.texcoords.push(Vec2::new(v[0], v[1])),
         _ => {
-            return Err(format!(
+            return Err(LineFault::Malformed(format!(
                 "malformed texture coordinate: expected 'vt u v' (optionally w) with numbers, got '{}'",
                 shown(line)
-            ));
+            )));
         }
     }
     Ok(())
@@ -167,15 +167,15 @@ fn normal<'a>(
     line: &str,
     words: impl Iterator<Item = &'a str>,
     c: &mut Lines,
-) -> Result<(), String> {
+) -> Result<(), LineFault> {
     let mut v = [0f32; 8];
     match numbers(words, &mut v) {
         Some(3) => c.data.normals.push(Vec3::new(v[0], v[1], v[2])),
         _ => {
-            return Err(format!(
+            return Err(LineFault::Malformed(format!(
                 "malformed normal: expected 'vn x y z' with numbers, got '{}'",
                 shown(line)
-            ));
+            )));
         }
     }
     Ok(())
@@ -188,11 +188,14 @@ fn material_statement(
     line_no: usize,
     strict: bool,
     c: &mut Lines,
-) -> Result<(), String> {
+) -> Result<(), LineFault> {
     let rest = line.trim_ascii_start()[kw.len()..].trim();
     if rest.is_empty() {
         if strict {
-            return Err(format!("'{kw}' needs a name: '{}' (--strict)", shown(line)));
+            return Err(LineFault::Strict(format!(
+                "'{kw}' needs a name: '{}'",
+                shown(line)
+            )));
         }
         let odd = if kw == "usemtl" {
             Oddity::BareUsemtl
@@ -224,12 +227,12 @@ fn unused_statement(
     line_no: usize,
     strict: bool,
     c: &mut Lines,
-) -> Result<(), String> {
+) -> Result<(), LineFault> {
     if strict {
-        return Err(format!(
-            "'{kw}' statements are not supported: '{}' (--strict)",
+        return Err(LineFault::Strict(format!(
+            "'{kw}' statements are not supported: '{}'",
             shown(line)
-        ));
+        )));
     }
     match c.data.unused.iter_mut().find(|(k, _)| k == kw) {
         Some((_, t)) => t.add(line_no),

@@ -14,14 +14,16 @@ mod reader;
 mod token;
 mod tolerance;
 
+use crate::scene::error::LoadError;
 use crate::scene::material::Material;
 use crate::scene::model::{LoadReport, Scene, Shading, TexCoords};
 use crate::scene::texture::TextureSet;
-use anyhow::{Context, bail};
 use data::{MISSING, ObjData, Statement};
 use glam::Vec3;
+use reader::ParseError;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use tolerance::LineFault;
 
 /// Loads an OBJ file (and the MTL files it names) into a [`Scene`].
 ///
@@ -44,12 +46,14 @@ use std::path::{Path, PathBuf};
 /// Texture coordinates (`vt`, v up as in the file) are kept per face corner, as an index into the
 /// `vt` table, when some material reads a texture ([`Material::maps`]); a corner whose face
 /// gives no `vt` index reads (0, 0), and so do faces of files without `vt`.
-pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
+pub fn load(path: &Path, strict: bool) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
     if !path.is_file() {
-        bail!("{file}: no such scene file");
+        return Err(LoadError::NotFound {
+            file: path.to_path_buf(),
+        });
     }
-    let data = read(path, &file, strict)?;
+    let data = read(path, strict)?;
     let mut report = LoadReport {
         warnings: tolerance::warnings(&file, &data.oddities, &data.unused),
         ..Default::default()
@@ -93,39 +97,57 @@ pub fn load(path: &Path, strict: bool) -> anyhow::Result<Scene> {
         materials,
         report,
     )
-    .with_context(|| format!("{file}: building the scene"))?;
+    .map_err(|source| LoadError::Build {
+        file: path.to_path_buf(),
+        source,
+    })?;
     if scene.triangles.is_empty() {
-        bail!(
-            "{file}: no geometry: all {} triangles are degenerate (zero area or non-finite coordinates)",
-            scene.report.triangles_read
-        );
+        return Err(LoadError::NoGeometry {
+            file: path.to_path_buf(),
+            what: format!(
+                "all {} triangles are degenerate (zero area or non-finite coordinates)",
+                scene.report.triangles_read
+            ),
+        });
     }
     scene.attach_textures(textures);
     Ok(scene)
 }
 
-/// Parses the OBJ file at `path` (shown as `file`), and checks that it has faces and that its
-/// indices fit.
-fn read(path: &Path, file: &str, strict: bool) -> anyhow::Result<ObjData> {
-    let data = reader::parse_file(path, strict).map_err(|(line, msg)| match line {
-        0 => anyhow::anyhow!("{file}: {msg}"),
-        _ => anyhow::anyhow!("{file}:{line}: {msg}"),
+/// Parses the OBJ file at `path`, and checks that it has faces and that its indices fit.
+fn read(path: &Path, strict: bool) -> Result<ObjData, LoadError> {
+    let file = path.to_path_buf();
+    let data = reader::parse_file(path, strict).map_err(|e| match e {
+        ParseError::Io(source) => LoadError::Unreadable { file, source },
+        ParseError::Changed => LoadError::Changed { file },
+        ParseError::Line(line, LineFault::Malformed(what)) => LoadError::Malformed {
+            file,
+            line: Some(line),
+            what,
+        },
+        ParseError::Line(line, LineFault::Strict(what)) => LoadError::Strict { file, line, what },
     })?;
     if data.positions.len() >= u32::MAX as usize
         || data.normals.len() >= u32::MAX as usize
         || data.texcoords.len() >= u32::MAX as usize
     {
-        bail!("{file}: more than 2^32 - 2 vertices, normals or texture coordinates");
+        return Err(LoadError::TooLarge {
+            file: path.to_path_buf(),
+            what: "more than 2^32 - 2 vertices, normals or texture coordinates".into(),
+        });
     }
     if data.triangles.is_empty() {
-        bail!(
-            "{file}: no geometry: the file has no faces ('f' statements){}",
-            if data.positions.is_empty() {
-                " and no vertices"
-            } else {
-                ""
-            }
-        );
+        return Err(LoadError::NoGeometry {
+            file: path.to_path_buf(),
+            what: format!(
+                "the file has no faces ('f' statements){}",
+                if data.positions.is_empty() {
+                    " and no vertices"
+                } else {
+                    ""
+                }
+            ),
+        });
     }
     Ok(data)
 }

@@ -23,9 +23,9 @@
 //! Recoverable oddities are tallied per chunk and added up here, in file order
 //! ([`crate::scene::obj::tolerance`]); with `strict` they are errors at their line.
 
-use crate::scene::obj::data::{Base, Event, LineError, Lines, MISSING, NORMAL, ObjData, POSITION};
+use crate::scene::obj::data::{Base, Event, Lines, MISSING, NORMAL, ObjData, POSITION};
 use crate::scene::obj::lines::parse_chunk;
-use crate::scene::obj::tolerance::Tally;
+use crate::scene::obj::tolerance::{LineFault, Tally};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::fs::File;
@@ -38,8 +38,17 @@ const CHUNK_BYTES: usize = 1 << 20;
 /// Bytes read past a chunk's range at first, to finish its last line (more when it is longer).
 const SLACK_BYTES: usize = 8 << 10;
 
-/// The message for a file that changed while it was read.
-const CHANGED: &str = "the file changed while it was read; load it again once it is complete";
+/// Why an OBJ file could not be parsed.
+#[derive(Debug)]
+pub(super) enum ParseError {
+    /// Reading failed.
+    Io(std::io::Error),
+    /// The file changed while it was read: a chunk found fewer bytes, or adjacent chunks did not
+    /// meet, or the length or modification time changed.
+    Changed,
+    /// A line (1-based) that cannot be read, or that strict loading refuses.
+    Line(usize, LineFault),
+}
 
 /// One chunk: the bytes read for it and the parse of its lines.
 #[derive(Debug, Default)]
@@ -54,7 +63,7 @@ struct Chunk {
     /// `\n`); equal when no line starts in its range.
     span: (u64, u64),
     /// A read error, or a file that is shorter than when it was opened.
-    io_error: Option<String>,
+    io_error: Option<ParseError>,
 }
 
 impl Chunk {
@@ -66,7 +75,7 @@ impl Chunk {
     }
 
     /// Reads `more` bytes (fewer at the end of the file) after those the chunk has.
-    fn read_more(&mut self, file: &File, len: u64, more: usize) -> Result<(), String> {
+    fn read_more(&mut self, file: &File, len: u64, more: usize) -> Result<(), ParseError> {
         let at = self.from + self.have as u64;
         let want = (more as u64).min(len.saturating_sub(at)) as usize;
         let new = self.have + want;
@@ -76,9 +85,9 @@ impl Chunk {
         }
         read_exact_at(file, &mut self.buf[self.have..new], at).map_err(|e| {
             if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                CHANGED.to_string()
+                ParseError::Changed
             } else {
-                format!("cannot read ({e})")
+                ParseError::Io(e)
             }
         })?;
         self.have = new;
@@ -87,7 +96,7 @@ impl Chunk {
 
     /// The offset of the first `\n` at or after file offset `at` (at least `from`), reading on
     /// as needed; `len` when the file ends first.
-    fn newline_from(&mut self, file: &File, len: u64, at: u64) -> Result<u64, String> {
+    fn newline_from(&mut self, file: &File, len: u64, at: u64) -> Result<u64, ParseError> {
         let mut i = (at - self.from) as usize;
         loop {
             if i < self.have
@@ -160,10 +169,9 @@ fn read_exact_at(file: &File, buf: &mut [u8], at: u64) -> std::io::Result<()> {
     f.read_exact(buf)
 }
 
-/// Parses the OBJ file at `path` (see the module docs). `Err` is `(line, message)` for a bad line,
-/// or an I/O error (or a file that changed while it was read) as `(0, message)`.
-pub(super) fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData, LineError> {
-    let io = |e: std::io::Error| (0, format!("cannot read ({e})"));
+/// Parses the OBJ file at `path` (see the module docs).
+pub(super) fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData, ParseError> {
+    let io = ParseError::Io;
     let file = File::open(path).map_err(io)?;
     let meta = file.metadata().map_err(io)?;
     let len = meta.len();
@@ -177,7 +185,7 @@ pub(super) fn parse_file(path: &std::path::Path, strict: bool) -> Result<ObjData
     }
     let now = file.metadata().map_err(io)?;
     if now.len() != len || now.modified().ok() != meta.modified().ok() {
-        return Err((0, CHANGED.into()));
+        return Err(ParseError::Changed);
     }
     out.positions.shrink_to_fit();
     out.normals.shrink_to_fit();
@@ -200,7 +208,7 @@ fn parse_block(
     strict: bool,
     pool: &mut Vec<Chunk>,
     out: &mut ObjData,
-) -> Result<u64, LineError> {
+) -> Result<u64, ParseError> {
     let n = ((len - start).div_ceil(CHUNK_BYTES as u64) as usize).min(BLOCK_CHUNKS);
     if pool.len() < n {
         pool.resize_with(n, Chunk::default);
@@ -219,12 +227,12 @@ fn parse_block(
     };
     let mut tris = out.triangles.len();
     let mut at = start;
-    for chunk in chunks.iter() {
-        if let Some(e) = &chunk.io_error {
-            return Err((0, e.clone()));
+    for chunk in chunks.iter_mut() {
+        if let Some(e) = chunk.io_error.take() {
+            return Err(e);
         }
         if chunk.span.0 != at {
-            return Err((0, CHANGED.into()));
+            return Err(ParseError::Changed);
         }
         at = chunk.span.1;
         let short = (0..3).any(|i| chunk.lines.need[i] > base.counts[i] as i64);
@@ -232,10 +240,11 @@ fn parse_block(
             // Again with the base known: the first bad line, as a sequential parse finds it.
             let mut again = Lines::default();
             parse_chunk(&mut again, chunk.bytes(), strict, Some(base));
-            let (line, msg) = again
-                .error
-                .unwrap_or_else(|| (1, "inconsistent parse (please report it)".into()));
-            return Err((base.line + line, msg));
+            let (line, fault) = again.error.unwrap_or_else(|| {
+                let what = "inconsistent parse (please report it)";
+                (1, LineFault::Malformed(what.into()))
+            });
+            return Err(ParseError::Line(base.line + line, fault));
         }
         bases.push((base, tris));
         let d = &chunk.lines.data;
@@ -520,8 +529,11 @@ mod tests {
             std::fs::write(&path, &bad).unwrap();
             let err = parse_file(&path, false).unwrap_err();
             let _ = std::fs::remove_file(&path);
-            assert_eq!(err.0, lines + 1, "{err:?}");
-            assert!(err.1.contains("vertex 999999"), "{err:?}");
+            let ParseError::Line(line, LineFault::Malformed(what)) = &err else {
+                panic!("{err:?}");
+            };
+            assert_eq!(*line, lines + 1, "{err:?}");
+            assert!(what.contains("vertex 999999"), "{err:?}");
         }
     }
 }

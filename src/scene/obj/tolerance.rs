@@ -3,6 +3,14 @@
 //! UTF-8, read as Latin-1) is tallied, count and first line, for one warning per kind; strict
 //! loading refuses each at its line instead.
 
+/// What is wrong with a line, in the library's terms (the line's start quoted): malformed, or
+/// tolerated by a default load but refused by strict loading.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum LineFault {
+    Malformed(String),
+    Strict(String),
+}
+
 /// Kinds of recoverable oddities, one warning each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Oddity {
