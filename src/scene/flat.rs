@@ -220,7 +220,7 @@ pub type FlatLight = Light<Segment>;
 /// segment uniformly by length; densities are per radian at the receiving point.
 pub type FlatLights = Lights<Segment>;
 
-/// Why a scene cannot run in flatland on a plane (the command line names the `--flatland` flag:
+/// Why a scene cannot run in flatland on a plane (a command line names its own flag for flatland:
 /// `crate::cli::errors`).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FlatlandError {

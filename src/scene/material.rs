@@ -151,7 +151,7 @@ impl Alpha {
 /// `baseColorFactor` where it has one, else `base`).
 ///
 /// A material with this map is always [`Bsdf::Glossy`], whatever its factors alone would give, so
-/// that its kind (and with it the kernel's effects and `--explain`) covers every texel: a texel in
+/// that its kind (and with it the kernel's effects and the run's list of them) covers every texel: a texel in
 /// the Lambertian corner of the mapping (m ≤ 0.05, r ≥ 0.9) gives `ks` = 0, which scatters exactly
 /// as the Lambertian model, and one at the mirror limit a lobe of the largest exponent
 /// ([`crate::scene::pbr::MAX_PHONG_EXPONENT`]), never a Dirac mirror.

@@ -126,11 +126,10 @@ pub struct Scene {
 }
 
 /// What [`Scene::hit_from_raw`] reads of a triangle on every hit, packed into one 64-byte cache
-/// line: on scenes of millions of triangles each hit is a cache and TLB miss (most of the kernel's
-/// own time per ray there), so one line, on huge pages, replaces the index, position, normal and
-/// material arrays and the wider precomputed record this used to be. The vertices are the scene's own
-/// f32 values (exact), the normal the f64 one of `tri_normals`; what the hit code derives from them
-/// (magnitude, edge lengths) is recomputed per hit with the same expressions, so hits are
+/// line: on scenes of millions of triangles each hit is a cache and TLB miss, so one line, on huge
+/// pages, stands for the index, position, normal and material arrays. The vertices are the scene's
+/// own f32 values (exact), the normal the f64 one of `tri_normals`; what the hit code derives from
+/// them (magnitude, edge lengths) is recomputed per hit with the same expressions, so hits are
 /// bit-identical to reading it precomputed.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]

@@ -83,7 +83,7 @@ impl Scene {
     }
 
     /// [`textured_bsdf`](Self::textured_bsdf) in a scene with textures: kept out of line, so
-    /// that the hit code of scenes without stays as small as it was.
+    /// that the hit code of scenes without textures stays small.
     #[inline(never)]
     fn texel_bsdf(&self, hit: &Hit) -> Option<Bsdf> {
         let m = &self.materials[hit.material as usize];

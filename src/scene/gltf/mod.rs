@@ -34,8 +34,8 @@
 //! the formulas above ([`pbr_lobes`]) from those and base = `baseColorFactor` × the base-colour
 //! texel (so with this texture the base colour reaches `ks` too). The material's kind is decided
 //! once, from the range the texture can produce: always glossy, because the kernel's effects (and
-//! `--explain`) follow the kinds, and a texel must never make a material a kind they do not
-//! cover. A texel in the Lambertian corner gives `ks` = 0 (it scatters exactly as the Lambertian
+//! the run's list of them) follow the kinds, and a texel must never make a material a kind they
+//! do not cover. A texel in the Lambertian corner gives `ks` = 0 (it scatters exactly as the Lambertian
 //! model), a texel at the mirror limit the Phong lobe of exponent 10⁶ (f cos/pdf → ks, within about
 //! a milliradian of the mirror direction), never a Dirac mirror. In flatland the lobe's
 //! normalisation for a texel's exponent is computed per hit, in closed form
@@ -54,12 +54,12 @@
 //! and outer angle. A directional light becomes a sun without a disc (a Dirac delta in direction,
 //! as glTF defines it): its intensity, in lux, is used as the irradiance.
 //!
-//! Cameras: perspective cameras become [`Camera`]s (eye at the node's world origin, looking along its
+//! Cameras: perspective cameras become [`Camera`](crate::scene::Camera)s (eye at the node's world origin, looking along its
 //! world −Z with world +Y up, `yfov`, `aspectRatio`); orthographic ones are skipped with a warning.
 //!
-//! The reader's parts: [`document`] (the file, its buffers), [`accessor`] (typed views of buffer
-//! data), [`mesh`] (triangle primitives), [`material`] (the mapping above), [`textures`] (images
-//! and the materials' references to them), [`nodes`] (the node trees flattened into world space).
+//! The reader's parts: `document` (the file, its buffers), `accessor` (typed views of buffer
+//! data), `mesh` (triangle primitives), `material` (the mapping above), `textures` (images
+//! and the materials' references to them), `nodes` (the node trees flattened into world space).
 //! Extensions that change how vertex data is stored (compression, quantization) belong to
 //! `accessor` and `mesh`, image formats to `textures`, instancing to `nodes`.
 

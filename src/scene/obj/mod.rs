@@ -1,9 +1,11 @@
 //! Wavefront OBJ + MTL loading: triangulated meshes, shading normals when present, one material
-//! per triangle. The OBJ text is read by chunks of lines in parallel ([`reader`]: lines are
-//! tokenized in [`token`], parsed as statements in [`lines`], faces resolved in [`face`], into
-//! [`data`]), with what mainstream loaders go on past tallied as warnings or, with strict loading,
-//! refused ([`tolerance`]). The MTL libraries are read here and parsed by tobj ([`mtl`]), their
-//! texture maps and cut-outs read by [`maps`]. See [`crate::scene::material`] for the MTL table.
+//! per triangle. The OBJ text is read by chunks of lines in parallel (`reader`: lines are
+//! tokenized in `token`, parsed as statements in `lines`, faces resolved in `face`, into
+//! `data`), with what mainstream loaders go on past tallied as warnings or, with strict loading,
+//! refused (`tolerance`). The MTL libraries are read here and parsed by tobj (`mtl`), their
+//! texture maps and cut-outs read by `maps`. See [`crate::scene::material`] for the MTL table.
+//! Statement syntax (such as lines continued with `\`) belongs to `lines` and `token`; `reader`
+//! decides which lines a chunk owns, so a continued line must stay in the chunk it starts in.
 
 mod data;
 mod face;
@@ -27,17 +29,17 @@ use tolerance::LineFault;
 
 /// Loads an OBJ file (and the MTL files it names) into a [`Scene`].
 ///
-/// The file is parsed by [`reader`] (in parallel, by chunks of lines): every
+/// The file is parsed by `reader` (in parallel, by chunks of lines): every
 /// `v`, `vt`, `vn` and `f` statement is validated and the first bad one is reported as
 /// `FILE:LINE`. What mainstream loaders go on past is one warning per kind, with the count and
 /// the first line (an error at that line with `strict`): faces of fewer than 3 vertices (skipped),
 /// `usemtl` without a name (default material), `mtllib` without a name, statements the loader does
 /// not use, and lines that are not UTF-8 (read as Latin-1). Material libraries are read by this
-/// loader too ([`mtl::load_mtl`]), so that a missing or malformed one is a warning naming it (its
+/// loader too (`mtl::load_mtl`), so that a missing or malformed one is a warning naming it (its
 /// materials become grey diffuse), never a panic in the parser. A file without faces is an error.
 ///
-/// What the scene keeps matches what tobj (the parser this replaced) gave, triangle for
-/// triangle: polygons fanned from their first vertex in file order; materials resolved by name at
+/// What the scene keeps is what tobj (a mainstream OBJ parser) gives, triangle for triangle:
+/// polygons fanned from their first vertex in file order; materials resolved by name at
 /// the `usemtl` line against the libraries named before it (a later library's material of the
 /// same name wins); shading normals from `vn` for every face of an object or material run whose
 /// faces all give them, zero (the geometric normal) for the faces of a run where one does not, and
