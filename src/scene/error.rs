@@ -2,7 +2,7 @@
 //! the file (and the line, where the format has lines) and says what is wrong. They are values a
 //! caller can match: a command line maps them to its own words (`crate::cli::errors` names the
 //! flag of strict loading), a binding to its exceptions (a missing file, unreadable data, content
-//! that cannot be read as its format). A leaf of the room: it imports nothing of `crate::scene`.
+//! that cannot be read as its format). A leaf: it imports nothing of `crate::scene`.
 //!
 //! `{}` prints an error's own message; `{:#}` prints it with its causes after it, `outer: inner:
 //! …`, as `anyhow` does, so that a caller without `anyhow` gets the whole message. (That is why

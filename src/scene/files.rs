@@ -1,6 +1,6 @@
 //! File names as scenes give them: a path's extension, which picks a scene reader or an image
-//! decoder, and relative URIs (glTF's buffers and images) read as paths. A leaf of the room: it
-//! imports nothing of `crate::scene`.
+//! decoder, and relative URIs (a glTF file's) read as paths. A leaf: it imports
+//! nothing of `crate::scene`.
 
 use std::path::Path;
 

@@ -1,6 +1,6 @@
-//! Geometry helpers that every part of the room uses: bounding boxes, triangle normals, barycentric
-//! coordinates, closest points and texture-coordinate interpolation. A leaf of the room: it imports
-//! nothing of `crate::scene`.
+//! Geometry helpers that every part of the scene uses: bounding boxes, triangle normals,
+//! barycentric coordinates, closest points and texture-coordinate interpolation. A leaf: it
+//! imports nothing of `crate::scene`.
 
 use glam::{DVec3, Vec2, Vec3};
 

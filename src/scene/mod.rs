@@ -6,7 +6,7 @@
 //!
 //! # Module order
 //!
-//! Imports between the room's modules run one way: a module imports only modules on lines above
+//! Imports between the submodules run one way: a module imports only modules on lines above
 //! its own (those on one line import none of each other), and the readers build the scene model
 //! without the model knowing them. `tests/layers.rs` reads this list and holds the sources to it.
 //!

@@ -2,8 +2,8 @@
 //! the additive Lambertian + specular model, and the metallic-roughness mapping onto it (glTF's
 //! parameters to `kd`, `ks` and a Phong exponent; the table is in [`crate::scene::gltf`]). The
 //! mapping runs at load for constant materials and at each hit for metallic-roughness textures
-//! ([`crate::scene::material::MetallicRoughness`]), so both read it from here. A leaf of the room:
-//! it imports nothing of `crate::scene`.
+//! ([`crate::scene::material::MetallicRoughness`]), so both read it from here. A leaf: it imports
+//! nothing of `crate::scene`.
 
 use crate::math::Rgb;
 
