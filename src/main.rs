@@ -37,11 +37,6 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::<Command>::parse();
-    let run = match &cli.command {
-        Some(Command::Bench(args)) => args,
-        _ => &cli.run,
-    };
-    ftpd3d::scene::load::set_strict(run.strict);
     let result = match &cli.command {
         Some(Command::Bench(args)) => bench::command(args).map(|()| None),
         Some(Command::Merge(args)) => cli::merge::run(args).map(|()| None),

@@ -121,6 +121,12 @@ fn is_ident(c: char) -> bool {
 /// The top-level modules that `code` (from a module `depth` levels below the crate root) names,
 /// with their 1-based lines.
 fn references(code: &str, depth: usize) -> Vec<(usize, String)> {
+    references_under(code, "", depth)
+}
+
+/// The modules directly under the module `under` (a path from the crate root such as `scene::`,
+/// empty for the root) that `code` names, from a module `depth` levels below `under`.
+fn references_under(code: &str, under: &str, depth: usize) -> Vec<(usize, String)> {
     let mut found = Vec::new();
     for (n, line) in code.lines().enumerate() {
         let chars: Vec<char> = line.chars().collect();
@@ -139,7 +145,7 @@ fn references(code: &str, depth: usize) -> Vec<(usize, String)> {
             if word == "crate" {
                 // crate::x or crate::{x, y::z, ..}
                 let rest: String = chars[j..].iter().collect();
-                if let Some(rest) = rest.strip_prefix("::") {
+                if let Some(rest) = rest.strip_prefix("::").and_then(|r| r.strip_prefix(under)) {
                     let rest = rest.trim_start();
                     if let Some(group) = rest.strip_prefix('{') {
                         for name in group_heads(group) {
@@ -150,7 +156,7 @@ fn references(code: &str, depth: usize) -> Vec<(usize, String)> {
                     }
                 }
             } else if word == "super" {
-                // super::super::x climbing to the crate root
+                // super::super::x climbing to `under`
                 let mut k = i;
                 let mut ups = 0;
                 while chars[k..].starts_with(&['s', 'u', 'p', 'e', 'r', ':', ':']) {
@@ -360,4 +366,111 @@ fn the_reader_sees_grouped_super_and_commented_imports_right() {
     assert_eq!(names, [(1, "a"), (1, "b"), (1, "c"), (3, "f")]);
     assert_eq!(references("use super::x;", 1), [(1, "x".to_string())]);
     assert!(references("use super::x;", 2).is_empty());
+}
+
+/// The submodules of `src/scene` in the order its module docs give them (the list under
+/// "# Module order" in `src/scene/mod.rs`): one level per list item, lowest first.
+fn scene_levels() -> Vec<Vec<String>> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/scene/mod.rs");
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut levels = Vec::new();
+    let mut in_order = false;
+    for line in text.lines().map_while(|l| l.strip_prefix("//!")) {
+        let line = line.trim();
+        if line.starts_with('#') {
+            in_order = line == "# Module order";
+        } else if in_order && let Some(item) = line.strip_prefix("- ") {
+            // The names are the backticked words before the dash that starts the description.
+            let names = item.split(" — ").next().unwrap();
+            let level: Vec<String> = names
+                .split('`')
+                .skip(1)
+                .step_by(2)
+                .map(str::to_string)
+                .collect();
+            levels.push(level);
+        }
+    }
+    levels
+}
+
+/// `from → to → first site` over the submodules of `src/scene` (a directory counts as one), and
+/// the names from `crate::scene` that are no submodule (the root's re-exports) each names.
+fn scene_imports() -> BTreeMap<String, BTreeMap<String, Site>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    collect_rs(&src.join("scene"), &mut files);
+    files.sort();
+    let mut graph: BTreeMap<String, BTreeMap<String, Site>> = BTreeMap::new();
+    for file in files {
+        let rel = file.strip_prefix(&src).unwrap();
+        let mut parts: Vec<String> = rel
+            .iter()
+            .map(|c| c.to_string_lossy().trim_end_matches(".rs").to_string())
+            .collect();
+        if parts.last().is_some_and(|p| p == "mod") {
+            parts.pop();
+        }
+        if parts.len() < 2 {
+            continue; // the root: module docs, declarations and re-exports
+        }
+        let from = parts[1].clone();
+        let code = strip(&std::fs::read_to_string(&file).unwrap());
+        let out = graph.entry(from.clone()).or_default();
+        for (line, target) in references_under(&code, "scene::", parts.len() - 1) {
+            if target != from {
+                out.entry(target).or_insert((rel.to_path_buf(), line));
+            }
+        }
+    }
+    graph
+}
+
+#[test]
+fn scene_modules_import_one_way_in_the_documented_order() {
+    let levels = scene_levels();
+    let graph = scene_imports();
+    let level_of = |m: &str| levels.iter().position(|l| l.iter().any(|n| n == m));
+    let listed: Vec<&String> = levels.iter().flatten().collect();
+    assert!(!listed.is_empty(), "src/scene/mod.rs lists no module order");
+    for m in graph.keys() {
+        assert!(
+            listed.iter().filter(|n| ***n == *m).count() == 1,
+            "src/scene/{m} must appear once in the module order of src/scene/mod.rs"
+        );
+    }
+    for m in &listed {
+        assert!(
+            graph.contains_key(*m),
+            "the module order lists scene::{m}, which does not exist"
+        );
+    }
+    let mut wrong = Vec::new();
+    for (from, edges) in &graph {
+        for to in edges.keys() {
+            match (level_of(from), level_of(to)) {
+                (_, None) => wrong.push(format!(
+                    "{} imports the root's `{to}`: name the module that defines it",
+                    site(&graph, from, to)
+                )),
+                (Some(a), Some(b)) if b >= a => wrong.push(site(&graph, from, to)),
+                _ => {}
+            }
+        }
+    }
+    let mut modules = graph.clone();
+    for edges in modules.values_mut() {
+        edges.retain(|to, _| graph.contains_key(to));
+    }
+    let circles = cycles(&modules);
+    assert!(
+        wrong.is_empty() && circles.is_empty(),
+        "src/scene imports against its module order ({}):\n{}\ncircles: {circles:?}",
+        levels
+            .iter()
+            .map(|l| l.join(" "))
+            .collect::<Vec<_>>()
+            .join(" < "),
+        wrong.join("\n")
+    );
 }

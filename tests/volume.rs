@@ -25,6 +25,7 @@ fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> J
         resume: None,
         command: None,
         separatrices: None,
+        load: Default::default(),
         estimator: EstimatorArgs {
             weighting: Weighting::Radiance,
             t0: None,
@@ -307,6 +308,7 @@ fn a_thin_volume_agrees_with_the_slice_through_it() {
         resume: None,
         command: None,
         separatrices: None,
+        load: Default::default(),
         estimator: vjob.estimator.clone(),
         // Another seed: independent estimates, so their difference is pure noise.
         render: RenderOptions {

@@ -84,4 +84,6 @@ pub struct Job {
     /// Extract separatrices from the finished field (`--separatrices`): extra channels in the
     /// output and the side files of [`crate::analysis::separatrix::side_paths`].
     pub separatrices: Option<SepParams>,
+    /// How the scene file is read (strict loading or not).
+    pub load: crate::scene::load::LoadOptions,
 }

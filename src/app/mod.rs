@@ -33,7 +33,7 @@ use crate::output::check_writable;
 use crate::params::ways_to_light;
 use crate::render::{self, ErrorStats, Progress, RunStats};
 use crate::scene::Scene;
-use crate::scene::load::load_scene_with_lights;
+use crate::scene::load::load_scene_with;
 use report::{scene_line, volume_line};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -55,7 +55,7 @@ pub struct RunOutcome {
 pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
     check_job(job)?;
     let t_load = Instant::now();
-    let mut scene = load_scene_with_lights(&job.scene, &job.lights)?;
+    let mut scene = load_scene_with(&job.scene, &job.lights, &job.load)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }

@@ -118,7 +118,9 @@ fn record_rays(
 }
 
 /// `ftpd3d bench`: loads the scene, resolves the first slice of the run (a flatland one when
-/// `flatland`), runs [`bench_plane`] three times and writes the report to `out`.
+/// `flatland`; the scene file read as `load` says), runs [`bench_plane`] three times and writes
+/// the report to `out`.
+#[allow(clippy::too_many_arguments)]
 pub fn bench(
     out: &mut impl std::io::Write,
     path: &std::path::Path,
@@ -127,8 +129,9 @@ pub fn bench(
     (slice, window, res): (&crate::domain::slice::SliceArg, Option<[f64; 4]>, usize),
     flatland: bool,
     opts: &RenderOptions,
+    load: &crate::scene::LoadOptions,
 ) -> anyhow::Result<()> {
-    let mut scene = crate::scene::load::load_scene_with_lights(path, lights)?;
+    let mut scene = crate::scene::load::load_scene_with(path, lights, load)?;
     let plane = crate::domain::slice::resolve_plane(slice, &scene, window, res)?;
     let params = if flatland {
         crate::params::prepare_flatland(&mut scene, &plane, estimator)?
@@ -196,5 +199,6 @@ pub fn command(args: &RunArgs) -> anyhow::Result<()> {
         (slice, *window, *res),
         job.flatland,
         &job.render,
+        &job.load,
     )
 }

@@ -8,6 +8,7 @@ use crate::domain::{DomainError, commas};
 use crate::output::OutputError;
 use crate::params::ParamError;
 use crate::render::{RunError, StopReason};
+use crate::scene::LoadError;
 use crate::scene::flat::FlatlandError;
 use std::error::Error;
 use std::process::ExitCode;
@@ -65,6 +66,8 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
         describe(inner.as_ref())
     } else if let Some(m) = super::analysis_errors::describe(e) {
         m
+    } else if let Some(l) = e.downcast_ref::<LoadError>() {
+        load(l)
     } else if let Some(f) = e.downcast_ref::<FlatlandError>() {
         match f {
             FlatlandError::NotExtruded { file, detail } => format!(
@@ -76,6 +79,16 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
         }
     } else {
         e.to_string()
+    }
+}
+
+/// A scene that failed to load: strict loading named by its flag.
+pub fn load(e: &LoadError) -> String {
+    match e {
+        LoadError::Strict { file, line, what } => {
+            format!("{}:{line}: {what} (--strict)", file.display())
+        }
+        _ => e.to_string(),
     }
 }
 

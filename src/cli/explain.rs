@@ -6,7 +6,7 @@ use crate::domain::slice::{SliceArg, resolve_plane};
 use crate::ftpd::Params;
 use crate::math::Rgb;
 use crate::params::{EstimatorArgs, prepare_flatland};
-use crate::scene::load::load_scene_with_lights;
+use crate::scene::load::{LoadOptions, load_scene_with};
 use crate::scene::{Light, Scene};
 use std::io::Write;
 use std::path::Path;
@@ -31,7 +31,14 @@ pub fn command(args: &RunArgs) -> anyhow::Result<()> {
         _ => None,
     };
     let mut out = std::io::stdout().lock();
-    explain(&mut out, &job.scene, &job.lights, &job.estimator, flatland)?;
+    explain(
+        &mut out,
+        &job.scene,
+        &job.lights,
+        &job.estimator,
+        flatland,
+        &job.load,
+    )?;
     if let Some(sp) = &job.separatrices {
         let or_default =
             |v: Option<f64>, d: &str| v.map_or_else(|| d.to_string(), |x| x.to_string());
@@ -50,16 +57,17 @@ pub fn command(args: &RunArgs) -> anyhow::Result<()> {
 
 /// Writes the explanation of a run of `estimator` on the scene at `path` (with extra
 /// `lights` from the command line) to `out`; `flatland` is the slice (with its window and
-/// resolution) of a flatland run, whose cross-section it describes too. Warnings of the loader go
-/// to stderr.
+/// resolution) of a flatland run, whose cross-section it describes too; `options` say how the scene
+/// file is read. Warnings of the loader go to stderr.
 pub fn explain(
     out: &mut impl Write,
     path: &Path,
     lights: &[Light],
     estimator: &EstimatorArgs,
     flatland: Option<(&SliceArg, Option<[f64; 4]>, usize)>,
+    options: &LoadOptions,
 ) -> anyhow::Result<()> {
-    let mut scene = load_scene_with_lights(path, lights)?;
+    let mut scene = load_scene_with(path, lights, options)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }

@@ -63,6 +63,9 @@ impl RunArgs {
             resume: self.resume.clone(),
             command: Some(command_without_resume()),
             separatrices: self.separatrices()?,
+            load: crate::scene::load::LoadOptions {
+                strict: self.strict,
+            },
         })
     }
 

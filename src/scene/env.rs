@@ -13,7 +13,7 @@
 //! in flatland a piecewise-constant 1D distribution over angle around the plane's circle.
 
 use crate::math::Rgb;
-use anyhow::{Context, bail};
+use crate::scene::error::ImageError;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
@@ -126,22 +126,30 @@ impl EnvMap {
         scale: f64,
         rotation_deg: f64,
         source: &str,
-    ) -> anyhow::Result<EnvMap> {
+    ) -> Result<EnvMap, ImageError> {
+        let invalid = |what: String| ImageError::Invalid {
+            name: Some(source.to_string()),
+            what,
+        };
         if width == 0 || height == 0 || texels.len() != width * height {
-            bail!("{source}: an environment map needs at least one texel");
+            return Err(invalid(
+                "an environment map needs at least one texel".into(),
+            ));
         }
         if !(scale >= 0.0 && scale.is_finite() && rotation_deg.is_finite()) {
-            bail!("{source}: the scale must be finite and ≥ 0 and the rotation finite");
+            return Err(invalid(
+                "the scale must be finite and ≥ 0 and the rotation finite".into(),
+            ));
         }
         if let Some(k) = texels
             .iter()
             .position(|c| !(c.min_element() >= 0.0 && c.is_finite()))
         {
-            bail!(
-                "{source}: texel ({}, {}) is negative or not finite",
+            return Err(invalid(format!(
+                "texel ({}, {}) is negative or not finite",
                 k % width,
                 k / width
-            );
+            )));
         }
         let texels: Vec<Rgb> = texels.into_iter().map(|c| c * scale).collect();
         let mut row_w = Vec::with_capacity(height);
@@ -157,7 +165,9 @@ impl EnvMap {
             cols.push(d);
         }
         let Some(rows) = Piecewise1D::new(&row_w) else {
-            bail!("{source}: the environment map is black everywhere (or its scale is 0)");
+            return Err(invalid(
+                "the environment map is black everywhere (or its scale is 0)".into(),
+            ));
         };
         Ok(EnvMap {
             width,
@@ -172,9 +182,9 @@ impl EnvMap {
     }
 
     /// Reads `.exr` (the first RGB(A) layer) or `.hdr` (Radiance RGBE).
-    pub fn load(path: &Path, scale: f64, rotation_deg: f64) -> anyhow::Result<EnvMap> {
+    pub fn load(path: &Path, scale: f64, rotation_deg: f64) -> Result<EnvMap, ImageError> {
         let name = path.display().to_string();
-        let ext = crate::scene::load::extension(path);
+        let ext = crate::scene::files::extension(path);
         let (w, h, texels) = match ext.as_deref() {
             Some("exr") => {
                 use exr::prelude::*;
@@ -193,16 +203,19 @@ impl EnvMap {
                         px[pos.y() * *w + pos.x()] = Rgb::new(r as f64, g as f64, b as f64);
                     },
                 )
-                .with_context(|| format!("{name}: cannot read as an OpenEXR image"))?;
+                .map_err(ImageError::failed(&name, "cannot read as an OpenEXR image"))?;
                 img.layer_data.channel_data.pixels
             }
             Some("hdr") => {
                 let img = image::ImageReader::open(path)
-                    .with_context(|| format!("{name}: cannot open"))?
+                    .map_err(ImageError::failed(&name, "cannot open"))?
                     .with_guessed_format()
-                    .with_context(|| format!("{name}: cannot read"))?
+                    .map_err(ImageError::failed(&name, "cannot read"))?
                     .decode()
-                    .with_context(|| format!("{name}: cannot read as a Radiance HDR image"))?
+                    .map_err(ImageError::failed(
+                        &name,
+                        "cannot read as a Radiance HDR image",
+                    ))?
                     .into_rgb32f();
                 let (w, h) = (img.width() as usize, img.height() as usize);
                 let px = img
@@ -211,7 +224,12 @@ impl EnvMap {
                     .collect();
                 (w, h, px)
             }
-            _ => bail!("{name}: an environment map must be .exr or .hdr (lat-long, +y up)"),
+            _ => {
+                return Err(ImageError::Invalid {
+                    name: Some(name),
+                    what: "an environment map must be .exr or .hdr (lat-long, +y up)".into(),
+                });
+            }
         };
         EnvMap::new(w, h, texels, scale, rotation_deg, &name)
     }

@@ -13,7 +13,7 @@ pub struct Features {
     pub mirror: bool,
     /// Planar perfect mirrors, whose images of the lights are sampled
     /// ([`crate::scene::mirror::Mirrors`]). Not in the printed set, which files carry as a merge
-    /// key: `--explain` reports it as the effect `mirror-images`.
+    /// key: a run's list of effects reports it as `mirror-images`.
     pub planar_mirrors: bool,
     pub dielectric: bool,
     pub area_lights: bool,

@@ -8,6 +8,10 @@ use crate::scene::material::Material;
 use glam::{DVec3, Vec3};
 use std::f64::consts::{PI, TAU};
 
+/// The sun's angular diameter when a scene or flag does not give one, degrees (as seen from the
+/// Earth).
+pub const DEFAULT_SUN_DIAMETER_DEG: f64 = 0.53;
+
 /// The shape of an area emitter as a run's space of directions sees it: a triangle in 3D, or the
 /// segment where a triangle crosses the flatland plane. Uniform points on it are light transport
 /// (`crate::kernel::Space::point_on`).

@@ -1,56 +1,43 @@
 //! Loading by file extension: `.obj`, `.gltf`/`.glb`, or a sidecar `.toml` naming a mesh plus
-//! point lights, cameras and named slices. The scene's [`Features`] are computed here, once, after
-//! every light (the file's, the sidecar's, the command line's) is in.
+//! lights, cameras and named slices. The scene's [`Features`](crate::scene::Features) are computed
+//! as lights come in, so a caller adds its own lights here, before anything reads them.
 
-use crate::scene::{self, Scene};
-use anyhow::{Context, bail};
+use crate::scene::error::LoadError;
+pub use crate::scene::files::extension;
+use crate::scene::light::Light;
+use crate::scene::model::Scene;
+use crate::scene::{gltf, obj, sidecar};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 
-/// `--strict`: refuse what the OBJ loader otherwise goes on past with a warning (faces of fewer
-/// than 3 vertices, `usemtl` or `mtllib` without a name, unsupported statements, text that is not
-/// UTF-8). Process-wide, set once by the command line before loading.
-static STRICT: AtomicBool = AtomicBool::new(false);
-
-/// Sets the `--strict` mode of every later load (see [`STRICT`]).
-pub fn set_strict(strict: bool) {
-    STRICT.store(strict, Ordering::Relaxed);
+/// How a scene file is read. The default is a tolerant load, as mainstream loaders read files.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Strict loading: refuse, naming the file and line, what the OBJ reader otherwise goes on
+    /// past with a warning (faces of fewer than 3 vertices, `usemtl` or `mtllib` without a name,
+    /// statements it does not use, text that is not UTF-8).
+    pub strict: bool,
 }
 
-/// Whether loads are strict (see [`set_strict`]).
-pub fn strict() -> bool {
-    STRICT.load(Ordering::Relaxed)
+/// Loads a scene by its extension (see the module docs), tolerantly.
+pub fn load_scene(path: &Path) -> Result<Scene, LoadError> {
+    load_scene_with(path, &[], &LoadOptions::default())
 }
 
-/// Loads a scene by its extension (see the module docs).
-pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
-    load_scene_with_lights(path, &[])
+/// Loads a scene tolerantly and adds lights to it (e.g. point lights: position and radiant
+/// intensity).
+pub fn load_scene_with_lights(path: &Path, lights: &[Light]) -> Result<Scene, LoadError> {
+    load_scene_with(path, lights, &LoadOptions::default())
 }
 
-/// Loads a scene and adds point lights (position, radiant intensity) to it.
-pub fn load_scene_with_lights(path: &Path, lights: &[scene::Light]) -> anyhow::Result<Scene> {
+/// Loads a scene as `options` say and adds `lights` to it.
+pub fn load_scene_with(
+    path: &Path,
+    lights: &[Light],
+    options: &LoadOptions,
+) -> Result<Scene, LoadError> {
     let mut scene = match extension(path).as_deref() {
-        Some("toml") => {
-            let sc = scene::sidecar::read(path)?;
-            let mesh = path.parent().unwrap_or(Path::new(".")).join(&sc.mesh);
-            if extension(&mesh).as_deref() == Some("toml") {
-                bail!(
-                    "{}: mesh = \"{}\" must be a mesh file, not another .toml",
-                    path.display(),
-                    sc.mesh
-                );
-            }
-            let mut scene = load_mesh(&mesh)
-                .with_context(|| format!("{}: loading its mesh", path.display()))?;
-            scene::sidecar::apply(&sc, path, &mut scene)?;
-            scene.named_slices = sc
-                .slice
-                .iter()
-                .map(|s| (s.name.clone(), s.plane.clone()))
-                .collect();
-            scene
-        }
-        _ => load_mesh(path)?,
+        Some("toml") => load_sidecar(path, options)?,
+        _ => load_mesh(path, options)?,
     };
     for l in lights {
         scene.add_light(l.clone());
@@ -58,33 +45,47 @@ pub fn load_scene_with_lights(path: &Path, lights: &[scene::Light]) -> anyhow::R
     Ok(scene)
 }
 
-/// A path's extension in lower case.
-pub fn extension(path: &Path) -> Option<String> {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-}
-
-/// Loads a mesh file; its report's `parse_seconds` is the time of everything but the BVH build.
-fn load_mesh(path: &Path) -> anyhow::Result<Scene> {
-    let start = std::time::Instant::now();
-    let mut scene = load_mesh_by_extension(path)?;
-    let total = start.elapsed().as_secs_f64();
-    scene.report.parse_seconds = (total - scene.report.bvh_seconds).max(0.0);
+/// A sidecar scene file: its mesh, then its lights, cameras and named slices.
+fn load_sidecar(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
+    let sc = sidecar::read(path)?;
+    let mesh = path.parent().unwrap_or(Path::new(".")).join(&sc.mesh);
+    if extension(&mesh).as_deref() == Some("toml") {
+        return Err(LoadError::Malformed {
+            file: path.to_path_buf(),
+            line: None,
+            what: format!(
+                "mesh = \"{}\" must be a mesh file, not another .toml",
+                sc.mesh
+            ),
+        });
+    }
+    let mut scene = load_mesh(&mesh, options).map_err(|source| LoadError::Mesh {
+        sidecar: path.to_path_buf(),
+        source: Box::new(source),
+    })?;
+    sidecar::apply(&sc, path, &mut scene)?;
+    scene.named_slices = sc
+        .slice
+        .iter()
+        .map(|s| (s.name.clone(), s.plane.clone()))
+        .collect();
     Ok(scene)
 }
 
-fn load_mesh_by_extension(path: &Path) -> anyhow::Result<Scene> {
-    match extension(path).as_deref() {
-        Some("obj") => scene::obj::load(path, strict()),
-        Some("gltf" | "glb") => scene::gltf::load(path),
-        Some(other) => bail!(
-            "{}: unsupported scene format '.{other}' (supported: .obj, .gltf, .glb, .toml)",
-            path.display()
-        ),
-        None => bail!(
-            "{}: no file extension; expected a .obj, .gltf, .glb or .toml scene",
-            path.display()
-        ),
-    }
+/// Loads a mesh file; its report's `parse_seconds` is the time of everything but the BVH build.
+fn load_mesh(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
+    let start = std::time::Instant::now();
+    let mut scene = match extension(path).as_deref() {
+        Some("obj") => obj::load(path, options.strict)?,
+        Some("gltf" | "glb") => gltf::load(path)?,
+        other => {
+            return Err(LoadError::UnsupportedFormat {
+                file: path.to_path_buf(),
+                extension: other.map(str::to_string),
+            });
+        }
+    };
+    let total = start.elapsed().as_secs_f64();
+    scene.report.parse_seconds = (total - scene.report.bvh_seconds).max(0.0);
+    Ok(scene)
 }

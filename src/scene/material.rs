@@ -19,6 +19,7 @@
 //! warning.
 
 use crate::math::Rgb;
+use crate::scene::pbr::{conserve_energy, pbr_lobes};
 use crate::scene::texture::{Texture, UvTransform, Wrap};
 
 /// A surface's scattering model.
@@ -145,15 +146,15 @@ impl Alpha {
 /// glTF's metallic-roughness texture: at each hit, roughness r = `roughness` × the texel's G
 /// channel and metallic m = `metallic` × its B channel (both read as stored, linear, and clamped to
 /// [0, 1]) give the glossy model through the loader's metallic-roughness mapping
-/// ([`crate::scene::gltf::pbr_lobes`]): `kd` = base·(1 − m), `ks` = mix(0.04, base, m), Phong
+/// ([`pbr_lobes`]): `kd` = base·(1 − m), `ks` = mix(0.04, base, m), Phong
 /// exponent n(r), with base the base colour (the material's base-colour texel times
 /// `baseColorFactor` where it has one, else `base`).
 ///
 /// A material with this map is always [`Bsdf::Glossy`], whatever its factors alone would give, so
-/// that its kind (and with it the kernel's effects and `--explain`) covers every texel: a texel in
+/// that its kind (and with it the kernel's effects and the run's list of them) covers every texel: a texel in
 /// the Lambertian corner of the mapping (m ≤ 0.05, r ≥ 0.9) gives `ks` = 0, which scatters exactly
 /// as the Lambertian model, and one at the mirror limit a lobe of the largest exponent
-/// ([`crate::scene::gltf::MAX_PHONG_EXPONENT`]), never a Dirac mirror.
+/// ([`crate::scene::pbr::MAX_PHONG_EXPONENT`]), never a Dirac mirror.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MetallicRoughness {
     /// The texture (its factor is unused: the factors are below).
@@ -173,7 +174,7 @@ impl MetallicRoughness {
     pub fn bsdf(&self, base: Rgb, texel: [f64; 4]) -> Bsdf {
         let roughness = self.roughness * texel[1];
         let metallic = self.metallic * texel[2];
-        let (kd, ks, exponent) = crate::scene::gltf::pbr_lobes(base, metallic, roughness);
+        let (kd, ks, exponent) = pbr_lobes(base, metallic, roughness);
         Bsdf::Glossy { kd, ks, exponent }
     }
 }
@@ -252,18 +253,6 @@ impl Material {
             emission: Rgb::ZERO,
             maps: Maps::default(),
         }
-    }
-}
-
-/// Scales `kd` and `ks` so that `kd + ks` ≤ 1 in every channel; returns whether it had to.
-pub fn conserve_energy(kd: &mut Rgb, ks: &mut Rgb) -> bool {
-    let m = (*kd + *ks).max_element();
-    if m > 1.0 {
-        *kd /= m;
-        *ks /= m;
-        true
-    } else {
-        false
     }
 }
 

@@ -35,13 +35,14 @@
 //! fov = 40.0                      # vertical field of view, degrees
 //!
 //! [[slice]]
-//! name = "middle"                 # use as --slice middle
+//! name = "middle"                 # a run names the slice by it
 //! plane = "z=0"
 //! ```
 
 use crate::scene::env::{EnvMap, Environment};
-use crate::scene::{Camera, Light, Scene};
-use anyhow::{Context, bail};
+use crate::scene::error::{CameraError, LoadError};
+use crate::scene::light::{DEFAULT_SUN_DIAMETER_DEG, Light};
+use crate::scene::model::{Camera, Scene};
 use glam::DVec3;
 use serde::Deserialize;
 use std::path::Path;
@@ -121,20 +122,39 @@ pub struct SliceSpecEntry {
 }
 
 /// Reads and validates a sidecar file.
-pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    let sc: Sidecar =
-        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+pub fn read(path: &Path) -> Result<Sidecar, LoadError> {
+    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Unreadable {
+        file: path.to_path_buf(),
+        source,
+    })?;
+    let sc: Sidecar = toml::from_str(&text).map_err(|e| malformed(path, e.to_string()))?;
+    validate(&sc, path)?;
+    Ok(sc)
+}
+
+/// A sidecar's content that cannot be used: `what` says why.
+fn malformed(file: &Path, what: String) -> LoadError {
+    LoadError::Malformed {
+        file: file.to_path_buf(),
+        line: None,
+        what,
+    }
+}
+
+/// Checks the values of every table: finite positions and directions, non-negative radiometric
+/// values, angles in range, cameras that define a view.
+fn validate(sc: &Sidecar, file: &Path) -> Result<(), LoadError> {
     for (i, l) in sc.point_light.iter().enumerate() {
         if !l.position.iter().chain(&l.intensity).all(|v| v.is_finite())
             || l.intensity.iter().any(|v| *v < 0.0)
         {
-            bail!(
-                "{}: point_light #{}: position must be finite and intensity finite and ≥ 0",
-                path.display(),
-                i + 1
-            );
+            return Err(malformed(
+                file,
+                format!(
+                    "point_light #{}: position must be finite and intensity finite and ≥ 0",
+                    i + 1
+                ),
+            ));
         }
     }
     let rgb_ok = |v: &[f64; 3]| v.iter().all(|x| x.is_finite() && *x >= 0.0);
@@ -148,57 +168,68 @@ pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
             && inner < outer
             && outer <= 90.0;
         if !valid {
-            bail!(
-                "{}: spot_light #{}: position must be finite, direction finite and not zero, \
-                 intensity finite and ≥ 0, and 0 ≤ inner_deg < outer_deg ≤ 90",
-                path.display(),
-                i + 1
-            );
+            return Err(malformed(
+                file,
+                format!(
+                    "spot_light #{}: position must be finite, direction finite and not zero, \
+                     intensity finite and ≥ 0, and 0 ≤ inner_deg < outer_deg ≤ 90",
+                    i + 1
+                ),
+            ));
         }
     }
     for (i, l) in sc.sun.iter().enumerate() {
-        let d = l
-            .diameter_deg
-            .unwrap_or(crate::scene::DEFAULT_SUN_DIAMETER_DEG);
+        let d = l.diameter_deg.unwrap_or(DEFAULT_SUN_DIAMETER_DEG);
         if !dir_ok(&l.direction) || !rgb_ok(&l.irradiance) || !(0.0..180.0).contains(&d) {
-            bail!(
-                "{}: sun #{}: direction must be finite and not zero, irradiance finite and ≥ 0, \
-                 and 0 ≤ diameter_deg < 180",
-                path.display(),
-                i + 1
-            );
+            return Err(malformed(
+                file,
+                format!(
+                    "sun #{}: direction must be finite and not zero, irradiance finite and ≥ 0, \
+                     and 0 ≤ diameter_deg < 180",
+                    i + 1
+                ),
+            ));
         }
     }
     if let Some(sky) = &sc.sky
         && !rgb_ok(&sky.radiance)
     {
-        bail!("{}: sky: radiance must be finite and ≥ 0", path.display());
+        return Err(malformed(
+            file,
+            "sky: radiance must be finite and ≥ 0".into(),
+        ));
     }
     for (i, c) in sc.camera.iter().enumerate() {
         if !(c.fov > 0.0 && c.fov < 180.0) {
-            bail!(
-                "{}: camera #{}: fov {} must lie between 0 and 180 degrees",
-                path.display(),
-                i + 1,
-                c.fov
-            );
+            return Err(malformed(
+                file,
+                format!(
+                    "camera #{}: fov {} must lie between 0 and 180 degrees",
+                    i + 1,
+                    c.fov
+                ),
+            ));
         }
-        camera_of(c).with_context(|| format!("{}: camera #{}", path.display(), i + 1))?;
+        camera_of(c).map_err(|source| LoadError::Camera {
+            sidecar: file.to_path_buf(),
+            index: i + 1,
+            source,
+        })?;
     }
-    Ok(sc)
+    Ok(())
 }
 
 /// A camera from eye/target/up; errors when they do not define a view.
-pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
+pub fn camera_of(c: &CameraSpec) -> Result<Camera, CameraError> {
     let eye = DVec3::from(c.eye);
     let forward = (DVec3::from(c.target) - eye)
         .try_normalize()
-        .context("target equals eye")?;
+        .ok_or(CameraError::TargetAtEye)?;
     let up0 = DVec3::from(c.up.unwrap_or([0.0, 1.0, 0.0]));
     let right = forward
         .cross(up0)
         .try_normalize()
-        .context("up is parallel to the viewing direction")?;
+        .ok_or(CameraError::UpAlongView)?;
     Ok(Camera {
         name: c.name.clone().unwrap_or_else(|| "camera".into()),
         eye,
@@ -211,7 +242,7 @@ pub fn camera_of(c: &CameraSpec) -> anyhow::Result<Camera> {
 
 /// Applies a sidecar's lights and cameras to a loaded scene; `path` is the sidecar's own (files
 /// it names are relative to it).
-pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> anyhow::Result<()> {
+pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> Result<(), LoadError> {
     for l in &sc.point_light {
         scene.add_point_light(DVec3::from(l.position), DVec3::from(l.intensity));
     }
@@ -225,9 +256,7 @@ pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> anyhow::Result<()>
         });
     }
     for l in &sc.sun {
-        let d = l
-            .diameter_deg
-            .unwrap_or(crate::scene::DEFAULT_SUN_DIAMETER_DEG);
+        let d = l.diameter_deg.unwrap_or(DEFAULT_SUN_DIAMETER_DEG);
         scene.add_light(Light::distant(
             DVec3::from(l.direction).normalize(),
             DVec3::from(l.irradiance),
@@ -246,11 +275,19 @@ pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> anyhow::Result<()>
             env.scale.unwrap_or(1.0),
             env.rotation_deg.unwrap_or(0.0),
         )
-        .with_context(|| format!("{}: [environment]", path.display()))?;
+        .map_err(|source| LoadError::Environment {
+            sidecar: path.to_path_buf(),
+            source,
+        })?;
         scene.add_light(Light::Env(Environment::new(map)));
     }
-    for c in &sc.camera {
-        scene.cameras.push(camera_of(c)?);
+    for (i, c) in sc.camera.iter().enumerate() {
+        let camera = camera_of(c).map_err(|source| LoadError::Camera {
+            sidecar: path.to_path_buf(),
+            index: i + 1,
+            source,
+        })?;
+        scene.cameras.push(camera);
     }
     Ok(())
 }

@@ -16,7 +16,7 @@
 //!   quarter of the memory it would as floats.
 
 use crate::math::Rgb;
-use anyhow::{Context, bail};
+use crate::scene::error::ImageError;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -113,12 +113,16 @@ impl Texture {
         height: usize,
         texels: Vec<[f32; 4]>,
         source: &str,
-    ) -> anyhow::Result<Texture> {
+    ) -> Result<Texture, ImageError> {
+        let invalid = |what: &str| ImageError::Invalid {
+            name: Some(source.to_string()),
+            what: what.to_string(),
+        };
         if width == 0 || height == 0 || texels.len() != width * height {
-            bail!("{source}: a texture needs at least one texel");
+            return Err(invalid("a texture needs at least one texel"));
         }
         if texels.iter().flatten().any(|v| !v.is_finite()) {
-            bail!("{source}: texels must be finite");
+            return Err(invalid("texels must be finite"));
         }
         Ok(Texture {
             width,
@@ -156,9 +160,9 @@ impl Texture {
     }
 
     /// Decodes `path`: PNG, JPEG, TGA, HDR through `image`, EXR through `exr`.
-    pub fn load(path: &Path, encoding: Encoding) -> anyhow::Result<Texture> {
+    pub fn load(path: &Path, encoding: Encoding) -> Result<Texture, ImageError> {
         let name = path.display().to_string();
-        let ext = crate::scene::load::extension(path);
+        let ext = crate::scene::files::extension(path);
         if ext.as_deref() == Some("exr") {
             use exr::prelude::*;
             let img = read_first_rgba_layer_from_file(
@@ -168,27 +172,33 @@ impl Texture {
                     px[pos.y() * *w + pos.x()] = [r, g, b, a];
                 },
             )
-            .with_context(|| format!("{name}: cannot read as an OpenEXR image"))?;
+            .map_err(ImageError::failed(&name, "cannot read as an OpenEXR image"))?;
             let size = img.layer_data.size;
             let (_, px) = img.layer_data.channel_data.pixels;
             return Texture::new(size.width(), size.height(), px, &name);
         }
         let reader = image::ImageReader::open(path)
-            .with_context(|| format!("{name}: cannot open"))?
+            .map_err(ImageError::failed(&name, "cannot open"))?
             .with_guessed_format()
-            .with_context(|| format!("{name}: cannot read"))?;
-        let img = reader
-            .decode()
-            .with_context(|| format!("{name}: cannot decode (PNG, JPEG, TGA, HDR or EXR)"))?;
+            .map_err(ImageError::failed(&name, "cannot read"))?;
+        let img = reader.decode().map_err(ImageError::failed(
+            &name,
+            "cannot decode (PNG, JPEG, TGA, HDR or EXR)",
+        ))?;
         // 8-bit and 16-bit images are encoded; float images (HDR) are linear.
         Texture::from_image(img, &name, encoding)
     }
 
-    /// Decodes an image held in memory (PNG, JPEG, TGA, HDR), e.g. a glTF buffer view.
-    pub fn from_bytes(bytes: &[u8], name: &str, encoding: Encoding) -> anyhow::Result<Texture> {
-        let img = image::load_from_memory(bytes)
-            .with_context(|| format!("{name}: cannot decode (PNG, JPEG, TGA or HDR)"))?;
-        Texture::from_image(img, name, encoding)
+    /// Decodes an image held in memory (PNG, JPEG, TGA, HDR), e.g. a glTF buffer view; `name`
+    /// becomes the texture's [`source`](Texture::source). Errors name no file (the bytes have
+    /// none): their holder says whose they are.
+    pub fn from_bytes(bytes: &[u8], name: &str, encoding: Encoding) -> Result<Texture, ImageError> {
+        let img = image::load_from_memory(bytes).map_err(|e| ImageError::Decode {
+            name: None,
+            what: "cannot decode (PNG, JPEG, TGA or HDR)",
+            source: Box::new(e),
+        })?;
+        Texture::from_image(img, name, encoding).map_err(ImageError::unnamed)
     }
 
     /// Linear RGBA texels of a decoded image (8- and 16-bit colour textures are sRGB).
@@ -196,7 +206,7 @@ impl Texture {
         img: image::DynamicImage,
         name: &str,
         encoding: Encoding,
-    ) -> anyhow::Result<Texture> {
+    ) -> Result<Texture, ImageError> {
         let (w, h) = (img.width() as usize, img.height() as usize);
         if matches!(
             img.color(),
@@ -206,7 +216,10 @@ impl Texture {
                 | image::ColorType::Rgba8
         ) {
             if w == 0 || h == 0 {
-                bail!("{name}: a texture needs at least one texel");
+                return Err(ImageError::Invalid {
+                    name: Some(name.to_string()),
+                    what: "a texture needs at least one texel".into(),
+                });
             }
             let rgba = img.into_rgba8().pixels().map(|p| p.0).collect();
             return Ok(Texture {
@@ -331,7 +344,7 @@ pub struct TextureSet {
 impl TextureSet {
     /// Decodes the distinct `(path, encoding)` pairs in parallel; returns the set and, for each
     /// request, the index of its texture. Errors name the file (and the first that failed).
-    pub fn load(requests: &[(PathBuf, Encoding)]) -> anyhow::Result<(TextureSet, Vec<usize>)> {
+    pub fn load(requests: &[(PathBuf, Encoding)]) -> Result<(TextureSet, Vec<usize>), ImageError> {
         let mut distinct: Vec<(PathBuf, Encoding)> = Vec::new();
         let mut index: HashMap<(PathBuf, Encoding), usize> = HashMap::new();
         let ids: Vec<usize> = requests
@@ -346,7 +359,7 @@ impl TextureSet {
         let textures = distinct
             .par_iter()
             .map(|(p, e)| Texture::load(p, *e).map(Arc::new))
-            .collect::<anyhow::Result<Vec<_>>>()?;
+            .collect::<Result<Vec<_>, _>>()?;
         Ok((TextureSet { textures }, ids))
     }
 

@@ -1,7 +1,6 @@
 //! The texture maps and cut-outs of MTL materials: `map_Kd` (replaces `Kd`), `map_Ks` (replaces
 //! `Ks`), `map_Ke` (times `Ke`, or alone where there is none), `map_d` and `d` (coverage), read
-//! after the materials are converted
-//! ([`crate::scene::obj`]).
+//! after the materials are converted ([`crate::scene::obj::mtl`]).
 //!
 //! - A map statement's file is its last word (the options before it, `-o`, `-s`, `-bm`, …, are
 //!   skipped, except `-clamp on`, which clamps instead of repeating, and `-imfchan` for `map_d`);
@@ -23,8 +22,8 @@
 //!   (`transport::light::texture_light_sample`).
 
 use crate::math::Rgb;
-use crate::scene::LoadReport;
 use crate::scene::material::{Alpha, AlphaMode, Bsdf, Material, TextureRef};
+use crate::scene::model::LoadReport;
 use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -77,64 +76,18 @@ fn parse_map(value: &str) -> Option<MapSpec> {
 /// Reads the maps of `list` (tobj's materials, converted to `materials` in the same order;
 /// `dirs[k]` is the directory of material k's MTL file) and gives the materials their texture
 /// references and cut-outs. Returns the decoded textures (each file once, in parallel).
-pub fn apply(
+pub(super) fn apply(
     file: &str,
     list: &[tobj::Material],
     dirs: &[PathBuf],
     materials: &mut [Material],
     report: &mut LoadReport,
 ) -> TextureSet {
-    let mut requests: Vec<(PathBuf, Encoding)> = Vec::new();
-    let mut index: HashMap<(PathBuf, Encoding), usize> = HashMap::new();
-    // (material, slot, request, spec)
-    let mut uses: Vec<(usize, Slot, usize, MapSpec)> = Vec::new();
-    let mut unread = (0usize, String::new());
-    for (k, m) in list.iter().enumerate() {
-        let dir = dirs.get(k).map_or(Path::new(""), |d| d.as_path());
-        let maps = [
-            (m.diffuse_texture.as_deref(), Slot::Base, Encoding::Colour),
-            (
-                m.specular_texture.as_deref(),
-                Slot::Specular,
-                Encoding::Colour,
-            ),
-            (
-                m.unknown_param.get("map_Ke").map(String::as_str),
-                Slot::Emission,
-                Encoding::Colour,
-            ),
-            (m.dissolve_texture.as_deref(), Slot::Alpha, Encoding::Linear),
-        ];
-        for (value, slot, encoding) in maps {
-            let Some(spec) = value.and_then(parse_map) else {
-                continue;
-            };
-            let key = (dir.join(&spec.file), encoding);
-            let r = *index.entry(key.clone()).or_insert_with(|| {
-                requests.push(key);
-                requests.len() - 1
-            });
-            uses.push((k, slot, r, spec));
-        }
-        for key in m.unknown_param.keys() {
-            let map = key.starts_with("map_") && key != "map_Ke";
-            if map || key == "bump" || key == "disp" || key == "norm" {
-                if unread.0 == 0 {
-                    unread.1 = format!("'{key}' of material '{}'", m.name);
-                }
-                unread.0 += 1;
-            }
-        }
-        if m.normal_texture.is_some()
-            || m.ambient_texture.is_some()
-            || m.shininess_texture.is_some()
-        {
-            if unread.0 == 0 {
-                unread.1 = format!("a bump, ambient or shininess map of material '{}'", m.name);
-            }
-            unread.0 += 1;
-        }
-    }
+    let Requests {
+        files,
+        uses,
+        unread,
+    } = Requests::of(list, dirs);
     if unread.0 > 0 {
         report.warnings.push(format!(
             "{file}: {} texture maps other than map_Kd, map_Ks, map_Ke and map_d are not read (the first: \
@@ -142,7 +95,94 @@ pub fn apply(
             unread.0, unread.1
         ));
     }
-    let decoded: Vec<Result<Texture, String>> = requests
+    let (set, id) = decode(file, &files, report);
+    for (k, slot, r, spec) in uses {
+        if let Some(texture) = id[r] {
+            give_map(&mut materials[k], slot, texture, &spec, &set);
+        }
+    }
+    apply_dissolve(list, materials);
+    report.texture_bytes += set.bytes();
+    set
+}
+
+/// The maps materials name: each distinct (file, encoding) once, each use of one by a material,
+/// and the maps that are not read (their count and the first).
+struct Requests {
+    files: Vec<(PathBuf, Encoding)>,
+    /// (material, slot, index into `files`, spec)
+    uses: Vec<(usize, Slot, usize, MapSpec)>,
+    unread: (usize, String),
+}
+
+impl Requests {
+    fn of(list: &[tobj::Material], dirs: &[PathBuf]) -> Requests {
+        let mut files: Vec<(PathBuf, Encoding)> = Vec::new();
+        let mut index: HashMap<(PathBuf, Encoding), usize> = HashMap::new();
+        let mut uses = Vec::new();
+        let mut unread = (0usize, String::new());
+        for (k, m) in list.iter().enumerate() {
+            let dir = dirs.get(k).map_or(Path::new(""), |d| d.as_path());
+            let maps = [
+                (m.diffuse_texture.as_deref(), Slot::Base, Encoding::Colour),
+                (
+                    m.specular_texture.as_deref(),
+                    Slot::Specular,
+                    Encoding::Colour,
+                ),
+                (
+                    m.unknown_param.get("map_Ke").map(String::as_str),
+                    Slot::Emission,
+                    Encoding::Colour,
+                ),
+                (m.dissolve_texture.as_deref(), Slot::Alpha, Encoding::Linear),
+            ];
+            for (value, slot, encoding) in maps {
+                let Some(spec) = value.and_then(parse_map) else {
+                    continue;
+                };
+                let key = (dir.join(&spec.file), encoding);
+                let r = *index.entry(key.clone()).or_insert_with(|| {
+                    files.push(key);
+                    files.len() - 1
+                });
+                uses.push((k, slot, r, spec));
+            }
+            for key in m.unknown_param.keys() {
+                let map = key.starts_with("map_") && key != "map_Ke";
+                if map || key == "bump" || key == "disp" || key == "norm" {
+                    if unread.0 == 0 {
+                        unread.1 = format!("'{key}' of material '{}'", m.name);
+                    }
+                    unread.0 += 1;
+                }
+            }
+            if m.normal_texture.is_some()
+                || m.ambient_texture.is_some()
+                || m.shininess_texture.is_some()
+            {
+                if unread.0 == 0 {
+                    unread.1 = format!("a bump, ambient or shininess map of material '{}'", m.name);
+                }
+                unread.0 += 1;
+            }
+        }
+        Requests {
+            files,
+            uses,
+            unread,
+        }
+    }
+}
+
+/// Decodes `files` in parallel: the textures that could be read, and for each file its index
+/// among them (`None`: it failed, one warning for all with the first failure).
+fn decode(
+    file: &str,
+    files: &[(PathBuf, Encoding)],
+    report: &mut LoadReport,
+) -> (TextureSet, Vec<Option<u32>>) {
+    let decoded: Vec<Result<Texture, String>> = files
         .par_iter()
         .map(|(p, e)| Texture::load(p, *e).map_err(|err| format!("{err:#}")))
         .collect();
@@ -163,53 +203,55 @@ pub fn apply(
             set.textures.len() as u32 - 1
         }));
     }
-    for (k, slot, r, spec) in uses {
-        let Some(texture) = id[r] else {
-            continue;
-        };
-        let wrap = if spec.clamp {
-            Wrap::ClampToEdge
-        } else {
-            Wrap::Repeat
-        };
-        let tref = TextureRef {
-            texture,
-            factor: Rgb::ONE,
-            wrap: (wrap, wrap),
-            transform: UvTransform::default(),
-        };
-        let m = &mut materials[k];
-        match slot {
-            Slot::Base => {
-                // A black Kd beside the map would have made the material black at load.
-                if m.bsdf == Bsdf::Black && m.emission == Rgb::ZERO {
-                    m.bsdf = Bsdf::Diffuse { kd: Rgb::ONE };
-                }
-                m.maps.base_color = Some(tref);
+    (set, id)
+}
+
+/// Gives material `m` texture `texture` of `set` in `slot`, as `spec` says.
+fn give_map(m: &mut Material, slot: Slot, texture: u32, spec: &MapSpec, set: &TextureSet) {
+    let wrap = if spec.clamp {
+        Wrap::ClampToEdge
+    } else {
+        Wrap::Repeat
+    };
+    let tref = TextureRef {
+        texture,
+        factor: Rgb::ONE,
+        wrap: (wrap, wrap),
+        transform: UvTransform::default(),
+    };
+    match slot {
+        Slot::Base => {
+            // A black Kd beside the map would have made the material black at load.
+            if m.bsdf == Bsdf::Black && m.emission == Rgb::ZERO {
+                m.bsdf = Bsdf::Diffuse { kd: Rgb::ONE };
             }
-            Slot::Specular => m.maps.specular = Some(tref),
-            Slot::Emission => {
-                // The texel times `Ke` (1 where the map comes without one).
-                if m.emission == Rgb::ZERO {
-                    m.emission = Rgb::ONE;
-                }
-                m.maps.emission = Some(tref);
+            m.maps.base_color = Some(tref);
+        }
+        Slot::Specular => m.maps.specular = Some(tref),
+        Slot::Emission => {
+            // The texel times `Ke` (1 where the map comes without one).
+            if m.emission == Rgb::ZERO {
+                m.emission = Rgb::ONE;
             }
-            Slot::Alpha => {
-                let t = &set.textures[texture as usize];
-                let channel = spec
-                    .channel
-                    .unwrap_or(if t.has_partial_alpha() { 3 } else { 0 });
-                m.maps.alpha = Some(Alpha {
-                    factor: 1.0,
-                    map: Some(tref),
-                    channel,
-                    mode: AlphaMode::Stochastic,
-                });
-            }
+            m.maps.emission = Some(tref);
+        }
+        Slot::Alpha => {
+            let t = &set.textures[texture as usize];
+            let channel = spec
+                .channel
+                .unwrap_or(if t.has_partial_alpha() { 3 } else { 0 });
+            m.maps.alpha = Some(Alpha {
+                factor: 1.0,
+                map: Some(tref),
+                channel,
+                mode: AlphaMode::Stochastic,
+            });
         }
     }
-    // `d`: the constant coverage (times the map's); dielectrics are transparent by refraction.
+}
+
+/// `d`: the constant coverage (times the map's); dielectrics are transparent by refraction.
+fn apply_dissolve(list: &[tobj::Material], materials: &mut [Material]) {
     for (k, m) in list.iter().enumerate() {
         let mat = &mut materials[k];
         if matches!(mat.bsdf, Bsdf::Dielectric { .. }) {
@@ -233,8 +275,6 @@ pub fn apply(
             None => {}
         }
     }
-    report.texture_bytes += set.bytes();
-    set
 }
 
 #[cfg(test)]
