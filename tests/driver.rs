@@ -3,7 +3,7 @@
 //! one (also from a pass interrupted part-way, also adaptive), adaptive sampling lowers the error at
 //! equal samples without moving the estimate, and SIGINT leaves a valid, resumable partial file.
 
-use crate::geometry::scene_path;
+use crate::support::{scene_path, temp_dir};
 use ftpd3d::app;
 use ftpd3d::domain::Plane;
 use ftpd3d::domain::slice::SliceSpec;
@@ -16,7 +16,6 @@ use ftpd3d::run::{self, EstimatorArgs};
 use ftpd3d::run_info::{DomainKind, RunInfo};
 use ftpd3d::scene::Scene;
 use ftpd3d::scene::load::load_scene;
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -119,10 +118,6 @@ fn assert_valid(field: &Field) {
 /// Every sum of every cell, as bits.
 fn bits(field: &Field) -> Vec<[u64; 28]> {
     field.cells.iter().map(|m| m.bit_pattern()).collect()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    crate::support::temp_dir("driver", name)
 }
 
 #[test]
@@ -330,7 +325,7 @@ fn interrupted_and_resumed(
 
 #[test]
 fn resumed_run_is_bit_identical_to_an_uninterrupted_one() {
-    let dir = temp_dir("resume");
+    let dir = temp_dir("driver", "resume");
     let s = cornell(16);
     // 32 spp split into 4 passes; stopped after 2.
     let mut o = opts(3);
@@ -357,12 +352,11 @@ fn resumed_run_is_bit_identical_to_an_uninterrupted_one() {
         n.iter().min() < n.iter().max(),
         "adaptive passes are uneven"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn resume_refuses_another_seed_or_run_length_naming_the_key() {
-    let dir = temp_dir("refuse");
+    let dir = temp_dir("driver", "refuse");
     let s = cornell(8);
     let mut o = opts(4);
     o.spp = 8;
@@ -433,7 +427,6 @@ fn resume_refuses_another_seed_or_run_length_naming_the_key() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.contains("seed differs"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Error statistics of `fields`: the estimated p95 of each, and over cells the mean σ with its
@@ -520,7 +513,7 @@ const SIGINT_SPP: u64 = 1_000_000;
 fn sigint_writes_a_valid_resumable_partial_file() {
     use std::io::{BufRead, BufReader};
     use std::process::{Command, Stdio};
-    let dir = temp_dir("sigint");
+    let dir = temp_dir("driver", "sigint");
     let out = dir.join("run.exr");
     let scene = scene_path("cornell_mirror.obj");
     let base = [
@@ -606,7 +599,6 @@ fn sigint_writes_a_valid_resumable_partial_file() {
     assert_eq!(g.meta["pass.inflight"], "false");
     assert_eq!(g.meta["passes"], (passes + 2).to_string());
     assert!(g.cells.iter().all(|c| c.n == (passes as u64 + 2) * 4));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// z-scores of a run against an independent run of 16 times the samples, over the cells valid in

@@ -941,17 +941,14 @@ fn separatrices_subcommand_writes_files_an_independent_reader_opens() {
     let (field, _) = run_plane(&scene, &plane, &params(None), &opts(512, 1)).unwrap();
     ftpd3d::output::write_outputs(&field, &field_path, false).unwrap();
     let out = dir.join("s.exr");
-    let run = ftpd3d(
-        None,
-        &[
-            "separatrices",
-            field_path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--sep-threshold",
-            "3",
-        ],
-    );
+    let run = ftpd3d(&[
+        "separatrices",
+        field_path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--sep-threshold",
+        "3",
+    ]);
     assert!(run.ok, "{}", run.err);
     for f in ["s.exr", "s.sep.vtp", "s.sep.svg", "s.sep.png"] {
         assert!(dir.join(f).is_file(), "{f}");
@@ -998,69 +995,48 @@ fn separatrices_subcommand_writes_files_an_independent_reader_opens() {
     let vdir = dir.join("vol");
     std::fs::create_dir_all(&vdir).unwrap();
     let vol = vdir.join("v.vti");
-    let scene_file = crate::geometry::scene_path("cornell_mirror.obj");
-    let run = ftpd3d(
-        None,
-        &[
-            "--scene",
-            scene_file.to_str().unwrap(),
-            "--volume",
-            "10",
-            "--spp",
-            "16",
-            "--weight",
-            "unweighted",
-            "-o",
-            vol.to_str().unwrap(),
-            "--no-png",
-            "-q",
-            "--separatrices",
-        ],
-    );
+    let scene_file = crate::support::scene_path("cornell_mirror.obj");
+    let run = ftpd3d(&[
+        "--scene",
+        scene_file.to_str().unwrap(),
+        "--volume",
+        "10",
+        "--spp",
+        "16",
+        "--weight",
+        "unweighted",
+        "-o",
+        vol.to_str().unwrap(),
+        "--no-png",
+        "-q",
+        "--separatrices",
+    ]);
     assert!(run.ok, "{}", run.err);
-    let v = vtkio::Vtk::import(&vol).expect("vtkio reads the .vti");
-    let vtkio::model::DataSet::ImageData { pieces, .. } = v.data else {
-        panic!("not ImageData")
-    };
-    let vtkio::model::Piece::Inline(piece) = &pieces[0] else {
-        panic!("not inline")
-    };
-    let arrays: Vec<String> = piece
-        .data
-        .point
-        .iter()
-        .map(|a| match a {
-            vtkio::model::Attribute::DataArray(d) => d.name.clone(),
-            vtkio::model::Attribute::Field { name, .. } => name.clone(),
-        })
-        .collect();
+    let vti = crate::support::read_vti(&vol);
+    let arrays = vti.names();
     for a in [
         "separatrix",
         "separatrix.strength",
         "separatrix.z",
         "separatrix.dir.z",
     ] {
-        assert!(arrays.iter().any(|n| n == a), "{a} in {arrays:?}");
+        assert!(arrays.contains(&a), "{a} in {arrays:?}");
     }
     vtkio::Vtk::import(vdir.join("v.sep.vtp")).expect("vtkio reads the surface");
 
     // Bad input: named, nothing written.
     let bad = dir.join("bad.exr");
     std::fs::write(&bad, b"not an exr").unwrap();
-    let run = ftpd3d(None, &["separatrices", bad.to_str().unwrap()]);
+    let run = ftpd3d(&["separatrices", bad.to_str().unwrap()]);
     assert!(!run.ok && run.err.contains("bad.exr"), "{}", run.err);
     assert!(!dir.join("bad_sep.exr").exists());
-    let run = ftpd3d(
-        None,
-        &[
-            "separatrices",
-            field_path.to_str().unwrap(),
-            "--sep-scale",
-            "0",
-        ],
-    );
+    let run = ftpd3d(&[
+        "separatrices",
+        field_path.to_str().unwrap(),
+        "--sep-scale",
+        "0",
+    ]);
     assert!(!run.ok && run.err.contains("--sep-scale"), "{}", run.err);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Diagnostic sweep (not a check): renders the shadow scene over many seeds (fields cached as EXR
