@@ -1,7 +1,7 @@
 //! The command line as a new user meets it: version, bad values with messages that name the flag,
 //! and a real run writing its outputs.
 
-use crate::support::{Run, ftpd3d, scene_path};
+use crate::support::{Run, ftpd3d, in_ci, scene_path, skip_without};
 use std::path::Path;
 
 #[test]
@@ -679,21 +679,32 @@ fn write_small_cornell_field(dir: &std::path::Path) {
     assert!(r.ok, "{}", r.err);
 }
 
+/// Why python3 cannot run `probe` (a script that fails where a package is missing), if it cannot:
+/// its last line of stderr.
+fn python_missing(probe: &str) -> Option<String> {
+    match std::process::Command::new("python3")
+        .args(["-c", probe])
+        .output()
+    {
+        Err(e) => Some(format!("python3: {e}")),
+        Ok(o) if !o.status.success() => Some(
+            String::from_utf8_lossy(&o.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+                .to_string(),
+        ),
+        Ok(_) => None,
+    }
+}
+
 /// The README's Python example (OpenEXR 3, `separate_channels=True`) reads part 0 of a field.
 /// Needs python3 with the OpenEXR and numpy packages: CI installs them (`.ci/run`) and the test
 /// fails there without them; elsewhere it says it was skipped.
 #[test]
 fn readme_python_example_reads_part_0() {
-    let has = std::process::Command::new("python3")
-        .args(["-c", "import OpenEXR, numpy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !has {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must have python3 with OpenEXR and numpy (.ci/run installs them)"
-        );
-        eprintln!("skipped: python3 with OpenEXR and numpy is not installed");
+    let missing = python_missing("import OpenEXR, numpy");
+    if skip_without("readme_python_example_reads_part_0", missing, in_ci()) {
         return;
     }
     let readme = std::fs::read_to_string("README.md").unwrap();
@@ -747,31 +758,11 @@ fn readme_python_example_reads_part_0() {
 /// installs them (`.ci/run`) and the test fails there without them; elsewhere it says it was skipped.
 #[test]
 fn freeimage_reads_part_0_through_imageio() {
-    let probe = std::process::Command::new("python3")
-        .args([
-            "-c",
-            "import numpy, imageio.v2\nfrom imageio.plugins._freeimage import fi\n\
-             assert fi.has_lib(), 'no FreeImage library'",
-        ])
-        .output();
-    let why = match &probe {
-        Err(e) => Some(format!("python3: {e}")),
-        Ok(o) if !o.status.success() => Some(
-            String::from_utf8_lossy(&o.stderr)
-                .lines()
-                .last()
-                .unwrap_or("")
-                .to_string(),
-        ),
-        Ok(_) => None,
-    };
-    if let Some(why) = why {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must have python3 with imageio, numpy and the FreeImage library (.ci/run installs \
-             them): {why}"
-        );
-        eprintln!("skipped: python3 with imageio, numpy and FreeImage is not available: {why}");
+    let missing = python_missing(
+        "import numpy, imageio.v2\nfrom imageio.plugins._freeimage import fi\n\
+         assert fi.has_lib(), 'no FreeImage library'",
+    );
+    if skip_without("freeimage_reads_part_0_through_imageio", missing, in_ci()) {
         return;
     }
     let dir = crate::support::temp_dir("cli", "freeimage");

@@ -542,17 +542,16 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
     assert!(err.contains("no/such.obj: no such scene file"), "{err}");
 }
 
-/// Whether the real-Slurm test runs: `Ok(())` when `sbatch` is on PATH and the cluster answers,
-/// `Err(reason)` otherwise. CI (CI=true with FTPD3D_SLURM=1, set by `.ci/run` after
-/// `scripts/slurm-local.sh` started a cluster) must have one; FTPD3D_SLURM=0 skips it anywhere.
-fn real_slurm() -> Result<(), String> {
+/// Why the real-Slurm test cannot run here, if it cannot: no `sbatch` on PATH, or no controller
+/// answering `sinfo`, or FTPD3D_SLURM=0 (which skips it anywhere).
+fn slurm_missing() -> Option<String> {
     if std::env::var("FTPD3D_SLURM").is_ok_and(|v| v == "0") {
-        return Err("FTPD3D_SLURM=0".into());
+        return Some("FTPD3D_SLURM=0".into());
     }
     match Command::new("sbatch").arg("--version").output() {
-        Err(e) => return Err(format!("no sbatch on PATH ({e})")),
+        Err(e) => return Some(format!("no sbatch on PATH ({e})")),
         Ok(o) if !o.status.success() => {
-            return Err(format!(
+            return Some(format!(
                 "sbatch --version failed: {}",
                 String::from_utf8_lossy(&o.stderr).trim()
             ));
@@ -560,13 +559,23 @@ fn real_slurm() -> Result<(), String> {
         Ok(_) => {}
     }
     match Command::new("sinfo").args(["-h", "-o", "%P %a"]).output() {
-        Ok(o) if o.status.success() && !o.stdout.is_empty() => Ok(()),
-        Ok(o) => Err(format!(
+        Ok(o) if o.status.success() && !o.stdout.is_empty() => None,
+        Ok(o) => Some(format!(
             "sbatch is on PATH but no Slurm controller answers (sinfo: {}); \
              scripts/slurm-local.sh starts a single-node cluster",
             String::from_utf8_lossy(&o.stderr).trim()
         )),
-        Err(e) => Err(format!("sbatch is on PATH but sinfo is not ({e})")),
+        Err(e) => Some(format!("sbatch is on PATH but sinfo is not ({e})")),
+    }
+}
+
+/// Whether this run must have a Slurm cluster: FTPD3D_SLURM=1 (`.ci/run` sets it after
+/// `scripts/slurm-local.sh` started one), or CI unless FTPD3D_SLURM=0.
+fn slurm_required() -> bool {
+    match std::env::var("FTPD3D_SLURM").as_deref() {
+        Ok("1") => true,
+        Ok("0") => false,
+        _ => crate::support::in_ci(),
     }
 }
 
@@ -618,18 +627,12 @@ fn job_logs(dir: &Path) -> String {
 /// The shipped examples on a real Slurm cluster: `submit.sh tiles` and `submit.sh seeds` queue
 /// their arrays and merge jobs through the real `sbatch`; once every job has ended, the merged
 /// tiles equal one full run bit for bit, and the merged seeds the same runs added in task order.
-/// Skipped, saying why, where there is no Slurm; CI starts one (`scripts/slurm-local.sh`) and
-/// fails here without it.
+/// Skipped, saying why, where there is no Slurm; CI starts one (`scripts/slurm-local.sh`), sets
+/// FTPD3D_SLURM=1 and fails here without it.
 #[test]
 fn slurm_examples_run_on_a_real_cluster() {
-    if let Err(why) = real_slurm() {
-        let ci = std::env::var("CI").is_ok_and(|v| v == "true");
-        let wanted = std::env::var("FTPD3D_SLURM").is_ok_and(|v| v == "1");
-        assert!(
-            !(ci && wanted),
-            "CI=true and FTPD3D_SLURM=1 ask for a real Slurm, but: {why}"
-        );
-        eprintln!("skipped slurm_examples_run_on_a_real_cluster: {why}");
+    let test = "slurm_examples_run_on_a_real_cluster";
+    if crate::support::skip_without(test, slurm_missing(), slurm_required()) {
         return;
     }
     let dir = temp_dir("merge", "realslurm");

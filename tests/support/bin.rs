@@ -1,4 +1,6 @@
-//! Runs of the `ftpd3d` binary.
+//! Runs of the `ftpd3d` binary, and the rule for tests that need a tool from outside the Rust
+//! build: they run wherever the tool is there; where it is not, they are skipped with the reason on
+//! a developer's machine and fail in CI, which installs every such tool (`.ci/run`).
 
 use std::path::Path;
 use std::process::Command;
@@ -29,4 +31,25 @@ fn run(cmd: &mut Command) -> Run {
         out: String::from_utf8_lossy(&out.stdout).into_owned(),
         err: String::from_utf8_lossy(&out.stderr).into_owned(),
     }
+}
+
+/// Whether this is a CI run: the `CI` variable set (every CI service sets `CI=true`), unless set
+/// to `false` or `0`. In CI a test whose tool is missing fails instead of skipping.
+pub fn in_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "false" | "0"))
+}
+
+/// For a test that needs a tool outside the Rust build: `missing` is why the tool cannot be used
+/// (`None`: it can). Returns whether the test must stop here: it prints that it skipped, or, when
+/// `required` (CI, or a variable that asks for the tool), fails naming the reason.
+pub fn skip_without(test: &str, missing: Option<String>, required: bool) -> bool {
+    let Some(why) = missing else {
+        return false;
+    };
+    assert!(
+        !required,
+        "{test}: this run requires the tool, but {why} (.ci/run installs and starts every tool the tests use)"
+    );
+    eprintln!("skipped {test}: {why}");
+    true
 }

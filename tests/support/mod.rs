@@ -3,7 +3,8 @@
 //!
 //! - [`files`]: a fresh temporary directory per test, and the EXR and VTI files as independent
 //!   readers (the exr crate, vtkio) see them;
-//! - [`bin`]: runs of the `ftpd3d` binary;
+//! - [`bin`]: runs of the `ftpd3d` binary, and tests that need a tool outside Rust (Python
+//!   packages, a Slurm cluster): skipped with a reason on a developer's machine, failed in CI;
 //! - [`scenes`]: the shipped scenes and scenes built in code;
 //! - [`estimates`]: FTPD moments at single points and their z-scores against an independent
 //!   estimate;
