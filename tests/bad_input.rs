@@ -170,7 +170,7 @@ fn bad_input_obj_tolerant_loading_warns_once_per_kind_and_strict_refuses() {
         if strict {
             args.push("--strict");
         }
-        crate::support::ftpd3d(None, &args)
+        crate::support::ftpd3d(&args)
     };
     let warnings = |err: &str| -> Vec<String> {
         err.lines()
@@ -243,10 +243,7 @@ fn bad_input_obj_latin1_material_name_matches_its_library() {
         }
     );
     // The same through the binary with --strict: refused at the line.
-    let r = crate::support::ftpd3d(
-        None,
-        &["--scene", path.to_str().unwrap(), "--explain", "--strict"],
-    );
+    let r = crate::support::ftpd3d(&["--scene", path.to_str().unwrap(), "--explain", "--strict"]);
     assert!(!r.ok);
     assert_eq!(
         r.err.trim_end(),
@@ -484,5 +481,4 @@ fn bad_input_many_bright_materials_give_one_summarised_warning() {
             "{f}: 84 materials: Kd + Ks exceeds 1; scaled down (the first is 'm0')"
         )]
     );
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -21,14 +21,20 @@
 //!   expected counts come from the quadrature, bins expecting fewer than 5 samples are pooled (and
 //!   the pool is also checked with an exact Poisson tail, so samples where the density is ~0 fail),
 //!   and the threshold is the (1 − α) quantile of χ²(dof) by the Wilson–Hilferty approximation with
-//!   α = 1e-4 per case. The quadrature error of the expected counts is checked to move the
-//!   statistic by a negligible amount (triangle-inequality bound in `chi2_test`).
-//! * **Monte Carlo means** are compared within 4 standard errors computed from the sample variance.
+//!   α = 1e-4 per case (`support::chi2_test`). The quadrature error of the expected counts is
+//!   checked to move the statistic by a negligible amount (triangle-inequality bound there).
+//! * **Monte Carlo means** are compared within 4 standard errors computed from the sample variance
+//!   (a false failure with probability 6.3e-5 per mean compared).
 //! * **Closed-form identities** (Fresnel, Snell, mirror, reciprocity) are checked to a few ulps
 //!   scaled by the condition number of the quantity compared.
 //!
 //! All random numbers come from fixed seeds, so a run is reproducible.
 
+use crate::support::{
+    binomial_lower_tail, binomial_upper_tail, chi2_quantile, chi2_test, gauss_legendre,
+    mean_and_se, normal_quantile, normal_upper_tail, poisson_upper_tail, student_t_upper_tail,
+    z_limit,
+};
 use ftpd3d::math::*;
 use ftpd3d::rng::Sampler;
 use ftpd3d::transport::bsdf::*;
@@ -38,8 +44,6 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 const EPS: f64 = f64::EPSILON;
 const SEED: u64 = 0x5eed_b5df;
-/// Significance of each chi-square test.
-pub(crate) const ALPHA: f64 = 1e-4;
 /// Samples per chi-square case and per furnace (Monte Carlo mean) case.
 const N_SAMPLES: usize = 100_000;
 const N_FURNACE: usize = 40_000;
@@ -52,166 +56,7 @@ const SUB: usize = 2;
 const M: usize = 8;
 
 // ------------------------------------------------------------------------------------------------
-// Statistics
-
-/// Upper tail of the standard normal, Q(z) = ∫_z^∞ φ(t) dt, by composite Simpson on [z, z + 12]
-/// (the rest is < φ(12) < 1e-31). With h = 0.0025 the rule's error is at most
-/// h⁴/180 · 12 · max|φ⁗| < 1e-11 (max|φ⁗| = 3/√(2π)).
-fn normal_upper_tail(z: f64) -> f64 {
-    let n = 4800;
-    let h = 12.0 / n as f64;
-    let phi = |t: f64| (-0.5 * t * t).exp() / TAU.sqrt();
-    let mut s = phi(z) + phi(z + 12.0);
-    for i in 1..n {
-        s += phi(z + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
-    }
-    s * h / 3.0
-}
-
-/// Standard normal quantile Φ⁻¹(p), by bisection on [`normal_upper_tail`].
-fn normal_quantile(p: f64) -> f64 {
-    assert!(p > 0.0 && p < 1.0);
-    let (mut lo, mut hi) = (-12.0f64, 12.0f64);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if normal_upper_tail(mid) > 1.0 - p {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-/// (1 − α) quantile of χ²(dof), Wilson–Hilferty: (X/k)^(1/3) ≈ N(1 − 2/(9k), 2/(9k)).
-fn chi2_quantile(dof: f64, alpha: f64) -> f64 {
-    let z = if alpha == ALPHA {
-        static Z: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
-        *Z.get_or_init(|| normal_quantile(1.0 - ALPHA))
-    } else {
-        normal_quantile(1.0 - alpha)
-    };
-    let c = 2.0 / (9.0 * dof);
-    dof * (1.0 - c + z * c.sqrt()).powi(3)
-}
-
-/// P(X ≥ k) for X ~ Poisson(λ).
-fn poisson_upper_tail(lambda: f64, k: u64) -> f64 {
-    if k == 0 {
-        return 1.0;
-    }
-    let mut term = (-lambda).exp();
-    let mut cdf = term;
-    for i in 1..k {
-        term *= lambda / i as f64;
-        cdf += term;
-    }
-    (1.0 - cdf).max(0.0)
-}
-
-/// Pearson's chi-square test of `observed` against `expected` counts; `expected_err` bounds the
-/// quadrature error of each expected count.
-pub(crate) fn chi2_test(label: &str, observed: &[f64], expected: &[f64], expected_err: &[f64]) {
-    let total_o: f64 = observed.iter().sum();
-    let total_e: f64 = expected.iter().sum();
-    assert!(
-        (total_o - total_e).abs() <= 1e-4 * total_o,
-        "{label}: expected counts sum to {total_e}, observed to {total_o}"
-    );
-    // (bin, observed, expected, expected error)
-    let mut cats: Vec<(usize, f64, f64, f64)> = Vec::new();
-    let (mut pool_o, mut pool_e, mut pool_err) = (0.0, 0.0, 0.0);
-    for (i, ((&o, &e), &de)) in observed.iter().zip(expected).zip(expected_err).enumerate() {
-        if e < 5.0 {
-            pool_o += o;
-            pool_e += e.max(0.0);
-            pool_err += de;
-        } else {
-            cats.push((i, o, e, de));
-        }
-    }
-    // Rare bins together: an exact one-sided Poisson test (catches samples where the density is 0).
-    if pool_o > pool_e {
-        let p = poisson_upper_tail(pool_e + pool_err, pool_o as u64);
-        assert!(
-            p >= ALPHA,
-            "{label}: {pool_o} samples fell in bins expecting {pool_e:.3} in total (P = {p:.2e})"
-        );
-    }
-    if pool_e >= 5.0 {
-        cats.push((usize::MAX, pool_o, pool_e, pool_err));
-    } else if let Some(c) = cats.iter_mut().min_by(|a, b| a.2.total_cmp(&b.2)) {
-        c.1 += pool_o;
-        c.2 += pool_e;
-        c.3 += pool_err;
-    }
-    if cats.len() < 2 {
-        return; // a single category carries no information beyond the total
-    }
-    let stat: f64 = cats.iter().map(|c| (c.1 - c.2).powi(2) / c.2).sum();
-    // With weights 1/E held fixed, sqrt(stat) is a weighted ℓ2 norm of (O − E): by the triangle
-    // inequality, errors δ in E move it by at most sqrt(Σ δ²/E). Require that to be small against
-    // the gap between the threshold and the statistic's typical value.
-    let shift: f64 = cats.iter().map(|c| c.3 * c.3 / c.2).sum::<f64>().sqrt();
-    let dof = (cats.len() - 1) as f64;
-    let limit = chi2_quantile(dof, ALPHA);
-    assert!(
-        shift <= 0.05 * (limit.sqrt() - dof.sqrt()),
-        "{label}: quadrature too coarse for the chi-square test (shift {shift:.3})"
-    );
-    if stat > limit {
-        cats.sort_by(|a, b| {
-            let ca = (a.1 - a.2).powi(2) / a.2;
-            let cb = (b.1 - b.2).powi(2) / b.2;
-            cb.total_cmp(&ca)
-        });
-        let worst: Vec<String> = cats
-            .iter()
-            .take(6)
-            .map(|c| format!("bin {}: observed {} expected {:.1}", c.0 as isize, c.1, c.2))
-            .collect();
-        panic!(
-            "{label}: chi-square {stat:.1} > {limit:.1} (dof {dof}, α {ALPHA}); worst: {}",
-            worst.join("; ")
-        );
-    }
-}
-
-/// Mean and standard error of the mean.
-pub(crate) fn mean_and_se(sum: f64, sum2: f64, n: usize) -> (f64, f64) {
-    let n = n as f64;
-    let mean = sum / n;
-    let var = ((sum2 / n - mean * mean) * n / (n - 1.0)).max(0.0);
-    (mean, (var / n).sqrt())
-}
-
-// ------------------------------------------------------------------------------------------------
 // Spherical quadrature
-
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on the three-term recurrence).
-pub(crate) fn gauss_legendre(m: usize) -> Vec<(f64, f64)> {
-    (0..m)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (m as f64 + 0.5)).cos();
-            let mut dp = 0.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=m {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = m as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
-        .collect()
-}
 
 /// An orthonormal frame built by Gram–Schmidt (independent of `math::Frame`).
 #[derive(Clone, Copy, Debug)]
@@ -862,6 +707,28 @@ fn statistics_helpers_match_tables() {
         );
     }
     assert!((poisson_upper_tail(2.0, 1) - (1.0 - (-2.0f64).exp())).abs() < 1e-15);
+    // Binomial tails in closed form, and at a large n against the Poisson limit.
+    let p0 = 0.9f64.powi(10);
+    assert!((binomial_lower_tail(10, 0.1, 0) - p0).abs() < 1e-14);
+    assert!((binomial_upper_tail(10, 0.1, 1) - (1.0 - p0)).abs() < 1e-14);
+    let (b, q) = (
+        binomial_upper_tail(100_000, 2e-5, 5),
+        poisson_upper_tail(2.0, 5),
+    );
+    assert!((b / q - 1.0).abs() < 1e-3, "{b} vs {q}");
+    // Student's t from tables: P(T₃₀ ≥ 3.385) = 0.001, P(T₄ ≥ 4.604) = 0.005, P(T₁₀ ≥ 2.228) =
+    // 0.025 (to the tables' 4 digits).
+    for (t, dof, tail) in [
+        (3.385, 30.0, 1e-3),
+        (4.604, 4.0, 5e-3),
+        (2.228, 10.0, 0.025),
+    ] {
+        let got = student_t_upper_tail(t, dof);
+        assert!((got / tail - 1.0).abs() < 2e-3, "t {t}, {dof} dof: {got}");
+    }
+    // The tolerances: Φ⁻¹(1 − 5e-5) and Φ⁻¹(1 − 5e-6).
+    assert!((z_limit(1) - 3.890_591_886).abs() < 1e-6);
+    assert!((z_limit(10) - 4.417_173_414).abs() < 1e-6);
 }
 
 #[test]

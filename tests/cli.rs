@@ -1,17 +1,12 @@
 //! The command line as a new user meets it: version, bad values with messages that name the flag,
 //! and a real run writing its outputs.
 
-use crate::geometry::scene_path;
+use crate::support::{Run, ftpd3d, in_ci, scene_path, skip_without};
 use std::path::Path;
-
-fn ftpd3d(args: &[&str]) -> (bool, String, String) {
-    let r = crate::support::ftpd3d(None, args);
-    (r.ok, r.out, r.err)
-}
 
 #[test]
 fn version_names_embree() {
-    let (ok, out, _) = ftpd3d(&["--version"]);
+    let Run { ok, out, .. } = ftpd3d(&["--version"]);
     assert!(ok);
     assert_eq!(out.trim(), format!("ftpd3d {}", ftpd3d::version_string()));
     assert!(
@@ -50,12 +45,12 @@ fn bad_values_are_refused_naming_the_flag() {
     for (args, msg) in cases {
         let mut all = vec!["--scene", cornell, "--quiet"];
         all.extend_from_slice(args);
-        let (ok, _, err) = ftpd3d(&all);
+        let Run { ok, err, .. } = ftpd3d(&all);
         assert!(!ok, "{args:?} should fail");
         assert!(err.contains(msg), "{args:?}: expected '{msg}' in: {err}");
         assert!(!err.contains("panicked"), "{err}");
     }
-    let (ok, _, err) = ftpd3d(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         plane.to_str().unwrap(),
         "--slice",
@@ -67,7 +62,7 @@ fn bad_values_are_refused_naming_the_flag() {
         err.contains("--weight radiance") && err.contains("has no lights"),
         "{err}"
     );
-    let (ok, _, err) = ftpd3d(&["--scene", "no/such/scene.obj", "--slice", "z=0"]);
+    let Run { ok, err, .. } = ftpd3d(&["--scene", "no/such/scene.obj", "--slice", "z=0"]);
     assert!(!ok);
     assert!(
         err.contains("no/such/scene.obj: no such scene file"),
@@ -77,10 +72,12 @@ fn bad_values_are_refused_naming_the_flag() {
 
 #[test]
 fn a_run_writes_exr_and_png_and_never_leaves_temporaries() {
-    let dir = std::env::temp_dir().join(format!("ftpd3d-cli-{}", std::process::id()));
+    // A directory the run has to make.
+    let tmp = crate::support::temp_dir("cli", "run");
+    let dir = tmp.join("out");
     let out = dir.join("c.exr");
     let cornell = scene_path("cornell_mirror.obj");
-    let (ok, _, err) = ftpd3d(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         cornell.to_str().unwrap(),
         "--slice",
@@ -105,11 +102,10 @@ fn a_run_writes_exr_and_png_and_never_leaves_temporaries() {
         .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
         .collect();
     assert!(leftovers.is_empty());
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A 4x4 unweighted slice of the Cornell box written to `out`, with `extra` arguments.
-fn cornell_4x4(out: &Path, extra: &[&str]) -> (bool, String, String) {
+fn cornell_4x4(out: &Path, extra: &[&str]) -> Run {
     let cornell = scene_path("cornell_mirror.obj");
     let mut args = vec![
         "--scene",
@@ -134,7 +130,7 @@ fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
     // stops there, deterministically, with the default budget recorded in the output.
     let dir = crate::support::temp_dir("cli", "default_budget");
     let out = dir.join("d.exr");
-    let (ok, _, err) = cornell_4x4(&out, &[]);
+    let Run { ok, err, .. } = cornell_4x4(&out, &[]);
     assert!(ok, "{err}");
     assert!(
         err.contains("budget time 1m00s or target error 0.05"),
@@ -160,7 +156,6 @@ fn without_a_budget_a_run_stops_at_p95_0_05_or_one_minute() {
     // differ per cell), and no spp cap was applied.
     let n: u64 = f.cells.iter().map(|c| c.n).sum();
     assert!(n > 64 * f.cells.len() as u64, "{:?}", f.meta);
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -179,7 +174,7 @@ fn adaptive_sampling_is_the_default_of_target_error_runs_only() {
         (&["--time", "1s", "--pass-spp", "4"][..], false),
         (&["--uniform", "--spp", "16", "--batches", "2"][..], false),
     ] {
-        let (ok, _, err) = run(extra);
+        let Run { ok, err, .. } = run(extra);
         assert!(ok, "{extra:?}: {err}");
         assert_eq!(err.contains(adaptive), want, "{extra:?}: {err}");
         if extra.contains(&"2") && want {
@@ -187,34 +182,33 @@ fn adaptive_sampling_is_the_default_of_target_error_runs_only() {
         }
     }
     // A cap on a uniform run, and both allocations at once, are refused with the option named.
-    let (ok, _, err) = run(&["--spp", "16", "--adaptive-cap", "8"]);
+    let Run { ok, err, .. } = run(&["--spp", "16", "--adaptive-cap", "8"]);
     assert!(
         !ok && err.contains("--adaptive-cap") && err.contains("--adaptive"),
         "{err}"
     );
-    let (ok, _, err) = run(&["--adaptive", "--uniform"]);
+    let Run { ok, err, .. } = run(&["--adaptive", "--uniform"]);
     assert!(!ok && err.contains("--uniform"), "{err}");
     // A file of uniform passes (as every default run before wrote) resumed by a target-error run
     // is refused, and the message says how to match it.
-    let (ok, _, err) = run(&["--target-error", "0.5", "--uniform"]);
+    let Run { ok, err, .. } = run(&["--target-error", "0.5", "--uniform"]);
     assert!(ok, "{err}");
     let resume = ["--target-error", "0.3", "--resume", out.to_str().unwrap()];
-    let (ok, _, err) = run(&resume);
+    let Run { ok, err, .. } = run(&resume);
     assert!(
         !ok && err.contains("adaptive differs") && err.contains("add --uniform"),
         "{err}"
     );
-    let (ok, _, err) = run(&[&resume[..], &["--uniform"]].concat());
+    let Run { ok, err, .. } = run(&[&resume[..], &["--uniform"]].concat());
     assert!(ok, "{err}");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn camera_runs_write_radiance_and_refuse_wrong_weightings() {
-    let dir = std::env::temp_dir().join(format!("ftpd3d-cam-{}", std::process::id()));
+    let dir = crate::support::temp_dir("cli", "camera");
     let out = dir.join("cam.exr");
     let gltf = scene_path("cornell_point.gltf");
-    let (ok, _, err) = ftpd3d(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         gltf.to_str().unwrap(),
         "--camera",
@@ -255,10 +249,10 @@ fn camera_runs_write_radiance_and_refuse_wrong_weightings() {
     ] {
         let mut all = vec!["--scene", c, "--quiet", "-o", out.to_str().unwrap()];
         all.extend(args.iter().copied());
-        let (ok, _, err) = ftpd3d(&all);
+        let Run { ok, err, .. } = ftpd3d(&all);
         assert!(!ok && err.contains(msg), "{args:?}: {err}");
     }
-    let (ok, _, err) = ftpd3d(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         gltf.to_str().unwrap(),
         "--camera",
@@ -270,15 +264,14 @@ fn camera_runs_write_radiance_and_refuse_wrong_weightings() {
         !ok && err.contains("--camera nope: no such camera (the scene has: inside)"),
         "{err}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn several_slices_and_arbitrary_planes_share_one_run() {
-    let dir = std::env::temp_dir().join(format!("ftpd3d-multi-{}", std::process::id()));
+    let dir = crate::support::temp_dir("cli", "planes");
     let out = dir.join("c.exr");
     let cornell = scene_path("cornell_mirror.obj");
-    let (ok, _, err) = ftpd3d(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         cornell.to_str().unwrap(),
         "--slices",
@@ -303,7 +296,7 @@ fn several_slices_and_arbitrary_planes_share_one_run() {
     assert_eq!((plane.width, plane.height), (8, 4));
     assert!(plane.meta["plane"].starts_with("plane origin=0,1,0"));
     // A bad plane is refused before any work, naming the flag's problem.
-    let (ok, _, err) = ftpd3d(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         cornell.to_str().unwrap(),
         "--plane",
@@ -312,7 +305,6 @@ fn several_slices_and_arbitrary_planes_share_one_run() {
         out.to_str().unwrap(),
     ]);
     assert!(!ok && err.contains("normal=x,y,z is required"), "{err}");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Every bad value is refused with its exact message before any work: no output file appears, and
@@ -320,8 +312,7 @@ fn several_slices_and_arbitrary_planes_share_one_run() {
 /// that does not load, a weighting the scene cannot support).
 #[test]
 fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
-    let dir = std::env::temp_dir().join(format!("ftpd3d-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::support::temp_dir("cli", "bad_values");
     let out = dir.join("o.exr");
     let o = out.to_str().unwrap();
     let cornell = scene_path("cornell_mirror.obj");
@@ -417,7 +408,7 @@ fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
             }
             let mut all = args.clone();
             all.extend(["--quiet", "-o", o]);
-            let (ok, _, err) = ftpd3d(&all);
+            let Run { ok, err, .. } = ftpd3d(&all);
             assert!(!ok, "{args:?} should fail");
             assert_eq!(
                 err.trim_end().lines().last(),
@@ -436,7 +427,6 @@ fn bad_values_write_nothing_and_never_truncate_an_existing_output() {
             );
         }
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -552,7 +542,7 @@ fn explain_lists_what_each_shipped_scene_simulates_and_skips() {
         let path = scene_path(scene);
         let mut args = vec!["--scene", path.to_str().unwrap(), "--explain"];
         args.extend(extra.iter());
-        let (ok, out, err) = ftpd3d(&args);
+        let Run { ok, out, err } = ftpd3d(&args);
         assert!(ok, "{scene}: {err}");
         let line = out
             .lines()
@@ -618,7 +608,7 @@ fn flags_take_negative_numbers() {
             all.retain(|a| *a != "--res" && *a != "8");
         }
         all.extend_from_slice(args);
-        let r = crate::support::ftpd3d(Some(&dir), &all);
+        let r = crate::support::ftpd3d_in(&dir, &all);
         assert!(r.ok, "{args:?}: {}", r.err);
     }
     let a = ftpd3d::output::exr::read_exr(&dir.join("a.exr")).unwrap();
@@ -628,7 +618,6 @@ fn flags_take_negative_numbers() {
     let sun = &d.meta["sun"];
     assert!(sun.starts_with('-') && sun.ends_with(":3,3,3:0"), "{sun}");
     assert_eq!(d.meta["sky"], "0.2,0.3,0.5");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A camera far outside the scene: the default run lengths start where the scene starts, so the
@@ -645,7 +634,7 @@ fn far_cameras_reach_the_scene_and_blank_runs_are_warned_about() {
     ];
     let mut args = common.to_vec();
     args.extend(["-o", "far.exr"]);
-    let r = crate::support::ftpd3d(Some(&dir), &args);
+    let r = crate::support::ftpd3d_in(&dir, &args);
     assert!(r.ok, "{}", r.err);
     assert!(!r.err.contains("no pair was deflected"), "{}", r.err);
     let f = ftpd3d::output::exr::read_exr(&dir.join("far.exr")).unwrap();
@@ -654,7 +643,7 @@ fn far_cameras_reach_the_scene_and_blank_runs_are_warned_about() {
     assert!(f.values().iter().any(|v| v.sigma > 0.0));
     let mut args = common.to_vec();
     args.extend(["--t0", "1", "--t1", "2", "-o", "short.exr"]);
-    let r = crate::support::ftpd3d(Some(&dir), &args);
+    let r = crate::support::ftpd3d_in(&dir, &args);
     assert!(r.ok, "{}", r.err);
     assert!(
         r.err.contains(
@@ -665,14 +654,13 @@ fn far_cameras_reach_the_scene_and_blank_runs_are_warned_about() {
         "{}",
         r.err
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Writes `f.exr` in `dir`: the Cornell box's z = 0 slice, 16 cells, 8 samples per cell.
 fn write_small_cornell_field(dir: &std::path::Path) {
     let cornell = scene_path("cornell_mirror.obj");
-    let r = crate::support::ftpd3d(
-        Some(dir),
+    let r = crate::support::ftpd3d_in(
+        dir,
         &[
             "--scene",
             cornell.to_str().unwrap(),
@@ -691,21 +679,32 @@ fn write_small_cornell_field(dir: &std::path::Path) {
     assert!(r.ok, "{}", r.err);
 }
 
+/// Why python3 cannot run `probe` (a script that fails where a package is missing), if it cannot:
+/// its last line of stderr.
+fn python_missing(probe: &str) -> Option<String> {
+    match std::process::Command::new("python3")
+        .args(["-c", probe])
+        .output()
+    {
+        Err(e) => Some(format!("python3: {e}")),
+        Ok(o) if !o.status.success() => Some(
+            String::from_utf8_lossy(&o.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+                .to_string(),
+        ),
+        Ok(_) => None,
+    }
+}
+
 /// The README's Python example (OpenEXR 3, `separate_channels=True`) reads part 0 of a field.
 /// Needs python3 with the OpenEXR and numpy packages: CI installs them (`.ci/run`) and the test
 /// fails there without them; elsewhere it says it was skipped.
 #[test]
 fn readme_python_example_reads_part_0() {
-    let has = std::process::Command::new("python3")
-        .args(["-c", "import OpenEXR, numpy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !has {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must have python3 with OpenEXR and numpy (.ci/run installs them)"
-        );
-        eprintln!("skipped: python3 with OpenEXR and numpy is not installed");
+    let missing = python_missing("import OpenEXR, numpy");
+    if skip_without("readme_python_example_reads_part_0", missing, in_ci()) {
         return;
     }
     let readme = std::fs::read_to_string("README.md").unwrap();
@@ -749,7 +748,6 @@ fn readme_python_example_reads_part_0() {
         (printed - mean).abs() <= 1e-5 * mean,
         "{printed} against {mean}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// FreeImage (through Python imageio, `EXR-FI`) reads part 0 of a field as it is written: an RGB
@@ -760,31 +758,11 @@ fn readme_python_example_reads_part_0() {
 /// installs them (`.ci/run`) and the test fails there without them; elsewhere it says it was skipped.
 #[test]
 fn freeimage_reads_part_0_through_imageio() {
-    let probe = std::process::Command::new("python3")
-        .args([
-            "-c",
-            "import numpy, imageio.v2\nfrom imageio.plugins._freeimage import fi\n\
-             assert fi.has_lib(), 'no FreeImage library'",
-        ])
-        .output();
-    let why = match &probe {
-        Err(e) => Some(format!("python3: {e}")),
-        Ok(o) if !o.status.success() => Some(
-            String::from_utf8_lossy(&o.stderr)
-                .lines()
-                .last()
-                .unwrap_or("")
-                .to_string(),
-        ),
-        Ok(_) => None,
-    };
-    if let Some(why) = why {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must have python3 with imageio, numpy and the FreeImage library (.ci/run installs \
-             them): {why}"
-        );
-        eprintln!("skipped: python3 with imageio, numpy and FreeImage is not available: {why}");
+    let missing = python_missing(
+        "import numpy, imageio.v2\nfrom imageio.plugins._freeimage import fi\n\
+         assert fi.has_lib(), 'no FreeImage library'",
+    );
+    if skip_without("freeimage_reads_part_0_through_imageio", missing, in_ci()) {
         return;
     }
     let dir = crate::support::temp_dir("cli", "freeimage");
@@ -828,5 +806,4 @@ fn freeimage_reads_part_0_through_imageio() {
             );
         }
     }
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -1,17 +1,8 @@
 //! `ftpd3d converge`: error against time at doubling sample counts, as CSV and a log-log plot.
 
-use crate::geometry::scene_path;
+use crate::support::{Run, ftpd3d_in, scene_path, temp_dir};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-
-fn temp_dir(test: &str) -> PathBuf {
-    crate::support::temp_dir("conv", test)
-}
-
-fn ftpd3d_in(dir: &Path, args: &[&str]) -> (bool, String, String) {
-    let r = crate::support::ftpd3d(Some(dir), args);
-    (r.ok, r.out, r.err)
-}
+use std::path::Path;
 
 /// A CSV file as rows of column → value.
 fn read_csv(path: &Path) -> (Vec<String>, Vec<BTreeMap<String, String>>) {
@@ -45,9 +36,9 @@ fn num(row: &BTreeMap<String, String>, key: &str) -> f64 {
 
 #[test]
 fn converge_writes_the_csv_the_plot_and_a_half_slope() {
-    let dir = temp_dir("self");
+    let dir = temp_dir("conv", "self");
     let scene = scene_path("cornell_mirror.obj");
-    let (ok, out, err) = ftpd3d_in(
+    let Run { ok, out, err } = ftpd3d_in(
         &dir,
         &[
             "converge",
@@ -140,8 +131,11 @@ fn converge_writes_the_csv_the_plot_and_a_half_slope() {
         num(unweighted, "slope_spp_se"),
     );
     // Monte Carlo: error ∝ samples^-1/2. Allowed: 3 standard errors of the fitted slope, plus 0.05
-    // for the pre-asymptotic bend of the σ estimator at a few samples (it falls a little slower
-    // at 4-16 spp; -0.475 ± 0.003 on a 64x64 grid).
+    // for the bend of the curve at a few samples (the σ estimator's bias there, and the error of
+    // the 256-spp self-reference, which the net error leaves out only on average): on these 24²
+    // cells the slope is -0.543 with a spread of 0.014 over seeds (43 seeds, 1 to 337 by 8; the
+    // fit reports 0.009 to 0.026), so the allowance leaves 4 spreads, and no seed failed. The
+    // radiance slope there: -0.47 to -0.39 (spread 0.017), far inside its range.
     assert!(
         (slope + 0.5).abs() < 3.0 * se + 0.05,
         "unweighted slope {slope} ± {se}"
@@ -150,6 +144,10 @@ fn converge_writes_the_csv_the_plot_and_a_half_slope() {
     // error falls clearly, but more slowly than samples^-1/2, so only that is asserted.
     let radiance = fits.iter().find(|f| f["weighting"] == "radiance").unwrap();
     let s = num(radiance, "slope_spp");
+    println!(
+        "slopes against samples: unweighted {slope:.4} ± {se:.4}, radiance {s:.4} ± {:.4}",
+        num(radiance, "slope_spp_se")
+    );
     assert!((-0.7..-0.15).contains(&s), "radiance slope {s}");
 
     let png = std::fs::read(conv.join("converge.png")).unwrap();
@@ -160,15 +158,14 @@ fn converge_writes_the_csv_the_plot_and_a_half_slope() {
     for f in ["radiance_spp256.exr", "unweighted_spp256.exr"] {
         assert!(conv.join(f).is_file(), "{f}");
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn converge_against_a_reference_file() {
-    let dir = temp_dir("ref");
+    let dir = temp_dir("conv", "ref");
     let scene = scene_path("cornell_mirror.obj");
     let scene = scene.to_str().unwrap();
-    let (ok, _, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "--scene",
@@ -191,7 +188,7 @@ fn converge_against_a_reference_file() {
     );
     assert!(ok, "{err}");
     // The resolution and the weighting come from the reference.
-    let (ok, _, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "converge",
@@ -221,7 +218,7 @@ fn converge_against_a_reference_file() {
         assert!(num(r, "rmse") > 0.0);
     }
     // A reference of another run is refused with the key named.
-    let (ok, _, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "converge",
@@ -244,7 +241,7 @@ fn converge_against_a_reference_file() {
         "{err}"
     );
     // Without a reference, two levels cannot both be measured and fitted.
-    let (ok, _, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "converge",
@@ -262,5 +259,4 @@ fn converge_against_a_reference_file() {
         !ok && err.contains("--max-spp 8") && err.contains("at least 3 levels"),
         "{err}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -3,7 +3,7 @@
 //! textured materials and alpha-masked leaf cards, and a small run of a named slice through the
 //! binary gives a finite field. Nothing is regenerated here.
 
-use crate::geometry::scene_path;
+use crate::support::scene_path;
 use ftpd3d::scene::Scene;
 use ftpd3d::scene::load::load_scene;
 
@@ -91,23 +91,20 @@ fn courtyard_named_slice_runs_and_writes_finite_values() {
     let dir = crate::support::temp_dir("courtyard", "slice");
     let scene = scene_path("courtyard/courtyard.toml");
     let out = dir.join("ground.exr");
-    let r = crate::support::ftpd3d(
-        None,
-        &[
-            "--scene",
-            scene.to_str().unwrap(),
-            "--slice",
-            "ground",
-            "--res",
-            "16",
-            "--spp",
-            "4",
-            "--no-png",
-            "--quiet",
-            "-o",
-            out.to_str().unwrap(),
-        ],
-    );
+    let r = crate::support::ftpd3d(&[
+        "--scene",
+        scene.to_str().unwrap(),
+        "--slice",
+        "ground",
+        "--res",
+        "16",
+        "--spp",
+        "4",
+        "--no-png",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert!(r.ok, "{}", r.err);
     assert!(
         !r.err.lines().any(|l| l.starts_with("warning: ")),
@@ -124,5 +121,4 @@ fn courtyard_named_slice_runs_and_writes_finite_values() {
         sigma.iter().filter(|s| **s > 0.0).count() > w * h / 2,
         "most cells of the sunlit ground see deflected light: {sigma:?}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -5,12 +5,12 @@
 //! checks the walks, the radiance paths and their shadow rays alike; the ray and point queries are
 //! also checked one by one where the answer is known exactly.
 
-use ftpd3d::ftpd::{Params, Weighting};
+use ftpd3d::ftpd::Params;
 use ftpd3d::math::Rgb;
 use ftpd3d::rng::Sampler;
+use ftpd3d::scene::Scene;
 use ftpd3d::scene::material::{Alpha, AlphaMode, Material, TextureRef};
 use ftpd3d::scene::texture::{Texture, TextureSet, UvTransform, Wrap};
-use ftpd3d::scene::{LoadReport, Scene};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
 use std::sync::Arc;
@@ -108,16 +108,7 @@ fn scene(mode: Option<AlphaMode>) -> Scene {
         }
     }
     let floor = Material::diffuse("floor", Rgb::splat(0.5));
-    let mut scene = Scene::build(
-        Path::new("cutout-test"),
-        pos,
-        Vec::new(),
-        tris,
-        mats,
-        vec![floor, leaf],
-        LoadReport::default(),
-    )
-    .unwrap();
+    let mut scene = crate::support::scene_of("cutout-test", pos, tris, mats, vec![floor, leaf]);
     scene.set_textures(uv, textures);
     scene.add_point_light(DVec3::new(0.4, 0.55, 3.0), Rgb::splat(20.0));
     scene
@@ -169,32 +160,22 @@ fn rays_and_point_queries(mode: AlphaMode) {
 /// through the checkerboard, for the cut-out and for the geometry of the opaque squares, with
 /// independent seeds: the difference of each pair over its combined standard error.
 fn z_scores(mode: AlphaMode) -> Vec<(String, f64)> {
-    let scenes = [scene(Some(mode)), scene(None)];
-    let mut out = Vec::new();
-    let n = 3000;
-    for weighting in [Weighting::Unweighted, Weighting::Radiance] {
-        let p = Params {
-            t0: 0.3,
-            t1: 0.8,
-            theta_max: 0.15,
-            weighting,
-            max_bounces: 8,
-            radiance_bounces: None,
-            flat: None,
-        };
-        for ix in 0..6 {
-            for iz in 0..4 {
-                let x = DVec3::new(-0.25 + 0.3 * ix as f64, 0.55, 0.3 + 0.5 * iz as f64);
-                let est = |k: u64| {
-                    let s = Sampler::new(11 + k, ix * 4 + iz, weighting as u64);
-                    crate::support::point_estimate(&scenes[k as usize], x, &p, s, n)
-                };
-                let at = format!("{weighting:?} at {:.2},{:.2}", x.x, x.z);
-                crate::support::push_z_scores(&mut out, &at, weighting, est(0), est(1));
-            }
-        }
-    }
-    out
+    let (cut, squares) = (scene(Some(mode)), scene(None));
+    let points: Vec<DVec3> = (0..6)
+        .flat_map(|ix| {
+            (0..4).map(move |iz| DVec3::new(-0.25 + 0.3 * ix as f64, 0.55, 0.3 + 0.5 * iz as f64))
+        })
+        .collect();
+    let params = |weighting| Params {
+        t0: 0.3,
+        t1: 0.8,
+        theta_max: 0.15,
+        weighting,
+        max_bounces: 8,
+        radiance_bounces: None,
+        flat: None,
+    };
+    crate::support::z_scores_of_two_scenes([&cut, &squares], &points, params, 11, 3000)
 }
 
 #[test]
@@ -205,8 +186,9 @@ fn cutout_checkerboard_matches_the_opaque_squares_as_geometry() {
 /// Stochastic coverage: at random points of the quad, a ray straight down passes with probability
 /// 1 − α, α being the bilinear interpolation of the texels' coverage written out here (texel
 /// centres at (i + ½)/N, clamped at the edges); the passes, summed over points and rays, agree
-/// with the sum of 1 − α within 4 binomial standard errors, for the closest-hit and the shadow query,
-/// and for a point query at the same places.
+/// with the sum of 1 − α within their binomial standard errors (three counts judged together,
+/// `support::z_limit`), for the closest-hit and the shadow query, and for a point query at the
+/// same places.
 #[test]
 fn cutout_stochastic_coverage_passes_in_proportion_to_the_bilinear_alpha() {
     let cut = scene(Some(AlphaMode::Stochastic));
@@ -250,7 +232,7 @@ fn cutout_stochastic_coverage_passes_in_proportion_to_the_bilinear_alpha() {
     {
         eprintln!("{what}: {p} passed, expected {expected:.1} ± {se:.1}");
         assert!(
-            (p - expected).abs() <= 4.0 * se,
+            (p - expected).abs() <= crate::support::z_limit(3) * se,
             "{what}: {p} passed, expected {expected:.1} ± {se:.1}"
         );
     }

@@ -1,15 +1,18 @@
 //! Flatland (`--flatland`): 2D light transport in scenes extruded along the slice normal, against
 //! analytic 2D facts (angle measure, Jarosz et al. 2012).
 //!
-//! How tolerances are set (as in `bsdf.rs`): Monte Carlo means agree within 4 standard errors
-//! computed from the sample variance; integrals over the circle are composite Gauss–Legendre on
+//! How tolerances are set (as in `bsdf.rs`): Monte Carlo means agree within k standard errors
+//! computed from the sample variance, k = `support::z_limit(m)` for the m means a test judges (a
+//! false failure with probability under 1e-4 whatever the seeds); integrals over the circle are composite Gauss–Legendre on
 //! pieces split at every kink of the integrand, computed twice (coarse, and with panels and nodes
 //! doubled), and allowed three times the coarse–fine difference; sampling is compared with the
 //! density by Pearson's chi-square with the threshold at α = 1e-4 (`bsdf::chi2_test`); deterministic
 //! quantities to a few ulps scaled by their magnitude. All random numbers come from fixed seeds.
 
-use crate::bsdf::{chi2_test, gauss_legendre, mean_and_se};
-use crate::geometry::{scene_path, translated};
+use crate::support::{
+    Run, chi2_test, extruded, flat_furnace, ftpd3d, gauss_legendre, mean_and_se, scene_path,
+    translated, z_limit, z0,
+};
 use ftpd3d::domain::Plane;
 use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_at, sample_point};
 use ftpd3d::kernel::{PlainFlat, RadianceFlat, Record};
@@ -24,14 +27,6 @@ use ftpd3d::transport::bsdf::{Bsdf, Mode, fresnel_dielectric};
 use ftpd3d::transport::walk::{RadianceStats, radiance, walk};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use std::path::Path;
-
-const N_SE: f64 = 4.0;
-
-/// The plane z = 0 spanned by x and y (what `--slice z=0` gives).
-pub(crate) fn z0() -> Flatland {
-    Flatland::new(DVec3::ZERO, DVec3::X, DVec3::Y)
-}
 
 /// A plane through the origin with a normal along no axis, so that rounding is not exact.
 fn tilted() -> Flatland {
@@ -42,34 +37,6 @@ fn tilted() -> Flatland {
 
 fn in_plane_2d(pl: &Flatland, x: f64, y: f64) -> DVec3 {
     pl.e1 * x + pl.e2 * y
-}
-
-/// A 2D polyline: its points, whether it is closed, its material.
-pub(crate) type Path2 = (Vec<(f64, f64)>, bool, u32);
-
-/// A scene of 2D polylines extruded along the normal of `pl` over [−1, 1]: each path is
-/// (points, closed, material); every segment a → b becomes a quad facing to the right of a → b
-/// (outward for counter-clockwise polygons, inward for clockwise ones).
-pub(crate) fn extruded(pl: &Flatland, paths: &[Path2], materials: Vec<Material>) -> Scene {
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    let mut tri_material = Vec::new();
-    for (pts, closed, m) in paths {
-        let n = pts.len();
-        let edges = if *closed { n } else { n - 1 };
-        for k in 0..edges {
-            let (a, b) = (pts[k], pts[(k + 1) % n]);
-            let base = positions.len() as u32;
-            for (p, z) in [(a, -1.0), (b, -1.0), (b, 1.0), (a, 1.0)] {
-                let v = in_plane_2d(pl, p.0, p.1) + pl.normal * z;
-                positions.push(v.as_vec3());
-            }
-            triangles.push([base, base + 1, base + 2]);
-            triangles.push([base, base + 2, base + 3]);
-            tri_material.extend([*m, *m]);
-        }
-    }
-    crate::support::scene_of("test-flat", positions, triangles, tri_material, materials)
 }
 
 fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<(f64, f64)> {
@@ -259,7 +226,7 @@ fn point_light_fluence_is_i_over_d_plus_the_reflected_light() {
     );
     assert!(reflected.1 < 1e-9);
     assert!(
-        (m - expected).abs() <= N_SE * se + reflected.1,
+        (m - expected).abs() <= z_limit(1) * se + reflected.1,
         "{m} ± {se} vs {expected}"
     );
 }
@@ -299,34 +266,12 @@ fn empty_flatland_gives_exactly_zero() {
     }
 }
 
-/// A closed regular 64-gon, extruded, facing inward, every wall emitting `le` and reflecting
-/// diffusely with albedo `a`.
-pub(crate) fn furnace(le: Rgb, a: f64) -> Scene {
-    let k = 64;
-    // Clockwise, so that the walls face inward.
-    let pts: Vec<(f64, f64)> = (0..k)
-        .map(|i| {
-            let t = -TAU * i as f64 / k as f64;
-            (t.cos(), t.sin())
-        })
-        .collect();
-    let wall = Material {
-        name: "wall".into(),
-        bsdf: Bsdf::Diffuse { kd: Rgb::splat(a) },
-        emission: le,
-        maps: Default::default(),
-    };
-    let mut scene = extruded(&z0(), &[(pts, true, 0)], vec![wall]);
-    scene.prepare_flatland(z0(), "z=0").unwrap();
-    scene
-}
-
 /// Inside the furnace L = Le + ∫ (a/2) L cos θ dθ = Le + a L, so L = Le/(1 − a) at every interior
 /// point in every in-plane direction, and the fluence is 2π Le/(1 − a).
 #[test]
 fn flatland_furnace_radiance_and_fluence() {
     let (le, a) = (Rgb::new(1.0, 0.5, 0.25), 0.5);
-    let scene = furnace(le, a);
+    let scene = flat_furnace(le, a);
     assert_eq!(scene.flat().lights.lights.len(), 128);
     let expected = luminance(le) / (1.0 - a);
     let points = [
@@ -335,6 +280,8 @@ fn flatland_furnace_radiance_and_fluence() {
         DVec3::new(-0.3, -0.7, 0.0),
     ];
     let mut s = Sampler::new(43, 0, 0);
+    // 3 points × (4 directions + the fluence) judged together.
+    let k = z_limit(15);
     for x in points {
         for phi in [0.0, 1.3, 2.9, 4.4] {
             let look = DVec3::new(f64::cos(phi), f64::sin(phi), 0.0);
@@ -350,7 +297,7 @@ fn flatland_furnace_radiance_and_fluence() {
             }
             let (m, se) = mean_and_se(sum, sum2, n);
             assert!(
-                (m - expected).abs() <= N_SE * se,
+                (m - expected).abs() <= k * se,
                 "x = {x}, φ = {phi}: L = {m} ± {se}, expected {expected}"
             );
         }
@@ -369,7 +316,7 @@ fn flatland_furnace_radiance_and_fluence() {
             TAU * expected
         );
         assert!(
-            (m - TAU * expected).abs() <= N_SE * se,
+            (m - TAU * expected).abs() <= k * se,
             "x = {x}: fluence {m} ± {se}, expected {}",
             TAU * expected
         );
@@ -707,6 +654,8 @@ fn flat_white_furnace() {
         );
     }
     let mut seed = 300;
+    // 5 materials × 6 angles: 30 means judged together.
+    let k = z_limit(30);
     for bsdf in [
         glossy(0.0, 1.0, 1.0),
         glossy(0.0, 1.0, 40.0),
@@ -724,7 +673,7 @@ fn flat_white_furnace() {
             seed += 1;
             let (m, se) = check_bsdf_sampling(&case, seed);
             assert!(
-                (m - a).abs() <= N_SE * se + e + 1e-13,
+                (m - a).abs() <= k * se + e + 1e-13,
                 "{}: mean weight {m} ± {se} vs albedo {a}",
                 case.label
             );
@@ -832,16 +781,13 @@ fn non_extruded_geometry_is_refused_with_a_clear_error() {
     let (c, s) = (37f64.to_radians().cos(), 37f64.to_radians().sin());
     let t = DVec3::new(0.0, -s, c);
     let v = [-DVec3::X - t, DVec3::X - t, t];
-    let mut scene = Scene::build(
-        Path::new("scenes/x.obj"),
+    let mut scene = crate::support::scene_of(
+        "scenes/x.obj",
         v.iter().map(|p| p.as_vec3()).collect(),
-        Vec::new(),
         vec![[0, 1, 2]],
         vec![0],
         vec![Material::diffuse("floor", Rgb::splat(0.5))],
-        Default::default(),
-    )
-    .unwrap();
+    );
     let e = scene.prepare_flatland(z0(), "z=0").unwrap_err();
     assert_eq!(
         ftpd3d::cli::errors::message(&e),
@@ -992,18 +938,13 @@ fn flatland_mirror_is_an_isometry() {
     assert!(worst < 1e-9, "{worst}");
 }
 
-fn ftpd3d_cli(args: &[&str]) -> (bool, String, String) {
-    let r = crate::support::ftpd3d(None, args);
-    (r.ok, r.out, r.err)
-}
-
 #[test]
 fn flatland_on_the_command_line() {
-    let dir = std::env::temp_dir().join(format!("ftpd3d-flat-{}", std::process::id()));
+    let dir = crate::support::temp_dir("flat", "cli");
     let out = dir.join("s.exr");
     let stair = scene_path("flat_stair_wall.obj");
     let stair = stair.to_str().unwrap();
-    let (ok, _, err) = ftpd3d_cli(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         stair,
         "--slice",
@@ -1026,7 +967,9 @@ fn flatland_on_the_command_line() {
         field.meta
     );
     assert!(field.values().iter().any(|v| v.valid && v.sigma > 0.0));
-    let (ok, stdout, _) = ftpd3d_cli(&[
+    let Run {
+        ok, out: stdout, ..
+    } = ftpd3d(&[
         "--scene",
         stair,
         "--slice",
@@ -1038,10 +981,12 @@ fn flatland_on_the_command_line() {
         ok && stdout.contains("+flatland") && stdout.contains("light cross-sections"),
         "{stdout}"
     );
-    let (ok, stdout, _) = ftpd3d_cli(&["--scene", stair, "--slice", "z=0", "--explain"]);
+    let Run {
+        ok, out: stdout, ..
+    } = ftpd3d(&["--scene", stair, "--slice", "z=0", "--explain"]);
     assert!(ok && stdout.contains("-flatland"), "{stdout}");
     let cornell = scene_path("cornell_mirror.obj");
-    let (ok, _, err) = ftpd3d_cli(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         cornell.to_str().unwrap(),
         "--slice",
@@ -1059,7 +1004,7 @@ fn flatland_on_the_command_line() {
         "{err}"
     );
     // A slice that misses every light cannot be radiance-weighted in flatland.
-    let (ok, _, err) = ftpd3d_cli(&[
+    let Run { ok, err, .. } = ftpd3d(&[
         "--scene",
         stair,
         "--slice",
@@ -1070,5 +1015,4 @@ fn flatland_on_the_command_line() {
         out.to_str().unwrap(),
     ]);
     assert!(!ok && err.contains("no light of"), "{err}");
-    std::fs::remove_dir_all(&dir).ok();
 }

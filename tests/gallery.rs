@@ -5,8 +5,7 @@
 //! where radiance-weighted, the beauty image for cameras, the flatland and bounce-cap settings in
 //! the header, some cells with σ > 0, and the separatrix outputs. Nothing is regenerated here.
 
-use crate::geometry::scene_path;
-use crate::support::{exr_parts, ftpd3d, temp_dir};
+use crate::support::{exr_parts, ftpd3d_in, scene_path, temp_dir};
 use std::path::Path;
 
 struct Entry {
@@ -97,7 +96,7 @@ fn every_gallery_run_works_at_a_tiny_size() {
         args.extend(extra.iter().map(|s| s.to_string()));
         args.push(out.to_str().unwrap().to_string());
         let arg_refs: Vec<&str> = args.iter().map(String::as_str).collect();
-        let run = ftpd3d(Some(root), &arg_refs);
+        let run = ftpd3d_in(root, &arg_refs);
         assert!(run.ok, "{}: ftpd3d {}\n{}", e.name, args.join(" "), run.err);
 
         let parts = exr_parts(&out);
@@ -110,17 +109,8 @@ fn every_gallery_run_works_at_a_tiny_size() {
                 .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
         };
         let attr = |key: &str| -> String {
-            let value = part
-                .attributes
-                .other
-                .iter()
-                .find(|(k, _)| k.to_string() == format!("ftpd3d.{key}"))
-                .map(|(_, v)| v)
-                .unwrap_or_else(|| panic!("{}: no header attribute ftpd3d.{key}", e.name));
-            match value {
-                exr::prelude::AttributeValue::Text(t) => t.to_string(),
-                other => panic!("{}: ftpd3d.{key} is not text: {other:?}", e.name),
-            }
+            crate::support::ftpd3d_attribute(part, key)
+                .unwrap_or_else(|| panic!("{}: no header attribute ftpd3d.{key}", e.name))
         };
         let camera = e.args.iter().any(|a| a == "--camera");
         let weighting =
@@ -165,5 +155,4 @@ fn every_gallery_run_works_at_a_tiny_size() {
             assert!(f.is_file(), "{}: no {}", e.name, f.display());
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,31 +1,12 @@
 //! Ray-offset robustness: rays leaving random points of random triangles never hit their own
 //! triangle again, also when the scene sits far from the origin.
 
+use crate::support::{scene_path, translated};
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::Scene;
 use ftpd3d::transport::sampling::{sample_uniform_sphere, sample_uniform_triangle};
 use glam::Vec3;
 use std::path::Path;
-
-pub fn scene_path(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
-
-/// Rebuilds `scene` translated by `offset`.
-pub fn translated(scene: &Scene, offset: Vec3) -> Scene {
-    Scene::build(
-        &scene.source,
-        scene.positions.iter().map(|p| *p + offset).collect(),
-        scene.normals.clone(),
-        scene.triangles.to_vec(),
-        scene.tri_material.clone(),
-        scene.materials.clone(),
-        Default::default(),
-    )
-    .unwrap()
-}
 
 fn self_hits(scene: &Scene, rays: usize) -> usize {
     let mut s = Sampler::new(5, 0, 0);

@@ -2,7 +2,7 @@
 //! .gltf, or a .glb built byte by byte) and checked for world-space geometry, materials, lights,
 //! cameras, and errors that name the file.
 
-use crate::geometry::scene_path;
+use crate::support::{scene_path, temp_dir};
 use base64::Engine as _;
 use ftpd3d::math::Rgb;
 use ftpd3d::scene::load::load_scene;
@@ -11,29 +11,6 @@ use ftpd3d::transport::bsdf::Bsdf;
 use glam::DVec3;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
-
-/// A fresh directory for one test's files, removed when the test ends.
-struct TempDir(PathBuf);
-
-impl std::ops::Deref for TempDir {
-    type Target = Path;
-    fn deref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn temp_dir(test: &str) -> TempDir {
-    let dir = std::env::temp_dir().join(format!("ftpd3d-gltf-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    TempDir(dir)
-}
 
 /// One binary buffer with its buffer views and accessors, assembled as a test goes.
 #[derive(Default)]
@@ -190,7 +167,7 @@ fn close(a: DVec3, b: DVec3) -> bool {
 
 #[test]
 fn gltf_node_hierarchy_places_the_quad() {
-    let dir = temp_dir("hierarchy");
+    let dir = temp_dir("gltf", "hierarchy");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Quad", None);
     // Parent translation, child scale: world = T · S. A second tree gives the same with a matrix.
@@ -237,7 +214,7 @@ fn gltf_node_hierarchy_places_the_quad() {
 
 #[test]
 fn gltf_instanced_mesh_is_expanded() {
-    let dir = temp_dir("instanced");
+    let dir = temp_dir("gltf", "instanced");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Quad", None);
     let extra = json!({
@@ -259,7 +236,7 @@ fn gltf_instanced_mesh_is_expanded() {
 
 #[test]
 fn gltf_negative_scale_keeps_outward_normals() {
-    let dir = temp_dir("mirror");
+    let dir = temp_dir("gltf", "mirror");
     let mut bin = Bin::default();
     let mesh = cube(&mut bin);
     // Mirroring, non-uniform parent scale over a rotated child: positions need the full transform,
@@ -299,7 +276,7 @@ fn gltf_negative_scale_keeps_outward_normals() {
 
 #[test]
 fn gltf_point_spot_and_directional_lights_and_camera_come_through() {
-    let dir = temp_dir("lights");
+    let dir = temp_dir("gltf", "lights");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Floor", None);
     let h = std::f32::consts::FRAC_1_SQRT_2;
@@ -403,7 +380,7 @@ fn gltf_point_spot_and_directional_lights_and_camera_come_through() {
 
 #[test]
 fn gltf_emissive_material_is_an_area_light() {
-    let dir = temp_dir("emissive");
+    let dir = temp_dir("gltf", "emissive");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Lamp", Some(0));
     let extra = json!({
@@ -437,7 +414,7 @@ fn gltf_emissive_material_is_an_area_light() {
 
 #[test]
 fn gltf_transmission_is_a_dielectric_with_its_ior() {
-    let dir = temp_dir("glass");
+    let dir = temp_dir("gltf", "glass");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Pane", Some(1));
     let extra = json!({
@@ -476,7 +453,7 @@ fn gltf_transmission_is_a_dielectric_with_its_ior() {
 
 #[test]
 fn gltf_glb_loads_and_a_truncated_one_is_an_error_naming_it() {
-    let dir = temp_dir("glb");
+    let dir = temp_dir("gltf", "glb");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Quad", None);
     let extra = json!({"scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "translation": [0, 0, 1]}], "meshes": [mesh]});
@@ -498,7 +475,7 @@ fn gltf_glb_loads_and_a_truncated_one_is_an_error_naming_it() {
 
 #[test]
 fn gltf_missing_bin_is_an_error_naming_both_files() {
-    let dir = temp_dir("missing");
+    let dir = temp_dir("gltf", "missing");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Quad", None);
     let extra = json!({"scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}], "meshes": [mesh]});
@@ -513,7 +490,7 @@ fn gltf_missing_bin_is_an_error_naming_both_files() {
 
 #[test]
 fn gltf_bad_position_accessor_is_an_error_naming_the_mesh() {
-    let dir = temp_dir("badacc");
+    let dir = temp_dir("gltf", "badacc");
     let mut bin = Bin::default();
     let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.]]);
     // Quantised positions without KHR_mesh_quantization: not allowed by the core spec.
@@ -558,7 +535,7 @@ fn gltf_bad_position_accessor_is_an_error_naming_the_mesh() {
 
 #[test]
 fn gltf_corrupt_files_give_errors_not_panics() {
-    let dir = temp_dir("corrupt");
+    let dir = temp_dir("gltf", "corrupt");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Quad", Some(0));
     let extra = json!({
@@ -609,7 +586,7 @@ fn gltf_corrupt_files_give_errors_not_panics() {
 
 #[test]
 fn gltf_points_primitive_is_skipped_with_a_warning() {
-    let dir = temp_dir("points");
+    let dir = temp_dir("gltf", "points");
     let mut bin = Bin::default();
     let mut mesh = quad(&mut bin, "Cloud", None);
     let pts = bin.vec3(&[[5., 5., 5.], [6., 6., 6.]]);
@@ -638,7 +615,7 @@ fn gltf_points_primitive_is_skipped_with_a_warning() {
 
 #[test]
 fn gltf_strips_and_fans_are_triangulated() {
-    let dir = temp_dir("strip");
+    let dir = temp_dir("gltf", "strip");
     let mut bin = Bin::default();
     // Strip order 0 1 3 2 and fan order 0 1 2 3 of the unit quad, non-indexed: both face +z.
     let strip = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]]);
@@ -700,8 +677,8 @@ fn gltf_shipped_cornell_point_scene_loads() {
 /// refused for its version, through the binary, as the `.glb` path refuses binary glTF 1.
 #[test]
 fn gltf_version_1_is_named_as_such() {
-    let dir = temp_dir("version1");
-    let path = dir.0.join("old.gltf");
+    let dir = temp_dir("gltf", "version1");
+    let path = dir.join("old.gltf");
     let doc = json!({
         "asset": {"version": "1.0"},
         "scene": "defaultScene",
@@ -719,7 +696,7 @@ fn gltf_version_1_is_named_as_such() {
         path.display()
     );
     assert_eq!(format!("{e:#}"), want);
-    let r = crate::support::ftpd3d(None, &["--scene", path.to_str().unwrap(), "--explain"]);
+    let r = crate::support::ftpd3d(&["--scene", path.to_str().unwrap(), "--explain"]);
     assert!(!r.ok);
     assert_eq!(r.err.trim(), format!("error: {want}"));
 }
@@ -728,8 +705,8 @@ fn gltf_version_1_is_named_as_such() {
 /// file, through the binary, even with `--window` (which used to fail for lack of bounds).
 #[test]
 fn gltf_without_triangles_is_an_empty_scene() {
-    let dir = temp_dir("no_triangles");
-    let path = dir.0.join("lamp_only.gltf");
+    let dir = temp_dir("gltf", "no_triangles");
+    let path = dir.join("lamp_only.gltf");
     let doc = json!({
         "asset": {"version": "2.0"},
         "extensionsUsed": ["KHR_lights_punctual"],
@@ -750,7 +727,7 @@ fn gltf_without_triangles_is_an_empty_scene() {
     for extra in [&[][..], &["--window=-1,0,1,2"][..]] {
         let mut args = vec!["--scene", path.to_str().unwrap(), "--slice", "z=0"];
         args.extend_from_slice(extra);
-        let r = crate::support::ftpd3d(None, &args);
+        let r = crate::support::ftpd3d(&args);
         assert!(!r.ok, "{extra:?}");
         assert_eq!(r.err.trim(), want, "{extra:?}");
     }
@@ -760,7 +737,7 @@ fn gltf_without_triangles_is_an_empty_scene() {
 /// own terms (not the MTL's Ke); a camera run goes on but warns that its beauty image is black.
 #[test]
 fn gltf_without_lights_names_the_ways_to_add_one() {
-    let dir = temp_dir("no_lights");
+    let dir = temp_dir("gltf", "no_lights");
     let mut bin = Bin::default();
     let mesh = quad(&mut bin, "Quad", None);
     let extra = json!({
@@ -769,9 +746,9 @@ fn gltf_without_lights_names_the_ways_to_add_one() {
         "nodes": [{"mesh": 0}],
         "meshes": [mesh],
     });
-    let path = bin.write_embedded(&dir.0, "dark.gltf", extra);
+    let path = bin.write_embedded(&dir, "dark.gltf", extra);
     let p = path.to_str().unwrap();
-    let r = crate::support::ftpd3d(Some(&dir.0), &["--scene", p, "--slice", "z=0", "--quiet"]);
+    let r = crate::support::ftpd3d_in(&dir, &["--scene", p, "--slice", "z=0", "--quiet"]);
     assert!(!r.ok);
     assert_eq!(
         r.err.trim(),
@@ -782,8 +759,8 @@ fn gltf_without_lights_names_the_ways_to_add_one() {
              --sky R,G,B or --env FILE, or use --weight unweighted"
         )
     );
-    let r = crate::support::ftpd3d(
-        Some(&dir.0),
+    let r = crate::support::ftpd3d_in(
+        &dir,
         &[
             "--scene",
             p,
@@ -861,7 +838,7 @@ fn gltf_base_colour_texture_gives_each_texel_its_albedo() {
     };
     let png_uri = png_uri(2, 1, vec![255, 255, 255, 128, 128, 128]);
     for (k, offset) in [0.0, 0.5].into_iter().enumerate() {
-        let dir = temp_dir(&format!("texture{k}"));
+        let dir = temp_dir("gltf", &format!("texture{k}"));
         let mut bin = Bin::default();
         let (pos, uv, idx) = textured_quad(&mut bin);
         let mut info = json!({"index": 0});
@@ -919,7 +896,7 @@ fn gltf_base_colour_texture_gives_each_texel_its_albedo() {
 #[test]
 fn gltf_emissive_texture_scales_the_emission_per_texel() {
     let png_uri = png_uri(2, 1, vec![255, 255, 255, 128, 128, 128]);
-    let dir = temp_dir("emissive_texture");
+    let dir = temp_dir("gltf", "emissive_texture");
     let mut bin = Bin::default();
     let (pos, uv, idx) = textured_quad(&mut bin);
     let extra = json!({
@@ -1060,9 +1037,8 @@ fn mr_two_texel_scene(dir: &Path, textured: bool) -> Scene {
 /// the two constant quads, with independent seeds: the difference of each pair over its combined
 /// standard error.
 fn mr_z_scores(flatland: bool) -> Vec<(String, f64)> {
-    use ftpd3d::ftpd::{Params, Weighting};
-    use ftpd3d::rng::Sampler;
-    let dir = temp_dir(if flatland { "mr_flat" } else { "mr_3d" });
+    use ftpd3d::ftpd::Params;
+    let dir = temp_dir("gltf", if flatland { "mr_flat" } else { "mr_3d" });
     let mut scenes = [
         mr_two_texel_scene(&dir, true),
         mr_two_texel_scene(&dir, false),
@@ -1076,32 +1052,20 @@ fn mr_z_scores(flatland: bool) -> Vec<(String, f64)> {
             s.prepare_flatland(plane, "y=0.5").unwrap();
         }
     }
-    let mut out = Vec::new();
-    let n = 3000;
-    for weighting in [Weighting::Unweighted, Weighting::Radiance] {
-        let p = Params {
-            t0: 0.3,
-            t1: 0.8,
-            theta_max: 0.15,
-            weighting,
-            max_bounces: 8,
-            radiance_bounces: None,
-            flat: flatland.then_some(plane),
-        };
-        for (ix, x) in [0.1, 0.25, 0.4, 0.6, 0.75, 0.9].into_iter().enumerate() {
-            for (iz, height) in [0.3, 0.7, 1.3, 1.8].into_iter().enumerate() {
-                let at = DVec3::new(x, 0.5, height);
-                let cell = (ix * 4 + iz) as u64;
-                let est = |k: u64| {
-                    let s = Sampler::new(21 + k, cell, weighting as u64);
-                    crate::support::point_estimate(&scenes[k as usize], at, &p, s, n)
-                };
-                let name = format!("{weighting:?} at {x:.2},{height:.2}");
-                crate::support::push_z_scores(&mut out, &name, weighting, est(0), est(1));
-            }
-        }
-    }
-    out
+    let points: Vec<DVec3> = [0.1, 0.25, 0.4, 0.6, 0.75, 0.9]
+        .into_iter()
+        .flat_map(|x| [0.3, 0.7, 1.3, 1.8].map(|height| DVec3::new(x, 0.5, height)))
+        .collect();
+    let params = |weighting| Params {
+        t0: 0.3,
+        t1: 0.8,
+        theta_max: 0.15,
+        weighting,
+        max_bounces: 8,
+        radiance_bounces: None,
+        flat: flatland.then_some(plane),
+    };
+    crate::support::z_scores_of_two_scenes([&scenes[0], &scenes[1]], &points, params, 21, 3000)
 }
 
 /// A quad whose metallic-roughness texture has two texels gives, over each texel, the σ and
@@ -1139,7 +1103,7 @@ fn gltf_metallic_roughness_texture_is_read_linear_with_its_sampler_and_transform
         (33071, 0.5, [false, false]),
     ];
     for (k, (wrap, offset, left)) in cases.into_iter().enumerate() {
-        let dir = temp_dir(&format!("mr_sampler{k}"));
+        let dir = temp_dir("gltf", &format!("mr_sampler{k}"));
         let mut bin = Bin::default();
         let (pos, uv, idx) = textured_quad(&mut bin);
         let mut info = json!({"index": 0});

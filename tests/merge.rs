@@ -2,23 +2,12 @@
 //! bit for bit, mismatched or repeated parts are refused, and the Slurm examples work with a
 //! stand-in `sbatch` and, where there is one, on a real Slurm cluster.
 
-use crate::geometry::scene_path;
+use crate::support::{Run, VtiImage, ftpd3d_in, read_vti, scene_path, temp_dir};
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::moments::Moments;
 use ftpd3d::output::exr::{read_channel, read_exr, write_exr};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-/// A fresh, empty directory for one test.
-fn temp_dir(test: &str) -> PathBuf {
-    crate::support::temp_dir("merge", test)
-}
-
-/// Runs ftpd3d in `dir`; (success, stderr).
-fn ftpd3d_in(dir: &Path, args: &[&str]) -> (bool, String) {
-    let r = crate::support::ftpd3d(Some(dir), args);
-    (r.ok, r.err)
-}
 
 fn cornell() -> String {
     scene_path("cornell_mirror.obj")
@@ -45,7 +34,7 @@ fn run(dir: &Path, extra: &[&str]) {
         "--no-png",
     ];
     args.extend_from_slice(extra);
-    let (ok, err) = ftpd3d_in(dir, &args);
+    let Run { ok, err, .. } = ftpd3d_in(dir, &args);
     assert!(ok, "{extra:?}: {err}");
 }
 
@@ -66,10 +55,10 @@ fn f32_bits(v: &[f32]) -> Vec<u32> {
 
 #[test]
 fn merging_two_seeds_adds_their_moments_exactly() {
-    let dir = temp_dir("seeds");
+    let dir = temp_dir("merge", "seeds");
     run(&dir, &["--seed", "1", "-o", "a.exr"]);
     run(&dir, &["--seed", "2", "-o", "b.exr"]);
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "b.exr", "-o", "ab.exr"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.exr", "b.exr", "-o", "ab.exr"]);
     assert!(ok, "{err}");
     assert!(
         err.contains("merged 2 files") && err.contains("seeds 1,2"),
@@ -123,12 +112,11 @@ fn merging_two_seeds_adds_their_moments_exactly() {
     assert_eq!(secs(&merged), secs(&a) + secs(&b));
     assert_eq!(m["remaining.samples"], "0");
     assert_eq!(m["partial"], "false");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn three_tiles_merge_into_the_full_run_bit_for_bit() {
-    let dir = temp_dir("tiles");
+    let dir = temp_dir("merge", "tiles");
     let scene = cornell();
     let common = [
         "--scene",
@@ -149,12 +137,12 @@ fn three_tiles_merge_into_the_full_run_bit_for_bit() {
         let tile = format!("{i}/3");
         let mut args = common.to_vec();
         args.extend(["--tile", tile.as_str(), "--threads", "1"]);
-        let (ok, err) = ftpd3d_in(&dir, &args);
+        let Run { ok, err, .. } = ftpd3d_in(&dir, &args);
         assert!(ok, "{err}");
     }
     let mut args = common.to_vec();
     args.extend(["-o", "full.exr"]);
-    let (ok, err) = ftpd3d_in(&dir, &args);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &args);
     assert!(ok, "{err}");
     let full = read_exr(&dir.join("full.exr")).unwrap();
     assert_eq!((full.width, full.height), (16, 16));
@@ -189,7 +177,7 @@ fn three_tiles_merge_into_the_full_run_bit_for_bit() {
     let mut args = vec!["merge"];
     args.extend(names.iter().map(String::as_str));
     args.extend(["-o", "merged.exr"]);
-    let (ok, err) = ftpd3d_in(&dir, &args);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &args);
     assert!(ok, "{err}");
     let merged = read_exr(&dir.join("merged.exr")).unwrap();
     assert_same_cells(&merged, &full, "3 tiles merged against the full run");
@@ -223,7 +211,7 @@ fn three_tiles_merge_into_the_full_run_bit_for_bit() {
     assert!(m["elapsed"].parse::<f64>().is_ok(), "{}", m["elapsed"]);
 
     // Two of three tiles: a partial field, said so, that still merges with the third.
-    let (ok, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "merge",
@@ -240,7 +228,7 @@ fn three_tiles_merge_into_the_full_run_bit_for_bit() {
         partial.meta.get("tile").map(String::as_str),
         Some("0/3,2/3")
     );
-    let (ok, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "merge",
@@ -257,16 +245,15 @@ fn three_tiles_merge_into_the_full_run_bit_for_bit() {
         &full,
         "in two steps",
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn mismatched_runs_are_refused_naming_the_file_and_the_key() {
-    let dir = temp_dir("mismatch");
+    let dir = temp_dir("merge", "mismatch");
     run(&dir, &["--t1", "1.5", "-o", "a.exr"]);
     run(&dir, &["--t1", "2", "--seed", "2", "-o", "b.exr"]);
     let scene = cornell();
-    let (ok, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "--scene", &scene, "--slice", "z=0", "--res", "10", "--spp", "2", "--t1", "1.5",
@@ -274,13 +261,13 @@ fn mismatched_runs_are_refused_naming_the_file_and_the_key() {
         ],
     );
     assert!(ok, "{err}");
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "b.exr", "-o", "x.exr"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.exr", "b.exr", "-o", "x.exr"]);
     assert!(!ok);
     assert!(
         err.contains("b.exr: t1 = 2e0 differs from a.exr's 1.5e0"),
         "{err}"
     );
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "c.exr", "-o", "x.exr"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.exr", "c.exr", "-o", "x.exr"]);
     assert!(!ok);
     assert!(
         err.contains("c.exr: resolution 10x10 differs from a.exr's 12x12"),
@@ -322,7 +309,7 @@ fn mismatched_runs_are_refused_naming_the_file_and_the_key() {
             None => d.meta.remove(key),
         };
         write_exr(&dir.join("d.exr"), &d, &[]).unwrap();
-        let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "d.exr", "-o", "x.exr"]);
+        let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.exr", "d.exr", "-o", "x.exr"]);
         assert!(!ok && err.contains(msg), "{key}: {err}");
     }
     // A file whose cells contradict its header.
@@ -330,24 +317,23 @@ fn mismatched_runs_are_refused_naming_the_file_and_the_key() {
     e.meta.insert("seed".into(), "9".into());
     e.meta.insert("tile".into(), "0/2".into());
     write_exr(&dir.join("e.exr"), &e, &[]).unwrap();
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "e.exr", "-o", "x.exr"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.exr", "e.exr", "-o", "x.exr"]);
     assert!(
         !ok && err.contains("e.exr: cell") && err.contains("holds samples"),
         "{err}"
     );
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "nope.exr", "-o", "x.exr"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.exr", "nope.exr", "-o", "x.exr"]);
     assert!(!ok && err.contains("nope.exr: no such file"), "{err}");
     assert!(!dir.join("x.exr").exists(), "nothing written on refusal");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn the_same_seed_twice_is_refused() {
-    let dir = temp_dir("sameseed");
+    let dir = temp_dir("merge", "sameseed");
     run(&dir, &["-o", "a.exr"]);
     std::fs::copy(dir.join("a.exr"), dir.join("copy.exr")).unwrap();
     for files in [["a.exr", "a.exr"], ["a.exr", "copy.exr"]] {
-        let (ok, err) = ftpd3d_in(&dir, &["merge", files[0], files[1], "-o", "x.exr"]);
+        let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", files[0], files[1], "-o", "x.exr"]);
         assert!(!ok);
         assert!(
             err.contains(&format!("{}: seed 1 is also the seed of a.exr", files[1]))
@@ -357,13 +343,13 @@ fn the_same_seed_twice_is_refused() {
     }
     // A tile of the same seed overlaps the full run's rows; one of another seed does not.
     run(&dir, &["--tile", "1/2", "-o", "t1.exr"]);
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.exr", "t1.exr", "-o", "x.exr"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.exr", "t1.exr", "-o", "x.exr"]);
     assert!(
         !ok && err.contains("t1.exr: seed 1 over rows 6-12 overlaps rows 0-12 of a.exr"),
         "{err}"
     );
     run(&dir, &["--tile", "1/2", "--seed", "2", "-o", "t2.exr"]);
-    let (ok, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &["merge", "a.exr", "t2.exr", "-o", "x.exr", "--no-png"],
     );
@@ -373,19 +359,18 @@ fn the_same_seed_twice_is_refused() {
     assert_eq!(x.meta.get("batches").map(String::as_str), Some("4-8"));
     assert!(x.cells[..6 * 12].iter().all(|c| c.n == 8));
     assert!(x.cells[6 * 12..].iter().all(|c| c.n == 16));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn tile_values_are_checked_and_named() {
-    let dir = temp_dir("tileflag");
+    let dir = temp_dir("merge", "tileflag");
     let scene = cornell();
     for (tile, msg) in [
         ("3/3", "numbered 0 to 2"),
         ("0/0", "at least 1"),
         ("1", "expected I/N"),
     ] {
-        let (ok, err) = ftpd3d_in(
+        let Run { ok, err, .. } = ftpd3d_in(
             &dir,
             &[
                 "--scene", &scene, "--slice", "z=0", "--tile", tile, "-o", "x.exr",
@@ -397,7 +382,7 @@ fn tile_values_are_checked_and_named() {
         );
     }
     // More tiles than rows: the empty ones are valid (empty) files, with a warning.
-    let (ok, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "--scene", &scene, "--slice", "z=0", "--res", "2", "--spp", "2", "--tile", "0/4",
@@ -412,7 +397,6 @@ fn tile_values_are_checked_and_named() {
             .iter()
             .all(|c| c.n == 0)
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A stand-in for `sbatch`: runs an array job's tasks one after the other (and any other job
@@ -444,7 +428,7 @@ echo "4242;cluster"
 
 #[test]
 fn slurm_examples_split_run_and_merge_without_slurm() {
-    let dir = temp_dir("slurm");
+    let dir = temp_dir("merge", "slurm");
     let bin = dir.join("bin");
     std::fs::create_dir_all(&bin).unwrap();
     std::fs::write(bin.join("sbatch"), FAKE_SBATCH).unwrap();
@@ -509,7 +493,7 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
         let all = read_exr(&work.join("all.exr")).unwrap();
         if mode == "tiles" {
             // The same as one full run of 4 samples per cell.
-            let (ok, err) = ftpd3d_in(
+            let Run { ok, err, .. } = ftpd3d_in(
                 &work,
                 &[
                     "--scene", &scene, "--slice", "z=0", "--res", "12", "--spp", "4", "--no-png",
@@ -556,20 +540,18 @@ fn slurm_examples_split_run_and_merge_without_slurm() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("no/such.obj: no such scene file"), "{err}");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Whether the real-Slurm test runs: `Ok(())` when `sbatch` is on PATH and the cluster answers,
-/// `Err(reason)` otherwise. CI (CI=true with FTPD3D_SLURM=1, set by `.ci/run` after
-/// `scripts/slurm-local.sh` started a cluster) must have one; FTPD3D_SLURM=0 skips it anywhere.
-fn real_slurm() -> Result<(), String> {
+/// Why the real-Slurm test cannot run here, if it cannot: no `sbatch` on PATH, or no controller
+/// answering `sinfo`, or FTPD3D_SLURM=0 (which skips it anywhere).
+fn slurm_missing() -> Option<String> {
     if std::env::var("FTPD3D_SLURM").is_ok_and(|v| v == "0") {
-        return Err("FTPD3D_SLURM=0".into());
+        return Some("FTPD3D_SLURM=0".into());
     }
     match Command::new("sbatch").arg("--version").output() {
-        Err(e) => return Err(format!("no sbatch on PATH ({e})")),
+        Err(e) => return Some(format!("no sbatch on PATH ({e})")),
         Ok(o) if !o.status.success() => {
-            return Err(format!(
+            return Some(format!(
                 "sbatch --version failed: {}",
                 String::from_utf8_lossy(&o.stderr).trim()
             ));
@@ -577,13 +559,23 @@ fn real_slurm() -> Result<(), String> {
         Ok(_) => {}
     }
     match Command::new("sinfo").args(["-h", "-o", "%P %a"]).output() {
-        Ok(o) if o.status.success() && !o.stdout.is_empty() => Ok(()),
-        Ok(o) => Err(format!(
+        Ok(o) if o.status.success() && !o.stdout.is_empty() => None,
+        Ok(o) => Some(format!(
             "sbatch is on PATH but no Slurm controller answers (sinfo: {}); \
              scripts/slurm-local.sh starts a single-node cluster",
             String::from_utf8_lossy(&o.stderr).trim()
         )),
-        Err(e) => Err(format!("sbatch is on PATH but sinfo is not ({e})")),
+        Err(e) => Some(format!("sbatch is on PATH but sinfo is not ({e})")),
+    }
+}
+
+/// Whether this run must have a Slurm cluster: FTPD3D_SLURM=1 (`.ci/run` sets it after
+/// `scripts/slurm-local.sh` started one), or CI unless FTPD3D_SLURM=0.
+fn slurm_required() -> bool {
+    match std::env::var("FTPD3D_SLURM").as_deref() {
+        Ok("1") => true,
+        Ok("0") => false,
+        _ => crate::support::in_ci(),
     }
 }
 
@@ -635,21 +627,15 @@ fn job_logs(dir: &Path) -> String {
 /// The shipped examples on a real Slurm cluster: `submit.sh tiles` and `submit.sh seeds` queue
 /// their arrays and merge jobs through the real `sbatch`; once every job has ended, the merged
 /// tiles equal one full run bit for bit, and the merged seeds the same runs added in task order.
-/// Skipped, saying why, where there is no Slurm; CI starts one (`scripts/slurm-local.sh`) and
-/// fails here without it.
+/// Skipped, saying why, where there is no Slurm; CI starts one (`scripts/slurm-local.sh`), sets
+/// FTPD3D_SLURM=1 and fails here without it.
 #[test]
 fn slurm_examples_run_on_a_real_cluster() {
-    if let Err(why) = real_slurm() {
-        let ci = std::env::var("CI").is_ok_and(|v| v == "true");
-        let wanted = std::env::var("FTPD3D_SLURM").is_ok_and(|v| v == "1");
-        assert!(
-            !(ci && wanted),
-            "CI=true and FTPD3D_SLURM=1 ask for a real Slurm, but: {why}"
-        );
-        eprintln!("skipped slurm_examples_run_on_a_real_cluster: {why}");
+    let test = "slurm_examples_run_on_a_real_cluster";
+    if crate::support::skip_without(test, slurm_missing(), slurm_required()) {
         return;
     }
-    let dir = temp_dir("realslurm");
+    let dir = temp_dir("merge", "realslurm");
     let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/slurm");
     let (res, spp, parts) = ("12", "4", 3);
     // Both modes queued at once, then waited for together.
@@ -764,7 +750,7 @@ fn slurm_examples_run_on_a_real_cluster() {
         let all = read_exr(&work.join("all.exr")).unwrap_or_else(|e| panic!("{mode}: {e}\n{logs}"));
         // The same field computed here, without Slurm.
         let single = |seed: &str, name: &str| -> Field {
-            let (ok, err) = ftpd3d_in(
+            let Run { ok, err, .. } = ftpd3d_in(
                 work,
                 &[
                     "--scene", &scene, "--slice", "z=0", "--res", res, "--spp", spp, "--seed",
@@ -791,7 +777,6 @@ fn slurm_examples_run_on_a_real_cluster() {
             assert!(all.cells.iter().all(|c| c.n == 12));
         }
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A volume of the Cornell box, unweighted (fast) with 2 samples in 2 batches per voxel, plus
@@ -813,71 +798,8 @@ fn run_volume(dir: &Path, extra: &[&str]) {
         "--no-png",
     ]);
     args.extend_from_slice(extra);
-    let (ok, err) = ftpd3d_in(dir, &args);
+    let Run { ok, err, .. } = ftpd3d_in(dir, &args);
     assert!(ok, "{extra:?}: {err}");
-}
-
-/// A `.vti` as the independent vtkio reader sees it: extent, origin, spacing and the point arrays
-/// by name.
-struct VtkioImage {
-    extent: vtkio::model::Extent,
-    origin: [f32; 3],
-    spacing: [f32; 3],
-    arrays: Vec<(String, vtkio::model::IOBuffer)>,
-}
-
-fn vtkio_read(path: &Path) -> VtkioImage {
-    use vtkio::model::{Attribute, DataSet, Piece};
-    let vtk = vtkio::Vtk::import(path).expect("vtkio reads the file");
-    let DataSet::ImageData {
-        extent,
-        origin,
-        spacing,
-        pieces,
-        ..
-    } = vtk.data
-    else {
-        panic!("{}: not ImageData", path.display());
-    };
-    let Piece::Inline(piece) = &pieces[0] else {
-        panic!("piece not inline")
-    };
-    let arrays = piece
-        .data
-        .point
-        .iter()
-        .map(|a| match a {
-            Attribute::DataArray(d) => (d.name.clone(), d.data.clone()),
-            Attribute::Field { .. } => panic!("field attribute"),
-        })
-        .collect();
-    VtkioImage {
-        extent,
-        origin,
-        spacing,
-        arrays,
-    }
-}
-
-impl VtkioImage {
-    fn f64s(&self, name: &str) -> &[f64] {
-        match self.arrays.iter().find(|a| a.0 == name) {
-            Some((_, vtkio::model::IOBuffer::F64(v))) => v,
-            other => panic!("{name}: {other:?}"),
-        }
-    }
-    fn u32s(&self, name: &str) -> &[u32] {
-        match self.arrays.iter().find(|a| a.0 == name) {
-            Some((_, vtkio::model::IOBuffer::U32(v))) => v,
-            other => panic!("{name}: {other:?}"),
-        }
-    }
-    fn f32s(&self, name: &str) -> &[f32] {
-        match self.arrays.iter().find(|a| a.0 == name) {
-            Some((_, vtkio::model::IOBuffer::F32(v))) => v,
-            other => panic!("{name}: {other:?}"),
-        }
-    }
 }
 
 /// The `<!-- ftpd3d key=value -->` comments of a `.vti`, read as text.
@@ -898,10 +820,10 @@ fn vti_comments(path: &Path) -> Vec<(String, String)> {
 
 #[test]
 fn merging_two_seeds_of_a_volume_adds_their_sums_exactly() {
-    let dir = temp_dir("volume_seeds");
+    let dir = temp_dir("merge", "volume_seeds");
     run_volume(&dir, &["--seed", "1", "-o", "a.vti"]);
     run_volume(&dir, &["--seed", "2", "-o", "b.vti"]);
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", "b.vti", "-o", "ab.vti"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.vti", "b.vti", "-o", "ab.vti"]);
     assert!(ok, "{err}");
     assert!(
         err.contains("merged 2 files: 6x6x6 voxels") && err.contains("seeds 1,2"),
@@ -918,13 +840,13 @@ fn merging_two_seeds_of_a_volume_adds_their_sums_exactly() {
     );
 
     let (a, b, ab) = (
-        vtkio_read(&dir.join("a.vti")),
-        vtkio_read(&dir.join("b.vti")),
-        vtkio_read(&dir.join("ab.vti")),
+        read_vti(&dir.join("a.vti")),
+        read_vti(&dir.join("b.vti")),
+        read_vti(&dir.join("ab.vti")),
     );
     assert_eq!(ab.extent, a.extent);
     assert_eq!((ab.origin, ab.spacing), (a.origin, a.spacing));
-    let arrays = |v: &VtkioImage| v.arrays.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
+    let arrays = |v: &VtiImage| v.arrays.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
     assert_eq!(
         arrays(&ab),
         arrays(&a),
@@ -1007,12 +929,11 @@ fn merging_two_seeds_of_a_volume_adds_their_sums_exactly() {
     for key in ["weighting", "t1", "volume.box", "volume.spacing", "scene"] {
         assert_eq!(get(key), a_get(key), "{key}");
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn mismatched_volumes_are_refused_naming_the_file_and_the_key() {
-    let dir = temp_dir("volume_mismatch");
+    let dir = temp_dir("merge", "volume_mismatch");
     run_volume(&dir, &["--t1", "1.5", "-o", "a.vti"]);
     run_volume(&dir, &["--t1", "2", "--seed", "2", "-o", "b.vti"]);
     run_volume(
@@ -1057,23 +978,22 @@ fn mismatched_volumes_are_refused_naming_the_file_and_the_key() {
         ("e.vti", "e.vti: Origin 0.5 0.5 0.5 differs from a.vti's"),
         ("copy.vti", "copy.vti: seed 1 is also the seed of a.vti"),
     ] {
-        let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", other, "-o", "x.vti"]);
+        let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.vti", other, "-o", "x.vti"]);
         assert!(!ok && err.contains(msg), "{other}: {err}");
         assert!(!err.contains("panicked"), "{err}");
     }
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", "d.vti", "-o", "x.vti"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.vti", "d.vti", "-o", "x.vti"]);
     assert!(!ok && err.contains("differs from a.vti's"), "{err}");
     // A damaged volume is refused by name.
     std::fs::write(dir.join("cut.vti"), &text[..text.len() / 2]).unwrap();
-    let (ok, err) = ftpd3d_in(&dir, &["merge", "a.vti", "cut.vti", "-o", "x.vti"]);
+    let Run { ok, err, .. } = ftpd3d_in(&dir, &["merge", "a.vti", "cut.vti", "-o", "x.vti"]);
     assert!(!ok && err.contains("cut.vti: truncated"), "{err}");
     assert!(!dir.join("x.vti").exists(), "nothing written on refusal");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn fields_and_volumes_are_not_mixed() {
-    let dir = temp_dir("mixed");
+    let dir = temp_dir("merge", "mixed");
     run(&dir, &["-o", "a.exr"]);
     run_volume(&dir, &["-o", "v.vti"]);
     run_volume(&dir, &["--seed", "2", "-o", "w.vti"]);
@@ -1097,18 +1017,17 @@ fn fields_and_volumes_are_not_mixed() {
     ] {
         let mut all = vec!["merge"];
         all.extend(args);
-        let (ok, err) = ftpd3d_in(&dir, &all);
+        let Run { ok, err, .. } = ftpd3d_in(&dir, &all);
         assert!(!ok && err.contains(msg), "{args:?}: {err}");
     }
     assert!(!dir.join("x.exr").exists() && !dir.join("x.vti").exists());
     // Upper-case extensions are the same formats.
     std::fs::rename(dir.join("w.vti"), dir.join("W.VTI")).unwrap();
-    let (ok, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &["merge", "v.vti", "W.VTI", "-o", "x.vti", "--no-png"],
     );
     assert!(ok, "{err}");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A tile run interrupted part-way (SIGTERM: it saves the partial field, as a checkpoint would)
@@ -1117,7 +1036,7 @@ fn fields_and_volumes_are_not_mixed() {
 /// holding samples outside its rows.)
 #[test]
 fn an_interrupted_tile_holds_only_its_rows_and_merges() {
-    let dir = temp_dir("interrupted_tile");
+    let dir = temp_dir("merge", "interrupted_tile");
     let scene = cornell();
     let mut child = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
         .current_dir(&dir)
@@ -1165,7 +1084,7 @@ fn an_interrupted_tile_holds_only_its_rows_and_merges() {
     }
     run(&dir, &["--tile", "0/3", "-o", "t0.exr"]);
     run(&dir, &["--tile", "2/3", "-o", "t2.exr"]);
-    let (ok, err) = ftpd3d_in(
+    let Run { ok, err, .. } = ftpd3d_in(
         &dir,
         &[
             "merge", "t0.exr", "t1.exr", "t2.exr", "-o", "all.exr", "--no-png",
@@ -1174,7 +1093,6 @@ fn an_interrupted_tile_holds_only_its_rows_and_merges() {
     assert!(ok, "{err}");
     let all = read_exr(&dir.join("all.exr")).unwrap();
     assert!(all.cells.iter().all(|c| c.n > 0));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Part 0 of an EXR holds only f32 channels (what every EXR reader, FreeImage included, opens as an
@@ -1183,7 +1101,7 @@ fn an_interrupted_tile_holds_only_its_rows_and_merges() {
 #[test]
 fn exr_part_0_is_all_f32_and_part_1_holds_the_exact_sums() {
     use exr::prelude::*;
-    let dir = temp_dir("parts");
+    let dir = temp_dir("merge", "parts");
     run(&dir, &["-o", "a.exr"]);
     let parts = &crate::support::exr_parts(&dir.join("a.exr"));
     assert_eq!(parts.len(), 2);
@@ -1243,5 +1161,4 @@ fn exr_part_0_is_all_f32_and_part_1_holds_the_exact_sums() {
             .keys()
             .any(|k| k == "ftpd3d.weighting")
     );
-    std::fs::remove_dir_all(&dir).ok();
 }

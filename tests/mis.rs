@@ -2,11 +2,8 @@
 //! the same moments as the plain reference estimator, on a scene with area lights, a point light,
 //! diffuse walls and a mirror, and on one lit by a sky, two suns and a spot light.
 
-use crate::geometry::scene_path;
-use ftpd3d::ftpd::moments::Moments;
-use ftpd3d::ftpd::reference::sample_reference;
-use ftpd3d::ftpd::{Params, Weighting, sample_point};
-use ftpd3d::rng::Sampler;
+use crate::support::{agrees_with_reference, scene_path};
+use ftpd3d::ftpd::{Params, Weighting};
 use ftpd3d::scene::Scene;
 use glam::DVec3;
 
@@ -14,29 +11,6 @@ fn cornell_with_point_light() -> Scene {
     let mut scene = ftpd3d::scene::load::load_scene(&scene_path("cornell_mirror.obj")).unwrap();
     scene.add_point_light(DVec3::new(0.5, 1.2, 0.3), DVec3::splat(2.0));
     scene
-}
-
-const BATCHES: u64 = 16;
-
-/// (m1, m2, σ) with their batch standard errors.
-fn estimate(per_batch: impl Fn(u64) -> Moments) -> [(f64, f64); 4] {
-    let bs: Vec<Moments> = (0..BATCHES).map(per_batch).collect();
-    let stats = |f: &dyn Fn(&Moments) -> f64| -> (f64, f64) {
-        let mut total = Moments::default();
-        for b in &bs {
-            total.merge(b);
-        }
-        let v: Vec<f64> = bs.iter().map(f).collect();
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
-        (f(&total), (var / v.len() as f64).sqrt())
-    };
-    [
-        stats(&|m| m.s1 / m.s0),
-        stats(&|m| m.s2 / m.s0),
-        stats(&|m| m.sigma().unwrap_or(0.0)),
-        stats(&|m| ftpd3d::math::luminance(m.fluence) / m.n as f64),
-    ]
 }
 
 #[test]
@@ -102,64 +76,6 @@ fn mis_radiance_weighting_matches_the_reference_under_sky_sun_and_spot() {
     };
     let points = [at(0.3, 0.5, 0.5), at(0.6, 0.8, 0.3)].map(|x| scene.off_surfaces(x));
     agrees_with_reference(&scene, &points, &p, 24000, (500, 600), "outdoor point");
-}
-
-/// At each of `points`, the production estimator and the reference (streams keyed by `seeds` + the
-/// point's index, `n` samples per batch) agree on m1, m2, σ and the fluence within 4 standard
-/// errors of their difference.
-pub(crate) fn agrees_with_reference(
-    scene: &Scene,
-    points: &[DVec3],
-    p: &Params,
-    n: usize,
-    seeds: (u64, u64),
-    label: &str,
-) {
-    for (k, x) in points.iter().enumerate() {
-        let fast = estimate(|b| {
-            let mut s = Sampler::new(seeds.0 + k as u64, b, 0);
-            let mut m = Moments::default();
-            for _ in 0..n {
-                let smp = sample_point(scene, *x, p, &mut s);
-                m.add_sample(smp.c, smp.delta, smp.weight);
-            }
-            m
-        });
-        let slow = estimate(|b| {
-            let mut s = Sampler::new(seeds.1 + k as u64, b, 0);
-            let mut m = Moments::default();
-            for _ in 0..n {
-                let terms = sample_reference(scene, *x, p, &mut s);
-                // One sample's terms are summed into one observation.
-                let (c, cd, cd2, w) = terms
-                    .iter()
-                    .fold((0.0, 0.0, 0.0, ftpd3d::math::Rgb::ZERO), |a, t| {
-                        (a.0 + t.0, a.1 + t.0 * t.1, a.2 + t.0 * t.1 * t.1, a.3 + t.2)
-                    });
-                m.s0 += c;
-                m.s1 += cd;
-                m.s2 += cd2;
-                m.n += 1;
-                m.fluence += w;
-            }
-            m
-        });
-        for (name, (a, b)) in ["m1", "m2", "sigma", "fluence"]
-            .iter()
-            .zip(fast.iter().zip(&slow))
-        {
-            let se = (a.1 * a.1 + b.1 * b.1).sqrt();
-            let z = (a.0 - b.0) / se;
-            eprintln!(
-                "{label} {k} {name}: MIS {:.5} ± {:.5}, reference {:.5} ± {:.5}, z = {z:.2}",
-                a.0, a.1, b.0, b.1
-            );
-            assert!(
-                z.abs() < 4.0,
-                "{label} {k} {name}: MIS {a:?} vs reference {b:?} (z = {z:.2})"
-            );
-        }
-    }
 }
 
 /// An emitter whose radiance comes from a texture (`map_Ke`, a 2 × 1 map of sRGB 255 and 64, times

@@ -70,7 +70,7 @@ fn check(name: &str, args: &[&str], pins: &[Pin], sum: u64) {
     let mut a = args.to_vec();
     let o = out.to_str().unwrap();
     a.extend(["--quiet", "--no-png", "-o", o]);
-    let r = ftpd3d(None, &a);
+    let r = ftpd3d(&a);
     assert!(r.ok, "{name}: {}", r.err);
     let f = read(&out);
     let actual: Vec<Pin> = pins
@@ -100,7 +100,6 @@ fn check(name: &str, args: &[&str], pins: &[Pin], sum: u64) {
         );
     }
     assert_eq!(checksum(&f), sum, "{name}: checksum over every cell");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

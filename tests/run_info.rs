@@ -2,8 +2,7 @@
 //! still read, resume and merge; `flatland` must match; slices and volumes away from the scene get
 //! run lengths that reach it.
 
-use crate::geometry::scene_path;
-use crate::support::{ftpd3d, temp_dir};
+use crate::support::{ftpd3d, ftpd3d_in, scene_path, temp_dir};
 use ftpd3d::output::exr::read_exr;
 use ftpd3d::run_info::{CellCount, DomainKind, Remaining};
 use std::path::{Path, PathBuf};
@@ -67,7 +66,7 @@ fn files_written_before_run_info_read_merge_and_resume() {
             "--no-png",
         ];
         a.extend_from_slice(extra);
-        let r = ftpd3d(Some(root), &a);
+        let r = ftpd3d_in(root, &a);
         assert!(r.ok, "{extra:?}: {}", r.err);
     };
     let merge = |inputs: &[&Path], output: &str| {
@@ -80,7 +79,7 @@ fn files_written_before_run_info_read_merge_and_resume() {
             "--no-png".into(),
         ]);
         let a: Vec<&str> = a.iter().map(String::as_str).collect();
-        let r = ftpd3d(None, &a);
+        let r = ftpd3d(&a);
         assert!(r.ok, "{}", r.err);
         read_exr(&dir.join(output)).unwrap()
     };
@@ -115,7 +114,6 @@ fn files_written_before_run_info_read_merge_and_resume() {
     let info = v.field.info("volume.vti").unwrap();
     assert_eq!(info.volume.as_ref().unwrap().dims, [3, 3, 3]);
     assert_eq!(info.to_attributes(), v.field.meta);
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -126,7 +124,7 @@ fn flatland_must_match_for_merge_and_a_bad_attribute_is_named() {
     a.meta.insert("seed".into(), "9".into());
     a.meta.insert("flatland".into(), "true".into());
     ftpd3d::output::exr::write_exr(&dir.join("f.exr"), &a, &[]).unwrap();
-    let r = ftpd3d(Some(&dir), &["merge", "a.exr", "f.exr", "-o", "x.exr"]);
+    let r = ftpd3d_in(&dir, &["merge", "a.exr", "f.exr", "-o", "x.exr"]);
     assert!(
         !r.ok
             && r.err
@@ -137,7 +135,7 @@ fn flatland_must_match_for_merge_and_a_bad_attribute_is_named() {
     // A file from before `flatland` was recorded counts as not flatland.
     a.meta.remove("flatland");
     ftpd3d::output::exr::write_exr(&dir.join("n.exr"), &a, &[]).unwrap();
-    let r = ftpd3d(Some(&dir), &["merge", "a.exr", "n.exr", "-o", "x.exr"]);
+    let r = ftpd3d_in(&dir, &["merge", "a.exr", "n.exr", "-o", "x.exr"]);
     assert!(r.ok, "{}", r.err);
     // A malformed attribute is refused on reading, naming it and the file.
     a.meta.insert("t1".into(), "long".into());
@@ -146,7 +144,6 @@ fn flatland_must_match_for_merge_and_a_bad_attribute_is_named() {
         format!("{e:#}").contains("bad.exr: attribute 't1' = 'long' is not a number"),
         "{e:#}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A slice window (and a volume box) away from the scene: the default run lengths start where the
@@ -175,7 +172,7 @@ fn windows_and_boxes_away_from_the_scene_reach_it() {
     ];
     let mut args = common.to_vec();
     args.extend(["-o", "far.exr"]);
-    let r = ftpd3d(Some(&dir), &args);
+    let r = ftpd3d_in(&dir, &args);
     assert!(r.ok, "{}", r.err);
     assert!(!r.err.contains("no pair was deflected"), "{}", r.err);
     let f = read_exr(&dir.join("far.exr")).unwrap();
@@ -188,7 +185,7 @@ fn windows_and_boxes_away_from_the_scene_reach_it() {
     // Too short to get there: warned about, naming the flags.
     let mut args = common.to_vec();
     args.extend(["--t0", "0.5", "--t1", "1", "-o", "short.exr"]);
-    let r = ftpd3d(Some(&dir), &args);
+    let r = ftpd3d_in(&dir, &args);
     assert!(r.ok, "{}", r.err);
     assert!(
         r.err.contains("no pair was deflected") && r.err.contains("--t0/--t1"),
@@ -196,8 +193,8 @@ fn windows_and_boxes_away_from_the_scene_reach_it() {
         r.err
     );
     // A box beside the room: the same offset.
-    let r = ftpd3d(
-        Some(&dir),
+    let r = ftpd3d_in(
+        &dir,
         &[
             "--scene",
             cornell,
@@ -219,7 +216,6 @@ fn windows_and_boxes_away_from_the_scene_reach_it() {
     let v = ftpd3d::output::vti::read_vti(&dir.join("far.vti")).unwrap();
     assert!(near(v.field.info("far.vti").unwrap().t0, 2.0 + 0.1 * d));
     assert!(v.field.values().iter().any(|v| v.sigma > 0.0));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The offset is the distance between the slice's rectangle and the scene's bounds: exact for

@@ -1,0 +1,55 @@
+//! Runs of the `ftpd3d` binary, and the rule for tests that need a tool from outside the Rust
+//! build: they run wherever the tool is there; where it is not, they are skipped with the reason on
+//! a developer's machine and fail in CI, which installs every such tool (`.ci/run`).
+
+use std::path::Path;
+use std::process::Command;
+
+/// What a run of the binary gave: exit success, stdout, stderr.
+pub struct Run {
+    pub ok: bool,
+    pub out: String,
+    pub err: String,
+}
+
+/// Runs the ftpd3d binary with `args` in the test process's working directory (the crate root).
+pub fn ftpd3d(args: &[&str]) -> Run {
+    run(Command::new(env!("CARGO_BIN_EXE_ftpd3d")).args(args))
+}
+
+/// Runs the ftpd3d binary with `args` in `dir`.
+pub fn ftpd3d_in(dir: &Path, args: &[&str]) -> Run {
+    run(Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .current_dir(dir)
+        .args(args))
+}
+
+fn run(cmd: &mut Command) -> Run {
+    let out = cmd.output().expect("binary runs");
+    Run {
+        ok: out.status.success(),
+        out: String::from_utf8_lossy(&out.stdout).into_owned(),
+        err: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+/// Whether this is a CI run: the `CI` variable set (every CI service sets `CI=true`), unless set
+/// to `false` or `0`. In CI a test whose tool is missing fails instead of skipping.
+pub fn in_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "false" | "0"))
+}
+
+/// For a test that needs a tool outside the Rust build: `missing` is why the tool cannot be used
+/// (`None`: it can). Returns whether the test must stop here: it prints that it skipped, or, when
+/// `required` (CI, or a variable that asks for the tool), fails naming the reason.
+pub fn skip_without(test: &str, missing: Option<String>, required: bool) -> bool {
+    let Some(why) = missing else {
+        return false;
+    };
+    assert!(
+        !required,
+        "{test}: this run requires the tool, but {why} (.ci/run installs and starts every tool the tests use)"
+    );
+    eprintln!("skipped {test}: {why}");
+    true
+}
