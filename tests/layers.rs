@@ -397,10 +397,18 @@ fn scene_levels() -> Vec<Vec<String>> {
 /// `from → to → first site` over the submodules of `src/scene` (a directory counts as one), and
 /// the names from `crate::scene` that are no submodule (the root's re-exports) each names.
 fn scene_imports() -> BTreeMap<String, BTreeMap<String, Site>> {
+    submodule_imports(&["scene"])
+}
+
+/// `from → to → first site` over the children of the directory module `src/<dir>` (a directory
+/// counts as one), read from `crate::<dir>::x` and `super::` paths that climb to it; a name of
+/// the parent that is no child (a re-export) appears as a target too.
+fn submodule_imports(dir: &[&str]) -> BTreeMap<String, BTreeMap<String, Site>> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
-    collect_rs(&src.join("scene"), &mut files);
+    collect_rs(&dir.iter().fold(src.clone(), |p, d| p.join(d)), &mut files);
     files.sort();
+    let under = format!("{}::", dir.join("::"));
     let mut graph: BTreeMap<String, BTreeMap<String, Site>> = BTreeMap::new();
     for file in files {
         let rel = file.strip_prefix(&src).unwrap();
@@ -411,19 +419,67 @@ fn scene_imports() -> BTreeMap<String, BTreeMap<String, Site>> {
         if parts.last().is_some_and(|p| p == "mod") {
             parts.pop();
         }
-        if parts.len() < 2 {
-            continue; // the root: module docs, declarations and re-exports
+        if parts.len() <= dir.len() {
+            continue; // the parent: module docs, declarations and re-exports
         }
-        let from = parts[1].clone();
+        let from = parts[dir.len()].clone();
         let code = strip(&std::fs::read_to_string(&file).unwrap());
         let out = graph.entry(from.clone()).or_default();
-        for (line, target) in references_under(&code, "scene::", parts.len() - 1) {
+        for (line, target) in references_under(&code, &under, parts.len() - dir.len()) {
             if target != from {
                 out.entry(target).or_insert((rel.to_path_buf(), line));
             }
         }
     }
     graph
+}
+
+/// Every directory module below `src/`, as its path of module names.
+fn directory_modules(dir: &Path, path: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir())
+        .collect();
+    entries.sort();
+    for d in entries {
+        path.push(d.file_name().unwrap().to_string_lossy().into_owned());
+        if d.join("mod.rs").is_file() {
+            out.push(path.clone());
+        }
+        directory_modules(&d, path, out);
+        path.pop();
+    }
+}
+
+#[test]
+fn the_children_of_every_directory_module_import_without_circles() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut dirs = Vec::new();
+    directory_modules(&src, &mut Vec::new(), &mut dirs);
+    assert!(dirs.len() > 5, "directory modules found: {dirs:?}");
+    let mut report = Vec::new();
+    for dir in &dirs {
+        let names: Vec<&str> = dir.iter().map(String::as_str).collect();
+        let graph = submodule_imports(&names);
+        let mut children = graph.clone();
+        for edges in children.values_mut() {
+            edges.retain(|to, _| graph.contains_key(to));
+        }
+        for comp in cycles(&children) {
+            let path = cycle_through(&children, &comp, &comp[0]);
+            let edges: Vec<String> = path
+                .windows(2)
+                .map(|e| site(&children, &e[0], &e[1]))
+                .collect();
+            report.push(format!("src/{}: {}", dir.join("/"), edges.join("; ")));
+        }
+    }
+    assert!(
+        report.is_empty(),
+        "submodules import each other in a circle:\n{}",
+        report.join("\n")
+    );
 }
 
 #[test]

@@ -1,7 +1,6 @@
 //! The typed values of a run's attributes: the domain it covers and where, sample counts, what is
 //! left of the budgets, and the parts of a merged field.
 
-use super::write::join;
 use glam::DVec3;
 use std::fmt;
 use std::ops::Range;
@@ -148,4 +147,9 @@ impl FromStr for Part {
 /// `seed@r0-r1;…`.
 pub fn fmt_parts(parts: &[Part]) -> String {
     join(parts, ";")
+}
+
+/// The items of `v` as text, separated by `sep`.
+pub(super) fn join<T: std::fmt::Display>(v: &[T], sep: &str) -> String {
+    v.iter().map(T::to_string).collect::<Vec<_>>().join(sep)
 }

@@ -1,15 +1,11 @@
 //! The attributes as files store them: [`RunInfo::to_attributes`] and the number formats it uses.
 
 use super::RunInfo;
-use super::values::fmt_parts;
+use super::values::{fmt_parts, join};
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::time::Duration;
-
-pub(super) fn join<T: fmt::Display>(v: &[T], sep: &str) -> String {
-    v.iter().map(T::to_string).collect::<Vec<_>>().join(sep)
-}
 
 /// `x,y,z`, each the shortest decimal that reads back as the same f64.
 pub fn fmt_vec(v: DVec3) -> String {

@@ -1,6 +1,6 @@
 //! The measured levels of one weighting and the lines fitted through them.
 
-use super::measure::{Comparison, mean_stderr};
+use super::compare::{Comparison, mean_stderr};
 use crate::field::Field;
 use crate::ftpd::Weighting;
 

@@ -27,12 +27,14 @@
 //! with the slope's standard error. Monte Carlo converges as t^−½ once the time is proportional
 //! to the samples; fixed costs per run make small runs look cheaper than they are.
 
+mod compare;
 mod curve;
 mod measure;
 mod report;
 
+pub use compare::{Comparison, compare, mean_stderr};
 pub use curve::{Curve, Fit, Level, fit_line};
-pub use measure::{Comparison, compare, mean_stderr, measure, spp_levels};
+pub use measure::{measure, spp_levels};
 pub use report::{Report, csv, fit_csv, plot};
 
 use crate::domain::{MAX_RES, Plane};
