@@ -8,8 +8,8 @@
 //! resident memory after loading (`VmRSS`) and at its peak (`VmHWM`), the bytes Embree holds (BVH, its copies of vertices and indices) now and
 //! at its peak, counted by Embree's memory monitor, and per triangle what stays resident besides
 //! Embree. One load per process, so that the peak is this load's: run it again for another sample.
-//! The 10 M-triangle scene of the README is `python3 scripts/heavy_scene.py OUT.obj 20 3
-//! --attributes --materials 300`.
+//! The 10 M-triangle scene of `docs/performance.md#loading-10-m-triangles` is
+//! `python3 scripts/heavy_scene.py OUT.obj 20 3 --attributes --materials 300`.
 
 use std::time::Instant;
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """A glTF of 36 leaf cards with an 8x8 checkerboard alpha texture over a floor, lit by a point
-light: the scene on which the README measures what alpha cut-outs cost per sample.
+light: the scene on which docs/performance.md#what-absent-features-cost measures what alpha
+cut-outs cost per sample.
 
     python3 scripts/cutout_cards.py MASK|BLEND OUT.gltf
 

@@ -8,7 +8,8 @@
 # errors.
 #
 #   scripts/efficiency.sh                      # a few minutes: 64² slices, 8..128 spp
-#   scripts/efficiency.sh --long               # the published table (docs/performance.md): 128² slices, 16..512 spp
+#   scripts/efficiency.sh --long               # the published table: 128² slices, 16..512 spp
+#                                              # (docs/performance.md#against-the-older-estimator)
 #   FTPD3D_BASELINE=/path/to/ftpd3d scripts/efficiency.sh   # an existing baseline build
 #   scripts/efficiency.sh -- --scene scenes/glass_sphere.obj --weight radiance   # other xtask flags
 #

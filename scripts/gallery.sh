@@ -2,8 +2,8 @@
 # The paper's figures as a gallery: renders every run of scenes/paper/gallery.txt (written by
 # scenes/generate_paper.py) with --separatrices into out/gallery/, writes the integrated radiance
 # (fluence) or a camera's beauty image as NAME.radiance.png, times each run, and copies the
-# pictures the README shows to docs/img/gallery/ (σ with the separatrices over it; the radiance of
-# Figs. 5 and 7c).
+# pictures docs/gallery.md (and one in README.md) shows to docs/img/gallery/ (σ with the
+# separatrices over it; the radiance of Figs. 5 and 7c).
 #
 #   scripts/gallery.sh                       # every run, one after the other
 #   scripts/gallery.sh fig5_glass fig7c_courtyard   # only these
@@ -50,7 +50,7 @@ while IFS=$'\t' read -r name figure what args; do
         "$topng" "$out/$name.exr" "$out/$name.radiance.png" < /dev/null > /dev/null
     fi
     if [[ -z "${NO_DOCS:-}" ]]; then
-        # The README shows σ with the separatrices over it (NAME.png, σ alone, stays in out/),
+        # docs/gallery.md shows σ with the separatrices over it (NAME.png, σ alone, stays in out/),
         # as palette PNGs to keep the repository small.
         python3 scripts/png_palette.py "$out/$name.sep.png" "$docs/$name.sep.png"
         if [[ "$name" == fig5_* || "$name" == fig7c_* ]]; then

@@ -11,7 +11,7 @@ benchmarks generate it when they need it. Standard library only; deterministic.
 --attributes gives the spheres' vertices normals and texture coordinates (`vn`, `vt`, faces
 `v/vt/vn`), as exported architecture scenes have; --materials M spreads the spheres over M materials
 (diffuse and glossy, in turn) instead of two. The loading benchmark's scene, 10.2 M triangles in
-about 1 GB, as users bring (README, Speed):
+about 1 GB, as users bring (docs/performance.md#loading-10-m-triangles):
 
     python3 scripts/heavy_scene.py OUT.obj 20 3 --attributes --materials 300
 """

@@ -1,5 +1,6 @@
 #!/bin/sh
-# The loading benchmark on the 10 M-triangle scene of the README (generated, not shipped):
+# The loading benchmark on the 10 M-triangle scene of docs/performance.md#loading-10-m-triangles
+# (generated, not shipped):
 # writes it with heavy_scene.py into a temporary directory (about 1.2 GB; DIR to choose another
 # place), loads it once with the load_bench example under /usr/bin/time -v, prints the example's
 # figures and the process's CPU seconds and peak memory, and deletes the scene again.

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Rewrites an 8-bit RGB PNG as a palette PNG of at most 256 colours (standard library only), to
-keep the README's pictures small: scripts/gallery.sh runs it on the copies in docs/img/gallery/.
+keep the gallery's pictures (docs/gallery.md) small: scripts/gallery.sh runs it on the copies in
+docs/img/gallery/.
 
     python3 scripts/png_palette.py IN.png OUT.png
 

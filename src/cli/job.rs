@@ -21,8 +21,9 @@ pub fn run(args: &RunArgs) -> anyhow::Result<Option<StopReason>> {
 
 /// The budget of a run given no --spp, --time or --target-error: p95 relative error 0.05 or one
 /// minute, whichever comes first, so that a first run shows clean structure soon on a small
-/// machine. A time budget makes the number of passes depend on the machine: `--spp N` gives a
-/// reproducible run.
+/// machine (what the README's first command reaches: `docs/performance.md#the-first-command`). A
+/// time budget makes the number of passes depend on the machine: `--spp N` gives a reproducible
+/// run.
 const DEFAULT_BUDGET: Budget = Budget {
     cap_spp: false,
     time: Some(Duration::from_secs(60)),
