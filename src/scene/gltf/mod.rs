@@ -65,8 +65,10 @@
 
 mod accessor;
 mod document;
+mod draco;
 mod material;
 mod mesh;
+mod meshopt;
 mod nodes;
 mod textures;
 
@@ -88,9 +90,20 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
             file: path.to_path_buf(),
         });
     }
-    let (doc, blob) = document::read(path)?;
-    let buffers = document::load_buffers(path, &doc, blob)?;
+    let document::Read {
+        doc,
+        blob,
+        ignored_extensions,
+    } = document::read(path)?;
+    let mut buffers = document::load_buffers(path, &doc, blob)?;
+    let doc = document::decode_compressed_views(path, doc, &mut buffers)?;
     let mut warnings = Warnings::new(&file);
+    if !ignored_extensions.is_empty() {
+        warnings.warn(format!(
+            "extensions not supported, ignored: {}",
+            ignored_extensions.join(", ")
+        ));
+    }
     let Converted {
         mut materials,
         default_material,

@@ -120,7 +120,7 @@ impl<'a> World<'a> {
                         "{label}: skin ignored; the mesh is placed by the node's transform"
                     ));
                 }
-                self.instance(&mesh, world)?;
+                self.instance(doc, &mesh, world)?;
             }
             if let Some(camera) = node.camera() {
                 self.camera(doc, &camera, &node, world)?;
@@ -135,10 +135,16 @@ impl<'a> World<'a> {
     }
 
     /// Appends a copy of `mesh`'s triangle primitives transformed by `world`.
-    fn instance(&mut self, mesh: &::gltf::Mesh, world: DMat4) -> Result<(), LoadError> {
+    fn instance(
+        &mut self,
+        doc: &::gltf::Document,
+        mesh: &::gltf::Mesh,
+        world: DMat4,
+    ) -> Result<(), LoadError> {
         if !self.meshes.contains_key(&mesh.index()) {
             let decoded = decode_mesh(
                 mesh,
+                doc,
                 self.buffers,
                 self.default_material,
                 self.path,
