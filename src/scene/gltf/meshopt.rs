@@ -585,6 +585,82 @@ mod tests {
         assert!(decode(&[0xa0; 40], 1 << 40, 4, Mode::Attributes, Filter::None).is_err());
     }
 
+    /// Every single-byte change and every truncation of streams made by the reference encoder
+    /// decodes or gives an error, never a panic (the decoder reads untrusted files).
+    #[test]
+    fn meshopt_corrupted_reference_streams_never_panic() {
+        let vertices: Vec<[f32; 3]> = (0..300)
+            .map(|i| {
+                let t = i as f32 * 0.1;
+                [t.sin(), t.cos(), t * 0.01]
+            })
+            .collect();
+        let indices: Vec<u32> = (0..298u32).flat_map(|i| [i, i + 1, i + 2]).collect();
+        let attributes = ::meshopt::encode_vertex_buffer_level(&vertices, 2, Some(0)).unwrap();
+        let triangles = ::meshopt::encode_index_buffer(&indices, 300).unwrap();
+        let sequence = ::meshopt::encode_index_sequence(&indices, 300).unwrap();
+        let cases = [
+            (attributes, 300, 12, Mode::Attributes, Filter::None),
+            (triangles, indices.len(), 4, Mode::Triangles, Filter::None),
+            (sequence, indices.len(), 4, Mode::Indices, Filter::None),
+        ];
+        for (stream, count, stride, mode, filter) in cases {
+            let good = decode(&stream, count, stride, mode, filter).unwrap();
+            assert_eq!(good.len(), count * stride);
+            for at in 0..stream.len() {
+                for flip in [0x01u8, 0x80, 0xff] {
+                    let mut bad = stream.clone();
+                    bad[at] ^= flip;
+                    let _ = decode(&bad, count, stride, mode, filter);
+                }
+                let _ = decode(&stream[..at], count, stride, mode, filter);
+            }
+        }
+    }
+
+    /// The filters give the reference decoder's bytes on the reference encoder's output.
+    #[test]
+    fn meshopt_filters_match_the_reference_decoder() {
+        let unit: Vec<[f32; 4]> = (0..64)
+            .map(|i| {
+                let (a, b) = (i as f32 * 0.7, i as f32 * 0.31 - 1.0);
+                let v = glam::Vec4::new(a.sin() * b.cos(), a.cos(), b.sin(), 0.3 * a.sin());
+                (v / v.length()).to_array()
+            })
+            .collect();
+        let as_bytes = |v: &[i8]| v.iter().map(|&x| x as u8).collect::<Vec<u8>>();
+        let i16_bytes = |v: &[i16]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        // Octahedral, 8 and 16 bits.
+        let mut reference: Vec<[i8; 4]> = ::meshopt::encode_filter_oct::<i8>(&unit, 8);
+        let mut ours = as_bytes(reference.as_flattened());
+        ::meshopt::decode_filter_oct(&mut reference);
+        octahedral::<1>(&mut ours);
+        assert_eq!(ours, as_bytes(reference.as_flattened()));
+        let mut reference: Vec<[i16; 4]> = ::meshopt::encode_filter_oct::<i16>(&unit, 12);
+        let mut ours = i16_bytes(reference.as_flattened());
+        ::meshopt::decode_filter_oct(&mut reference);
+        octahedral::<2>(&mut ours);
+        assert_eq!(ours, i16_bytes(reference.as_flattened()));
+        // Quaternions.
+        let mut reference = ::meshopt::encode_filter_quat(&unit, 12);
+        let mut ours = i16_bytes(reference.as_flattened());
+        ::meshopt::decode_filter_quat(&mut reference);
+        quaternion(&mut ours);
+        assert_eq!(ours, i16_bytes(reference.as_flattened()));
+        // Exponential.
+        let values: Vec<[f32; 3]> = unit
+            .iter()
+            .map(|v| [v[0] * 1e3, v[1] * 1e-3, v[2]])
+            .collect();
+        let mut reference =
+            ::meshopt::encode_filter_exp::<3>(&values, 15, ::meshopt::EncodeExpMode::Separate);
+        let u32_bytes = |v: &[u32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        let mut ours = u32_bytes(reference.as_flattened());
+        ::meshopt::decode_filter_exp(&mut reference);
+        exponential(&mut ours);
+        assert_eq!(ours, u32_bytes(reference.as_flattened()));
+    }
+
     #[test]
     fn meshopt_exponential_filter_scales_the_mantissa() {
         let mut e = (((-3i32) << 24) | 12).to_le_bytes().to_vec();
