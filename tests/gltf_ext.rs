@@ -385,13 +385,48 @@ fn write_meshopt(dir: &Path, g: &Grid, index_mode: &str) -> PathBuf {
     path
 }
 
+/// The .glb of the .gltf at `path`: its first buffer (a data URI) becomes the binary chunk.
+fn to_glb(path: &Path) -> PathBuf {
+    let mut root: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let uri = root["buffers"][0]["uri"].as_str().unwrap().to_string();
+    let mut bin = base64::engine::general_purpose::STANDARD
+        .decode(uri.split_once(',').unwrap().1)
+        .unwrap();
+    root["buffers"][0].as_object_mut().unwrap().remove("uri");
+    let mut json = root.to_string().into_bytes();
+    json.resize(json.len().next_multiple_of(4), b' ');
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(0x4E4F534Au32.to_le_bytes());
+    out.extend(json);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(0x004E4942u32.to_le_bytes());
+    out.extend(bin);
+    let glb = path.with_extension("glb");
+    std::fs::write(&glb, out).unwrap();
+    glb
+}
+
 #[test]
 fn gltf_meshopt_compressed_grid_is_the_uncompressed_one() {
     let dir = temp_dir("gltf_ext", "meshopt");
     let g = grid();
     let plain = load_scene(&write_plain(&dir, &g)).unwrap();
-    for mode in ["TRIANGLES", "INDICES"] {
-        let scene = load_scene(&write_meshopt(&dir, &g, mode)).unwrap();
+    // As gltfpack writes them: .gltf with the streams in a buffer of their own, and .glb with the
+    // streams in the binary chunk; the fallback buffer has no data either way.
+    let files = ["TRIANGLES", "INDICES"].map(|mode| write_meshopt(&dir, &g, mode));
+    let glb = to_glb(&files[0]);
+    for (mode, path) in [
+        ("TRIANGLES", &files[0]),
+        ("INDICES", &files[1]),
+        ("glb", &glb),
+    ] {
+        let scene = load_scene(path).unwrap();
         // Positions are stored losslessly.
         assert_same_scene(&plain, &scene, 0.0, mode);
         // 8-bit octahedral normals: within about 1/64 rad.
