@@ -123,25 +123,120 @@ fn accessor_bytes(acc: &::gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u8>
     Ok(out)
 }
 
-/// Reads a VEC3 f32 accessor (positions, normals).
-pub(super) fn read_vec3_f32(
+/// The component types a vertex attribute may have: f32 in core glTF, the integer ones that
+/// KHR_mesh_quantization adds in files that use it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Quantized {
+    /// f32 only (core glTF: the file does not use KHR_mesh_quantization).
+    FloatOnly,
+    /// f32, or any 8- or 16-bit integer type, normalised or not (POSITION, TEXCOORD_n).
+    Any,
+    /// f32, or normalised signed 8- or 16-bit integers (NORMAL).
+    SignedNormalized,
+}
+
+impl Quantized {
+    /// The formats an attribute may have in a file that does (`quantized`) or does not declare
+    /// KHR_mesh_quantization: `with` in the first case, f32 only in the second.
+    pub(super) fn when(quantized: bool, with: Quantized) -> Quantized {
+        if quantized {
+            with
+        } else {
+            Quantized::FloatOnly
+        }
+    }
+
+    pub(super) fn allows(self, t: DataType, normalized: bool) -> bool {
+        match (self, t) {
+            (_, DataType::F32) => true,
+            (Quantized::FloatOnly, _) => false,
+            (Quantized::Any, DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16) => true,
+            (Quantized::SignedNormalized, DataType::I8 | DataType::I16) => normalized,
+            _ => false,
+        }
+    }
+
+    fn names(self) -> &'static str {
+        match self {
+            Quantized::FloatOnly => "f32",
+            Quantized::Any => "f32 or 8- or 16-bit integers (KHR_mesh_quantization)",
+            Quantized::SignedNormalized => "f32 or normalized i8 or i16 (KHR_mesh_quantization)",
+        }
+    }
+}
+
+/// Reads an accessor of `N` components as f32: floats as stored; integers (KHR_mesh_quantization)
+/// as glTF says: normalised ones to [0, 1] (unsigned) or [-1, 1] (signed: c / max, clamped to -1),
+/// the others as their values (a node's transform, or a texture transform, scales them back).
+/// `allowed` are the component types the attribute `what` may have.
+pub(super) fn read_components<const N: usize>(
     acc: &::gltf::Accessor,
     buffers: &[Vec<u8>],
     what: &str,
-) -> Result<Vec<Vec3>, String> {
-    if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
+    allowed: Quantized,
+) -> Result<Vec<[f32; N]>, String> {
+    let (t, normalized) = (acc.data_type(), acc.normalized());
+    let dims = match N {
+        2 => Dimensions::Vec2,
+        3 => Dimensions::Vec3,
+        _ => Dimensions::Vec4,
+    };
+    if acc.dimensions() != dims || !allowed.allows(t, normalized) {
         return Err(format!(
-            "{what} accessor #{} is not VEC3 f32 (it is {} {})",
+            "{what} accessor #{} is not {} {} (it is {} {}{})",
             acc.index(),
+            dims_name(dims),
+            allowed.names(),
             dims_name(acc.dimensions()),
-            type_name(acc.data_type())
+            if normalized { "normalized " } else { "" },
+            type_name(t),
         ));
     }
     let raw = accessor_bytes(acc, buffers)?;
-    let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    let size = t.size();
+    let component = |b: &[u8]| -> f32 {
+        let v = match t {
+            DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            DataType::I8 => b[0] as i8 as f32,
+            DataType::U8 => b[0] as f32,
+            DataType::I16 => i16::from_le_bytes([b[0], b[1]]) as f32,
+            DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as f32,
+            // Refused above (`allows`).
+            DataType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
+        };
+        dequantize(t, normalized, v)
+    };
     Ok(raw
-        .chunks_exact(12)
-        .map(|c| Vec3::new(f(&c[0..4]), f(&c[4..8]), f(&c[8..12])))
+        .chunks_exact(N * size)
+        .map(|e| std::array::from_fn(|k| component(&e[k * size..(k + 1) * size])))
+        .collect())
+}
+
+/// An integer component's value `v` as glTF reads it: a normalised one divided by its type's
+/// largest value (signed ones clamped to -1), others as they are.
+pub(super) fn dequantize(t: DataType, normalized: bool, v: f32) -> f32 {
+    if !normalized {
+        return v;
+    }
+    match t {
+        DataType::I8 => (v / 127.0).max(-1.0),
+        DataType::U8 => v / 255.0,
+        DataType::I16 => (v / 32767.0).max(-1.0),
+        DataType::U16 => v / 65535.0,
+        DataType::F32 | DataType::U32 => v,
+    }
+}
+
+/// Reads a VEC3 accessor (positions, normals) of the component types `allowed`.
+pub(super) fn read_vec3(
+    acc: &::gltf::Accessor,
+    buffers: &[Vec<u8>],
+    what: &str,
+    allowed: Quantized,
+) -> Result<Vec<Vec3>, String> {
+    Ok(read_components::<3>(acc, buffers, what, allowed)?
+        .into_iter()
+        .map(Vec3::from)
         .collect())
 }
 
@@ -175,16 +270,16 @@ pub(super) fn read_indices(
     })
 }
 
-/// Reads a VEC2 f32 accessor of texture coordinates, with v turned up (glTF's v points down).
-pub(super) fn read_uv_f32(
+/// Reads a VEC2 accessor of texture coordinates (f32 or quantized), with v turned up (glTF's v
+/// points down).
+pub(super) fn read_uv(
     acc: &::gltf::Accessor,
     buffers: &[Vec<u8>],
+    allowed: Quantized,
 ) -> Result<Vec<Vec2>, String> {
-    let raw = accessor_bytes(acc, buffers)?;
-    let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-    Ok(raw
-        .chunks_exact(8)
-        .map(|c| Vec2::new(f(&c[0..4]), 1.0 - f(&c[4..8])))
+    Ok(read_components::<2>(acc, buffers, "TEXCOORD_0", allowed)?
+        .into_iter()
+        .map(|[u, v]| Vec2::new(u, 1.0 - v))
         .collect())
 }
 

@@ -41,8 +41,36 @@ pub(super) fn malformed(path: &Path, what: String) -> LoadError {
     }
 }
 
-/// Reads and parses the file at `path`: the document and the GLB binary chunk, if any.
-pub(super) fn read(path: &Path) -> Result<(::gltf::Document, Option<Vec<u8>>), LoadError> {
+/// The extensions this reader implements: a file that requires one of them loads, one that
+/// requires any other is refused, naming it. Extensions a file only uses and this list lacks are
+/// ignored with one warning.
+pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
+    "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+];
+
+/// Validation problems a message lists before it says how many more there are.
+const SHOWN_PROBLEMS: usize = 3;
+
+/// A parsed document, its GLB binary chunk, and the extensions it uses that this reader ignores.
+pub(super) struct Read {
+    pub(super) doc: ::gltf::Document,
+    pub(super) blob: Option<Vec<u8>>,
+    pub(super) ignored_extensions: Vec<String>,
+}
+
+/// Reads and parses the file at `path`: the document and the GLB binary chunk, if any. A required
+/// extension this reader lacks is refused by name; the rest is checked by the `gltf` crate's
+/// validation, except what the supported extensions allow (Draco-compressed attributes have no
+/// buffer view).
+pub(super) fn read(path: &Path) -> Result<Read, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Unreadable {
         file: path.to_path_buf(),
         source,
@@ -61,11 +89,104 @@ pub(super) fn read(path: &Path) -> Result<(::gltf::Document, Option<Vec<u8>>), L
             _ => invalid(&e),
         })?;
     drop(bytes);
-    let root = document.into_json();
+    let mut root = document.into_json();
     check_attribute_indices(&root).map_err(|e| invalid(&e))?;
-    let doc = ::gltf::Document::from_json(root).map_err(|e| invalid(&e))?;
-    Ok((doc, blob))
+    check_required(&root).map_err(|e| malformed(path, e))?;
+    let ignored_extensions = root
+        .extensions_used
+        .iter()
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
+        .cloned()
+        .collect();
+    // Checked above: the crate's own check knows only the extensions it implements itself.
+    let required = std::mem::take(&mut root.extensions_required);
+    validate(&root).map_err(|e| invalid(&e))?;
+    root.extensions_required = required;
+    Ok(Read {
+        doc: ::gltf::Document::from_json_without_validation(root),
+        blob,
+        ignored_extensions,
+    })
 }
+
+/// Refuses a document that requires an extension this reader does not implement, naming each.
+fn check_required(root: &::gltf::json::Root) -> Result<(), String> {
+    let missing: Vec<&str> = root
+        .extensions_required
+        .iter()
+        .map(String::as_str)
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+        .collect();
+    match missing.as_slice() {
+        [] => Ok(()),
+        [one] => Err(format!(
+            "requires the glTF extension {one}, which is not supported"
+        )),
+        more => Err(format!(
+            "requires the glTF extensions {}, which are not supported",
+            more.join(", ")
+        )),
+    }
+}
+
+/// The `gltf` crate's validation, less what supported extensions allow, in one short line: the
+/// first few problems and how many more there are.
+fn validate(root: &::gltf::json::Root) -> Result<(), String> {
+    use ::gltf::json::validation::{Error, Validate};
+    let draco = draco_accessors(root);
+    let mut problems = Vec::new();
+    root.validate(
+        root,
+        ::gltf::json::Path::new,
+        &mut |path: &dyn Fn() -> ::gltf::json::Path, error| {
+            let path = path().0;
+            // The accessors of Draco-compressed attributes describe the decoded data and have no
+            // buffer view (KHR_draco_mesh_compression).
+            let allowed = matches!(error, Error::Missing)
+                && path
+                    .strip_prefix("accessors[")
+                    .and_then(|r| r.strip_suffix("].bufferView"))
+                    .and_then(|i| i.parse::<usize>().ok())
+                    .is_some_and(|i| draco.contains(&i));
+            if !allowed {
+                problems.push(format!("{path}: {error}"));
+            }
+        },
+    );
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let n = problems.len();
+    problems.truncate(SHOWN_PROBLEMS);
+    let mut text = problems.join("; ");
+    if n > SHOWN_PROBLEMS {
+        text += &format!("; and {} more", n - SHOWN_PROBLEMS);
+    }
+    Err(text)
+}
+
+/// The accessors that primitives compressed with KHR_draco_mesh_compression name (attributes and
+/// indices): their data comes from the compressed stream.
+fn draco_accessors(root: &::gltf::json::Root) -> std::collections::HashSet<usize> {
+    let mut out = std::collections::HashSet::new();
+    for prim in root.meshes.iter().flat_map(|m| &m.primitives) {
+        let draco = prim
+            .extensions
+            .as_ref()
+            .is_some_and(|e| e.others.contains_key(DRACO));
+        if draco {
+            out.extend(prim.attributes.values().map(|i| i.value()));
+            out.extend(prim.indices.map(|i| i.value()));
+        }
+    }
+    out
+}
+
+/// The name of the Draco extension.
+pub(super) const DRACO: &str = "KHR_draco_mesh_compression";
+
+/// The name of the quantization extension.
+pub(super) const QUANTIZATION: &str = "KHR_mesh_quantization";
 
 /// Checks a binary glTF's header and chunk lengths against the file size, so that a truncated file
 /// gets a clear message (and never reaches the parser with inconsistent lengths).
@@ -141,16 +262,38 @@ fn check_attribute_indices(root: &::gltf::json::Root) -> Result<(), String> {
     Ok(())
 }
 
-/// Reads every buffer: the GLB binary chunk, a base64 data URI, or a file relative to the glTF file.
+/// The name of the meshopt extension.
+const MESHOPT: &str = "EXT_meshopt_compression";
+
+/// True when `buffer` is a placeholder of EXT_meshopt_compression: marked as the fallback of
+/// compressed views, or without data of its own (no URI and no GLB chunk left for it) in a file
+/// that uses the extension. Its views are decoded from their compressed data, so it is never read
+/// (and a marked one never loaded).
+fn is_placeholder(buffer: &::gltf::Buffer, uses_meshopt: bool, blob_left: bool) -> bool {
+    let marked = buffer
+        .extension_value(MESHOPT)
+        .and_then(|e| e.get("fallback"))
+        .and_then(|f| f.as_bool())
+        .unwrap_or(false);
+    marked || (uses_meshopt && !blob_left && matches!(buffer.source(), ::gltf::buffer::Source::Bin))
+}
+
+/// Reads every buffer: the GLB binary chunk, a base64 data URI, or a file relative to the glTF file
+/// (a placeholder of compressed views is left empty: [`is_placeholder`]).
 pub(super) fn load_buffers(
     path: &Path,
     doc: &::gltf::Document,
     mut blob: Option<Vec<u8>>,
 ) -> Result<Vec<Vec<u8>>, LoadError> {
     let dir = path.parent().unwrap_or(Path::new(""));
+    let uses_meshopt = doc.extensions_used().any(|e| e == MESHOPT);
     let mut out = Vec::new();
     for buffer in doc.buffers() {
         let label = named("buffer", buffer.index(), buffer.name());
+        if is_placeholder(&buffer, uses_meshopt, blob.is_some()) {
+            out.push(Vec::new());
+            continue;
+        }
         let mut data = match buffer.source() {
             ::gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                 malformed(
@@ -196,6 +339,74 @@ pub(super) fn load_buffers(
         out.push(data);
     }
     Ok(out)
+}
+
+/// Decodes the buffer views compressed with EXT_meshopt_compression: each one's decoded bytes
+/// become a buffer of their own (appended to `buffers`) that the view then names, so accessors
+/// (and images) read them as any other view.
+pub(super) fn decode_compressed_views(
+    path: &Path,
+    doc: ::gltf::Document,
+    buffers: &mut Vec<Vec<u8>>,
+) -> Result<::gltf::Document, LoadError> {
+    let mut root = doc.into_json();
+    for (i, view) in root.buffer_views.iter_mut().enumerate() {
+        let Some(ext) = view.extensions.as_ref().and_then(|e| e.others.get(MESHOPT)) else {
+            continue;
+        };
+        let label = format!("buffer view #{i} ({MESHOPT})");
+        let fail = |e: String| malformed(path, format!("{label}: {e}"));
+        let field = |k: &str| ext.get(k).and_then(|v| v.as_u64()).map(|v| v as usize);
+        let (Some(source), Some(length), Some(stride), Some(count)) = (
+            field("buffer"),
+            field("byteLength"),
+            field("byteStride"),
+            field("count"),
+        ) else {
+            return Err(fail(
+                "buffer, byteLength, byteStride and count are required".into(),
+            ));
+        };
+        let offset = field("byteOffset").unwrap_or(0);
+        let word =
+            |k: &str, default: &'static str| ext.get(k).map_or(Some(default), |v| v.as_str());
+        let mode = word("mode", "").and_then(super::meshopt::Mode::parse);
+        let filter = word("filter", "NONE").and_then(super::meshopt::Filter::parse);
+        let (Some(mode), Some(filter)) = (mode, filter) else {
+            return Err(fail(format!(
+                "mode {} or filter {} is not one the extension defines",
+                ext.get("mode").unwrap_or(&::gltf::json::Value::Null),
+                ext.get("filter").unwrap_or(&::gltf::json::Value::Null)
+            )));
+        };
+        let data = buffers
+            .get(source)
+            .and_then(|b| b.get(offset..offset.checked_add(length)?))
+            .ok_or_else(|| {
+                fail(format!(
+                    "bytes {offset}..{} of buffer #{source} do not exist",
+                    offset as u128 + length as u128
+                ))
+            })?;
+        let decoded = super::meshopt::decode(data, count, stride, mode, filter).map_err(fail)?;
+        if decoded.len() != view.byte_length.0 as usize {
+            return Err(fail(format!(
+                "{count} elements of {stride} bytes, but the view's byteLength is {}",
+                view.byte_length.0
+            )));
+        }
+        view.buffer = ::gltf::json::Index::new(buffers.len() as u32);
+        view.byte_offset = Some(0u64.into());
+        root.buffers.push(::gltf::json::Buffer {
+            byte_length: decoded.len().into(),
+            name: None,
+            uri: None,
+            extensions: None,
+            extras: Default::default(),
+        });
+        buffers.push(decoded);
+    }
+    Ok(::gltf::Document::from_json_without_validation(root))
 }
 
 /// Decodes `data:[<media type>];base64,<data>`.

@@ -2,8 +2,10 @@
 //! `.glb`. The default scene (or the first one) is flattened: every node's world transform is applied
 //! to its mesh's positions and normals (normals with the inverse transpose, renormalised; triangle
 //! winding flipped where the transform mirrors), and a mesh used by several nodes is copied once per
-//! node. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are read, indexed or not; points and
-//! lines are skipped with a warning. Buffers are read by this module; images (base-colour, emissive
+//! node (and once per instance of EXT_mesh_gpu_instancing). TRIANGLES, TRIANGLE_STRIP and
+//! TRIANGLE_FAN primitives are read, indexed or not; points and lines are skipped with a warning.
+//! Vertex data may be quantized (KHR_mesh_quantization) or compressed (EXT_meshopt_compression,
+//! KHR_draco_mesh_compression); a file that requires any other extension is refused, naming it. Buffers are read by this module; images (base-colour, emissive
 //! and metallic-roughness textures) are decoded by `crate::scene::texture`.
 //!
 //! Metallic-roughness mapping (base = `baseColorFactor` RGB, m = `metallicFactor`, r =
@@ -65,8 +67,10 @@
 
 mod accessor;
 mod document;
+mod draco;
 mod material;
 mod mesh;
+mod meshopt;
 mod nodes;
 mod textures;
 
@@ -88,9 +92,20 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
             file: path.to_path_buf(),
         });
     }
-    let (doc, blob) = document::read(path)?;
-    let buffers = document::load_buffers(path, &doc, blob)?;
+    let document::Read {
+        doc,
+        blob,
+        ignored_extensions,
+    } = document::read(path)?;
+    let mut buffers = document::load_buffers(path, &doc, blob)?;
+    let doc = document::decode_compressed_views(path, doc, &mut buffers)?;
     let mut warnings = Warnings::new(&file);
+    if !ignored_extensions.is_empty() {
+        warnings.warn(format!(
+            "extensions not supported, ignored: {}",
+            ignored_extensions.join(", ")
+        ));
+    }
     let Converted {
         mut materials,
         default_material,

@@ -1,10 +1,13 @@
 //! The node trees of the default scene, flattened: every node's world transform applied to its
 //! mesh's positions and normals (normals with the inverse transpose, renormalised; triangle winding
 //! flipped where the transform mirrors), a mesh used by several nodes copied once per node; lights
-//! and cameras placed by their nodes.
+//! and cameras placed by their nodes. EXT_mesh_gpu_instancing is flattened the same way: one copy
+//! of the mesh per instance, so memory grows with the instance count (docs/performance.md,
+//! "Instanced glTF").
 
 use crate::math::Rgb;
 use crate::scene::error::LoadError;
+use crate::scene::gltf::accessor::{Quantized, read_components};
 use crate::scene::gltf::document::malformed;
 use crate::scene::gltf::document::{Warnings, named};
 use crate::scene::gltf::mesh::{LocalPrimitive, decode_mesh};
@@ -120,7 +123,14 @@ impl<'a> World<'a> {
                         "{label}: skin ignored; the mesh is placed by the node's transform"
                     ));
                 }
-                self.instance(&mesh, world)?;
+                match self.gpu_instances(doc, &node, &label)? {
+                    Some(instances) => {
+                        for m in instances {
+                            self.instance(doc, &mesh, world * m)?;
+                        }
+                    }
+                    None => self.instance(doc, &mesh, world)?,
+                }
             }
             if let Some(camera) = node.camera() {
                 self.camera(doc, &camera, &node, world)?;
@@ -134,11 +144,89 @@ impl<'a> World<'a> {
         Ok(())
     }
 
+    /// The instance transforms of EXT_mesh_gpu_instancing on `node` (labelled `label`), each
+    /// translation · rotation · scale, to be applied before the node's world transform; `None`
+    /// when the node does not use the extension. Accessors are f32, or with KHR_mesh_quantization
+    /// integers read as [`read_components`] does; all must have the same count.
+    fn gpu_instances(
+        &mut self,
+        doc: &::gltf::Document,
+        node: &::gltf::Node,
+        label: &str,
+    ) -> Result<Option<Vec<DMat4>>, LoadError> {
+        let Some(ext) = node.extension_value(INSTANCING) else {
+            return Ok(None);
+        };
+        let fail = |e: String| malformed(self.path, format!("{label}: {INSTANCING}: {e}"));
+        let attributes = ext.get("attributes").and_then(|a| a.as_object());
+        let accessor = |name: &str| -> Result<Option<::gltf::Accessor>, LoadError> {
+            let Some(i) = attributes.and_then(|a| a.get(name)) else {
+                return Ok(None);
+            };
+            i.as_u64()
+                .and_then(|i| doc.accessors().nth(i as usize))
+                .map(Some)
+                .ok_or_else(|| fail(format!("{name} accessor {i} does not exist")))
+        };
+        let any = Quantized::Any;
+        let read3 = |name: &str| -> Result<Option<Vec<[f32; 3]>>, LoadError> {
+            accessor(name)?
+                .map(|a| read_components::<3>(&a, self.buffers, name, any).map_err(fail))
+                .transpose()
+        };
+        let translation = read3("TRANSLATION")?;
+        let scale = read3("SCALE")?;
+        let rotation = accessor("ROTATION")?
+            .map(|a| read_components::<4>(&a, self.buffers, "ROTATION", any).map_err(fail))
+            .transpose()?;
+        let counts = [
+            translation.as_ref().map(Vec::len),
+            rotation.as_ref().map(Vec::len),
+            scale.as_ref().map(Vec::len),
+        ];
+        let count = counts.iter().flatten().copied().max().unwrap_or(0);
+        if counts.iter().flatten().any(|&c| c != count) {
+            return Err(fail(format!(
+                "TRANSLATION, ROTATION and SCALE have different counts ({counts:?})"
+            )));
+        }
+        if count == 0 {
+            self.warnings.warn(format!(
+                "{label}: {INSTANCING} without TRANSLATION, ROTATION or SCALE; no instance placed"
+            ));
+        }
+        let v3 = |a: &Option<Vec<[f32; 3]>>, i: usize, default: DVec3| {
+            a.as_ref()
+                .map_or(default, |a| DVec3::from(a[i].map(f64::from)))
+        };
+        Ok(Some(
+            (0..count)
+                .map(|i| {
+                    let q = rotation.as_ref().map_or(DQuat::IDENTITY, |r| {
+                        let [x, y, z, w] = r[i].map(f64::from);
+                        unit_or_identity(DQuat::from_xyzw(x, y, z, w))
+                    });
+                    DMat4::from_scale_rotation_translation(
+                        v3(&scale, i, DVec3::ONE),
+                        q,
+                        v3(&translation, i, DVec3::ZERO),
+                    )
+                })
+                .collect(),
+        ))
+    }
+
     /// Appends a copy of `mesh`'s triangle primitives transformed by `world`.
-    fn instance(&mut self, mesh: &::gltf::Mesh, world: DMat4) -> Result<(), LoadError> {
+    fn instance(
+        &mut self,
+        doc: &::gltf::Document,
+        mesh: &::gltf::Mesh,
+        world: DMat4,
+    ) -> Result<(), LoadError> {
         if !self.meshes.contains_key(&mesh.index()) {
             let decoded = decode_mesh(
                 mesh,
+                doc,
                 self.buffers,
                 self.default_material,
                 self.path,
@@ -323,12 +411,7 @@ fn local_matrix(t: ::gltf::scene::Transform) -> DMat4 {
             scale,
         } => {
             let [x, y, z, w] = rotation.map(f64::from);
-            let q = DQuat::from_xyzw(x, y, z, w);
-            let q = if q.length() > 0.0 {
-                q.normalize()
-            } else {
-                DQuat::IDENTITY
-            };
+            let q = unit_or_identity(DQuat::from_xyzw(x, y, z, w));
             DMat4::from_scale_rotation_translation(
                 DVec3::from(scale.map(f64::from)),
                 q,
@@ -337,3 +420,16 @@ fn local_matrix(t: ::gltf::scene::Transform) -> DMat4 {
         }
     }
 }
+
+/// `q` normalised; the identity when it has no length (or is not finite).
+fn unit_or_identity(q: DQuat) -> DQuat {
+    let len = q.length();
+    if len > 0.0 && len.is_finite() {
+        q / len
+    } else {
+        DQuat::IDENTITY
+    }
+}
+
+/// The name of the instancing extension.
+const INSTANCING: &str = "EXT_mesh_gpu_instancing";
