@@ -65,7 +65,7 @@ impl Scene {
     }
 
     /// Closest hit along the ray `o + t d` (d unit) for t in (0, tmax).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
         self.intersect_with::<false>(o, d, tmax)
     }
@@ -78,7 +78,7 @@ impl Scene {
         self.intersect_with::<true>(o, d, tmax)
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect_with<const FLAT: bool>(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
         let raw = self.accel.intersect(
             o.as_vec3(),
@@ -123,7 +123,7 @@ impl Scene {
             )
     }
 
-    #[inline]
+    #[inline(always)]
     fn hit_from_raw<const FLAT: bool>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let i = raw.prim as usize;
         let th = &self.tri_hit[i];
