@@ -9,7 +9,6 @@ use glam::DVec3;
 /// Everything the transport code needs about a ray-surface hit, in f64.
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {
-    pub t: f64,
     pub p: DVec3,
     pub prim: u32,
     /// Unit geometric normal (front side from the winding).
@@ -19,12 +18,11 @@ pub struct Hit {
     pub material: u32,
     /// Half-width of the region around `p` that may hold the true surface (float error bound).
     pub eps: f64,
-    /// `p` lies within twice the error bound of an edge of its triangle, where other surfaces may
-    /// meet it (see [`Scene::spawn_origin_from`]).
-    pub near_edge: bool,
     /// Embree's barycentric coordinates of the hit (weights of the triangle's second and third
-    /// vertex), for texture coordinates.
+    /// vertex), for texture coordinates and the test for edges ([`Scene::near_edge`]).
     pub bary: [f32; 2],
+    /// The error bound before the floor `eps` has, which the test for edges uses.
+    eps_edge: f64,
 }
 
 impl Hit {
@@ -46,17 +44,6 @@ impl Hit {
 /// translated by 10⁴ came out 4 standard errors above the original's.
 const F32_ERROR_ULPS: f64 = 16.0 * f32::EPSILON as f64;
 
-impl Hit {
-    /// Keeps `t` consistent with the reconstructed point (f64 distance from the origin).
-    fn with_t_from(mut self, o: DVec3, d: DVec3) -> Hit {
-        let t = (self.p - o).dot(d);
-        if t.is_finite() && t > 0.0 {
-            self.t = t;
-        }
-        self
-    }
-}
-
 impl Scene {
     /// Float error bound of a point on the scene's f32 geometry (see [`Hit::eps`]).
     #[inline]
@@ -65,7 +52,7 @@ impl Scene {
     }
 
     /// Closest hit along the ray `o + t d` (d unit) for t in (0, tmax).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
         self.intersect_with::<false>(o, d, tmax)
     }
@@ -78,7 +65,7 @@ impl Scene {
         self.intersect_with::<true>(o, d, tmax)
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect_with<const FLAT: bool>(&self, o: DVec3, d: DVec3, tmax: f64) -> Option<Hit> {
         let raw = self.accel.intersect(
             o.as_vec3(),
@@ -123,7 +110,7 @@ impl Scene {
             )
     }
 
-    #[inline]
+    #[inline(always)]
     fn hit_from_raw<const FLAT: bool>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let i = raw.prim as usize;
         let th = &self.tri_hit[i];
@@ -191,26 +178,34 @@ impl Scene {
         } else {
             (ng, ns)
         };
-        // Distance from p to each edge (barycentric × the opposite altitude), squared, against
-        // (2 eps)², without square roots: with e0 = p1 − p0, e1 = p2 − p0, e2 = p2 − p1, the
-        // altitude onto edge k is |e0 × e1| / |e_k|.
-        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
-        let (c2, lim) = (e0.cross(e1).length_squared(), 4.0 * eps * eps);
-        let w = 1.0 - u - v;
-        let near_edge = w * w * c2 <= lim * e2.length_squared()
-            || u * u * c2 <= lim * e1.length_squared()
-            || v * v * c2 <= lim * e0.length_squared();
         Hit {
-            t: raw.t as f64,
             p,
             prim: raw.prim,
             ng,
             ns,
             material: th.material,
             eps: eps.max(1e-12),
-            near_edge,
             bary: [raw.u, raw.v],
+            eps_edge: eps,
         }
-        .with_t_from(o, d)
+    }
+
+    /// `hit.p` lies within twice the error bound of an edge of its triangle, where other surfaces
+    /// may meet it (see [`Scene::spawn_origin_from`]). Asked only where a ray leaves the hit: a
+    /// walk's last hit never needs it.
+    #[inline(always)]
+    pub fn near_edge(&self, hit: &Hit) -> bool {
+        let [pa, pb, pc] = self.tri_hit[hit.prim as usize].p.map(|q| q.as_dvec3());
+        let (u, v) = (hit.bary[0] as f64, hit.bary[1] as f64);
+        let eps = hit.eps_edge;
+        // Distance from p to each edge (barycentric × the opposite altitude), squared, against
+        // (2 eps)², without square roots: with e0 = p1 − p0, e1 = p2 − p0, e2 = p2 − p1, the
+        // altitude onto edge k is |e0 × e1| / |e_k|.
+        let (e0, e1, e2) = (pb - pa, pc - pa, pc - pb);
+        let (c2, lim) = (e0.cross(e1).length_squared(), 4.0 * eps * eps);
+        let w = 1.0 - u - v;
+        w * w * c2 <= lim * e2.length_squared()
+            || u * u * c2 <= lim * e1.length_squared()
+            || v * v * c2 <= lim * e0.length_squared()
     }
 }

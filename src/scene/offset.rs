@@ -18,7 +18,7 @@ impl Scene {
     #[inline]
     pub fn spawn_origin_from(&self, hit: &Hit, dir: DVec3, from: DVec3) -> DVec3 {
         let o = hit.spawn_origin(dir);
-        if hit.near_edge {
+        if self.near_edge(hit) {
             self.spawn_near_edge(hit, dir, from, o)
         } else {
             o

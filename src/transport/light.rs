@@ -149,7 +149,7 @@ pub(crate) fn connect_point(
 impl<S: Shape> Lights<S> {
     /// Samples a light point as seen from `x` in the space `D` (whose emitters have shape `S`).
     /// `None` when there are no lights or the point faces away (back of a one-sided emitter).
-    #[inline]
+    #[inline(always)]
     pub fn sample<D: Space<Shape = S>>(
         &self,
         sp: &D,

@@ -64,7 +64,7 @@ pub fn walk<K: Kernel>(
 
 /// [`walk`] with the number of rays traced, also for walks that were absorbed (whose
 /// [`WalkEnd`] is not returned), so that ray counts match the ray queries made.
-#[inline]
+#[inline(always)]
 pub fn walk_counted<K: Kernel>(
     scene: &Scene,
     x: DVec3,
