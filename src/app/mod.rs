@@ -26,10 +26,10 @@ pub use job::{
 pub use lights::{LightError, environment, point_light, sky, sun};
 pub use memory::{FALLBACK_MEMORY_BYTES, available_memory, check_volume_memory, volume_bytes};
 pub use progress::{
-    RESUME_KEYS, check_resume, mark_progress, read_progress, write_progress, write_progress_with,
-    write_volume_progress, write_volume_progress_with,
+    RESUME_KEYS, check_resume, mark_progress, progress_arrays, read_progress, write_progress,
+    write_progress_with, write_volume_progress, write_volume_progress_with,
 };
-pub use resolve::{JobDomain, resolve_camera};
+pub use resolve::{JobDomain, PLACED_CAMERA, resolve_camera};
 pub use run_domain::{DomainRun, Start, run_domain};
 pub use sampling::{DEFAULT_BUDGET, Sampling};
 

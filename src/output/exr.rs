@@ -152,8 +152,32 @@ pub fn view_channels(
     Ok(chans)
 }
 
+/// Part 1's u32 channels of a 2D field as [`write_exr`] writes them: the exact counts (`samples`,
+/// `batches`, `groups`) and the bits of every exact sum as hi/lo pairs (`exact.<sum>.hi/.lo`),
+/// each in file order (row 0 at the top), in the order they are made (the file lists them sorted
+/// by name).
+pub fn exact_channel_values(
+    path: &Path,
+    field: &Field,
+) -> Result<Vec<(String, Vec<u32>)>, FileError> {
+    check_2d(path, field)?;
+    exact_u32(path, field, &file_order(field.width, field.height))
+}
+
 /// Part 1's u32 channels: the exact counts, and the bits of every exact sum as hi/lo pairs.
 fn exact_channels(path: &Path, field: &Field, order: &[usize]) -> Result<Channels, FileError> {
+    Ok(exact_u32(path, field, order)?
+        .into_iter()
+        .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::U32(data)))
+        .collect())
+}
+
+/// The exact counts and sums, by name, in `order`.
+fn exact_u32(
+    path: &Path,
+    field: &Field,
+    order: &[usize],
+) -> Result<Vec<(String, Vec<u32>)>, FileError> {
     if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
         return Err(FileError::unfit(
             path,
@@ -166,9 +190,8 @@ fn exact_channels(path: &Path, field: &Field, order: &[usize]) -> Result<Channel
     let cells = &field.cells;
     let per =
         |f: &dyn Fn(&Moments) -> u32| -> Vec<u32> { order.iter().map(|&k| f(&cells[k])).collect() };
-    let mut chans = Channels::new();
-    let mut u32ch =
-        |name: &str, data: Vec<u32>| chans.push(AnyChannel::new(name, FlatSamples::U32(data)));
+    let mut chans: Vec<(String, Vec<u32>)> = Vec::new();
+    let mut u32ch = |name: &str, data: Vec<u32>| chans.push((name.to_string(), data));
     u32ch("samples", per(&|c| c.n as u32));
     u32ch("batches", per(&|c| c.batches.min(u32::MAX as u64) as u32));
     u32ch("groups", per(&|c| c.groups as u32));
