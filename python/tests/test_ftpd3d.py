@@ -289,3 +289,10 @@ def test_help_and_stubs():
     assert ftpd3d.read.__doc__
     pkg = pathlib.Path(ftpd3d.__file__).parent
     assert (pkg / "_native.pyi").is_file() and (pkg / "py.typed").is_file()
+
+
+def test_tqdm_bar_when_asked(scene, capsys):
+    pytest.importorskip("tqdm")
+    r = scene.slice("z=0", res=8, spp=2, progress=True)
+    assert r["ftpd"].shape == (8, 8)
+    assert "sample" in capsys.readouterr().err
