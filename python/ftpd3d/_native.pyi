@@ -44,6 +44,11 @@ class Field:
     def __contains__(self, name: str) -> bool: ...
     def __len__(self) -> int: ...
     def __iter__(self) -> Iterator[str]: ...
+    def separatrices(
+        self, threshold: float = 3.0, scale: Optional[float] = None, tau: Optional[float] = None
+    ) -> "Field":
+        """A new field with the separatrix channels extracted from this one (as
+        ``separatrices=True`` on a run adds them)."""
     def write(self, path: StrPath, png: bool = False) -> None:
         """Writes the field as the command line does: ``.exr`` (slices, camera images) or ``.vti``
         (volumes), with the PNG previews beside it when ``png``; ``.png`` writes the previews

@@ -4,6 +4,7 @@
 //! description (`meta`); `write` and `read`.
 
 use crate::errors::{param, to_py};
+use ftpd3d::analysis::separatrix::{self, SepParams};
 use ftpd3d::app;
 use ftpd3d::field::Field as LibField;
 use ftpd3d::output::{self, exr, vti};
@@ -308,6 +309,41 @@ impl Field {
     fn write(&self, py: Python<'_>, path: PathBuf, png: bool) -> PyResult<()> {
         check_extension(&path, self.lattice.is_some())?;
         py.detach(|| self.write_to(&path, png)).map_err(to_py)
+    }
+
+    /// A new field with the separatrix channels (`separatrix`, `separatrix.strength`, ...)
+    /// extracted from this one, as `separatrices=True` on a run or the command line's
+    /// `separatrices` subcommand adds them: significance `threshold` (standard errors), filter
+    /// `scale` in cells, strength threshold `tau` in units of σ (None: the defaults).
+    #[pyo3(signature = (threshold = SepParams::default().z, scale = None, tau = None))]
+    fn separatrices(
+        &self,
+        py: Python<'_>,
+        threshold: f64,
+        scale: Option<f64>,
+        tau: Option<f64>,
+    ) -> PyResult<Field> {
+        let params = crate::options::sep_params(threshold, scale, tau)?;
+        py.detach(|| {
+            let name = self.field.meta.get("domain").cloned().unwrap_or_default();
+            let (sep, _) = separatrix::of_field(&self.field, &name, &params)?;
+            let mut extra: Extra = self
+                .extra
+                .iter()
+                .filter(|(n, _)| !n.starts_with("separatrix"))
+                .cloned()
+                .collect();
+            extra.extend(sep.arrays());
+            Field::new(
+                self.field.clone(),
+                self.progress.clone(),
+                self.lattice,
+                extra,
+                Path::new(&name),
+                self.stats.clone(),
+            )
+        })
+        .map_err(to_py)
     }
 
     fn __repr__(&self) -> String {

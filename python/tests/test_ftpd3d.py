@@ -296,3 +296,18 @@ def test_tqdm_bar_when_asked(scene, capsys):
     r = scene.slice("z=0", res=8, spp=2, progress=True)
     assert r["ftpd"].shape == (8, 8)
     assert "sample" in capsys.readouterr().err
+
+
+def test_separatrices_of_a_field_read_back(scene, tmp_path):
+    # The same channels whether extracted during the run or from the field afterwards (read back).
+    during = scene.slice("z=0", res=24, spp=8, seed=5, separatrices=True, progress=False)
+    plain = scene.slice("z=0", res=24, spp=8, seed=5, progress=False)
+    assert "separatrix" not in plain
+    p = tmp_path / "plain.exr"
+    plain.write(p)
+    after = ftpd3d.read(p).separatrices()
+    assert after.channels == during.channels
+    for name in during.channels:
+        assert np.array_equal(after[name], during[name]), name
+    with pytest.raises(ftpd3d.ParameterError):
+        plain.separatrices(scale=0.1)
