@@ -15,6 +15,21 @@ use pyo3::prelude::*;
 use std::path::PathBuf;
 use std::time::Duration;
 
+/// The whole number `value` of keyword `name` as the library's type: a negative or too large one
+/// is a `ParameterError` (a ValueError) naming the keyword, rather than an OverflowError.
+pub fn count<T: TryFrom<i64>>(name: &str, value: i64) -> PyResult<T> {
+    T::try_from(value).map_err(|_| {
+        param(format!(
+            "{name}={value}: expected a whole number ≥ 0 that fits the count"
+        ))
+    })
+}
+
+/// [`count`] of an optional value.
+pub fn count_opt<T: TryFrom<i64>>(name: &str, value: Option<i64>) -> PyResult<Option<T>> {
+    value.map(|v| count(name, v)).transpose()
+}
+
 /// A triple of numbers.
 pub type Vec3 = (f64, f64, f64);
 
@@ -99,15 +114,15 @@ impl Estimator {
 
 /// How much one run samples, as given.
 pub struct SamplingArgs {
-    pub spp: Option<u32>,
+    pub spp: Option<i64>,
     pub time: Option<f64>,
     pub target_error: Option<f64>,
-    pub batches: u32,
-    pub pass_spp: Option<u32>,
+    pub batches: i64,
+    pub pass_spp: Option<i64>,
     pub adaptive: Option<bool>,
-    pub adaptive_cap: Option<u32>,
-    pub seed: u64,
-    pub threads: usize,
+    pub adaptive_cap: Option<i64>,
+    pub seed: i64,
+    pub threads: i64,
     pub tile: Option<String>,
 }
 
@@ -115,15 +130,21 @@ impl SamplingArgs {
     /// The sampling request, refused where it could never start or never end (the command line
     /// refuses the same values).
     pub fn sampling(&self) -> PyResult<Sampling> {
-        if self.spp == Some(0) {
+        let spp: Option<u32> = count_opt("spp", self.spp)?;
+        let batches: u32 = count("batches", self.batches)?;
+        let pass_spp: Option<u32> = count_opt("pass_spp", self.pass_spp)?;
+        let adaptive_cap: Option<u32> = count_opt("adaptive_cap", self.adaptive_cap)?;
+        let seed: u64 = count("seed", self.seed)?;
+        let threads: usize = count("threads", self.threads)?;
+        if spp == Some(0) {
             return Err(param("spp=0: at least one sample per cell is needed"));
         }
-        if self.pass_spp == Some(0) {
+        if pass_spp == Some(0) {
             return Err(param(
                 "pass_spp=0: a pass needs at least one sample per cell",
             ));
         }
-        if self.batches == 0 {
+        if batches == 0 {
             return Err(param("batches=0: a run needs at least one pass"));
         }
         if let Some(t) = self.target_error
@@ -142,7 +163,7 @@ impl SamplingArgs {
                 )));
             }
         };
-        if self.adaptive_cap == Some(0) {
+        if adaptive_cap == Some(0) {
             return Err(param(
                 "adaptive_cap=0: a cell must be allowed at least the uniform share",
             ));
@@ -155,19 +176,19 @@ impl SamplingArgs {
             ),
         };
         let sampling = Sampling {
-            spp: self.spp,
-            batches: self.batches,
-            pass_spp: self.pass_spp,
+            spp,
+            batches,
+            pass_spp,
             time,
             target_error: self.target_error,
             adaptive: self.adaptive,
-            adaptive_cap: self.adaptive_cap,
-            seed: self.seed,
-            threads: self.threads,
+            adaptive_cap,
+            seed,
+            threads,
             tile,
             progress: false,
         };
-        if self.adaptive_cap.is_some() && !sampling.is_adaptive() {
+        if adaptive_cap.is_some() && !sampling.is_adaptive() {
             return Err(param(
                 "adaptive_cap applies to adaptive runs: add adaptive=True (runs of spp or time \
                  alone are uniform)",

@@ -50,8 +50,8 @@ pub enum Env {
 /// A volume's resolution: voxels along the longest side, or (nx, ny, nz).
 #[derive(FromPyObject)]
 pub enum VolRes {
-    Dims(usize, usize, usize),
-    Longest(usize),
+    Dims(i64, i64, i64),
+    Longest(i64),
 }
 
 /// Where a run's samples start, before it is resolved against the scene.
@@ -281,8 +281,8 @@ macro_rules! estimator {
             t0: $t0,
             t1: $t1,
             angle: $angle,
-            max_bounces: $mb,
-            radiance_bounces: $rb,
+            max_bounces: options::count("max_bounces", $mb)?,
+            radiance_bounces: options::count_opt("radiance_bounces", $rb)?,
         }
     };
 }
@@ -385,11 +385,11 @@ impl Scene {
     /// reproducible run gives `spp`). `flatland` confines directions to the plane;
     /// `separatrices` adds the separatrix channels (`sep_threshold`, `sep_scale`, `sep_tau`).
     /// `progress`: None (a tqdm bar when tqdm is installed), False, True or f(done, total).
-    #[pyo3(signature = (slice = "z=0".to_string(), *, res = app::DEFAULT_RES, window = None,
-        spp = None, time = None, target_error = None, seed = RenderOptions::default().seed, weighting = "radiance".to_string(),
+    #[pyo3(signature = (slice = "z=0".to_string(), *, res = app::DEFAULT_RES as i64, window = None,
+        spp = None, time = None, target_error = None, seed = RenderOptions::default().seed as i64, weighting = "radiance".to_string(),
         t0 = None, t1 = None, angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces, radiance_bounces = None,
-        batches = RenderOptions::default().batches, pass_spp = None, adaptive = None, adaptive_cap = None, threads = 0,
+        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
+        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None, adaptive_cap = None, threads = 0,
         tile = None, flatland = false, separatrices = false, sep_threshold = SepParams::default().z,
         sep_scale = None, sep_tau = None, progress = None))]
     #[allow(clippy::too_many_arguments)]
@@ -397,23 +397,23 @@ impl Scene {
         &self,
         py: Python<'_>,
         slice: String,
-        res: usize,
+        res: i64,
         window: Option<(f64, f64, f64, f64)>,
-        spp: Option<u32>,
+        spp: Option<i64>,
         time: Option<f64>,
         target_error: Option<f64>,
-        seed: u64,
+        seed: i64,
         weighting: String,
         t0: Option<f64>,
         t1: Option<f64>,
         angle: f64,
-        max_bounces: u32,
-        radiance_bounces: Option<u32>,
-        batches: u32,
-        pass_spp: Option<u32>,
+        max_bounces: i64,
+        radiance_bounces: Option<i64>,
+        batches: i64,
+        pass_spp: Option<i64>,
         adaptive: Option<bool>,
-        adaptive_cap: Option<u32>,
-        threads: usize,
+        adaptive_cap: Option<i64>,
+        threads: i64,
         tile: Option<String>,
         flatland: bool,
         separatrices: bool,
@@ -441,18 +441,18 @@ impl Scene {
         let spec = DomainSpec::Slice {
             arg: options::slice_arg(&slice)?,
             window: window.map(|(a, b, c, d)| [a, b, c, d]),
-            res,
+            res: options::count("res", res)?,
         };
         self.run(py, spec, est, sampling, flatland, sep, progress.as_ref())
     }
     /// A flatland slice: [`slice`](Scene::slice) with every direction confined to the plane (2D
     /// light transport in the scene extruded across it); the same keywords.
-    #[pyo3(signature = (slice = "z=0".to_string(), *, res = app::DEFAULT_RES, window = None,
-        spp = None, time = None, target_error = None, seed = RenderOptions::default().seed,
+    #[pyo3(signature = (slice = "z=0".to_string(), *, res = app::DEFAULT_RES as i64, window = None,
+        spp = None, time = None, target_error = None, seed = RenderOptions::default().seed as i64,
         weighting = "radiance".to_string(), t0 = None, t1 = None,
         angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces, radiance_bounces = None,
-        batches = RenderOptions::default().batches, pass_spp = None, adaptive = None,
+        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
+        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None,
         adaptive_cap = None, threads = 0, tile = None, separatrices = false,
         sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
         progress = None))]
@@ -461,23 +461,23 @@ impl Scene {
         &self,
         py: Python<'_>,
         slice: String,
-        res: usize,
+        res: i64,
         window: Option<(f64, f64, f64, f64)>,
-        spp: Option<u32>,
+        spp: Option<i64>,
         time: Option<f64>,
         target_error: Option<f64>,
-        seed: u64,
+        seed: i64,
         weighting: String,
         t0: Option<f64>,
         t1: Option<f64>,
         angle: f64,
-        max_bounces: u32,
-        radiance_bounces: Option<u32>,
-        batches: u32,
-        pass_spp: Option<u32>,
+        max_bounces: i64,
+        radiance_bounces: Option<i64>,
+        batches: i64,
+        pass_spp: Option<i64>,
         adaptive: Option<bool>,
-        adaptive_cap: Option<u32>,
-        threads: usize,
+        adaptive_cap: Option<i64>,
+        threads: i64,
         tile: Option<String>,
         separatrices: bool,
         sep_threshold: f64,
@@ -520,12 +520,12 @@ impl Scene {
     /// scene file by `name` (or index; None: the first), or one placed by `eye`, `target`, `up`
     /// and `fov` (vertical, degrees). The sampling and estimator keywords of `slice`.
     #[pyo3(signature = (name = None, *, eye = None, target = None, up = None,
-        fov = app::DEFAULT_FOV_DEG, size = app::DEFAULT_IMAGE_SIZE, spp = None, time = None,
-        target_error = None, seed = RenderOptions::default().seed,
+        fov = app::DEFAULT_FOV_DEG, size = (app::DEFAULT_IMAGE_SIZE.0 as i64, app::DEFAULT_IMAGE_SIZE.1 as i64), spp = None, time = None,
+        target_error = None, seed = RenderOptions::default().seed as i64,
         weighting = "importance".to_string(), t0 = None, t1 = None,
         angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces, radiance_bounces = None,
-        batches = RenderOptions::default().batches, pass_spp = None, adaptive = None,
+        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
+        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None,
         adaptive_cap = None, threads = 0, tile = None, separatrices = false,
         sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
         progress = None))]
@@ -538,22 +538,22 @@ impl Scene {
         target: Option<Vec3>,
         up: Option<Vec3>,
         fov: f64,
-        size: (usize, usize),
-        spp: Option<u32>,
+        size: (i64, i64),
+        spp: Option<i64>,
         time: Option<f64>,
         target_error: Option<f64>,
-        seed: u64,
+        seed: i64,
         weighting: String,
         t0: Option<f64>,
         t1: Option<f64>,
         angle: f64,
-        max_bounces: u32,
-        radiance_bounces: Option<u32>,
-        batches: u32,
-        pass_spp: Option<u32>,
+        max_bounces: i64,
+        radiance_bounces: Option<i64>,
+        batches: i64,
+        pass_spp: Option<i64>,
         adaptive: Option<bool>,
-        adaptive_cap: Option<u32>,
-        threads: usize,
+        adaptive_cap: Option<i64>,
+        threads: i64,
         tile: Option<String>,
         separatrices: bool,
         sep_threshold: f64,
@@ -593,6 +593,10 @@ impl Scene {
         let sep = separatrices
             .then(|| options::sep_params(sep_threshold, sep_scale, sep_tau))
             .transpose()?;
+        let size = (
+            options::count("size", size.0)?,
+            options::count("size", size.1)?,
+        );
         let spec = DomainSpec::Camera { which, size };
         self.run(py, spec, est, sampling, false, sep, progress.as_ref())
     }
@@ -602,10 +606,10 @@ impl Scene {
     /// flat sides padded). Channels as the `.vti` holds them, shaped (nz, ny, nx). The sampling
     /// and estimator keywords of `slice`.
     #[pyo3(signature = (res, *, r#box = None, spp = None, time = None, target_error = None,
-        seed = RenderOptions::default().seed, weighting = "radiance".to_string(), t0 = None,
+        seed = RenderOptions::default().seed as i64, weighting = "radiance".to_string(), t0 = None,
         t1 = None, angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces, radiance_bounces = None,
-        batches = RenderOptions::default().batches, pass_spp = None, adaptive = None,
+        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
+        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None,
         adaptive_cap = None, threads = 0, tile = None, separatrices = false,
         sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
         progress = None))]
@@ -615,21 +619,21 @@ impl Scene {
         py: Python<'_>,
         res: VolRes,
         r#box: Option<(f64, f64, f64, f64, f64, f64)>,
-        spp: Option<u32>,
+        spp: Option<i64>,
         time: Option<f64>,
         target_error: Option<f64>,
-        seed: u64,
+        seed: i64,
         weighting: String,
         t0: Option<f64>,
         t1: Option<f64>,
         angle: f64,
-        max_bounces: u32,
-        radiance_bounces: Option<u32>,
-        batches: u32,
-        pass_spp: Option<u32>,
+        max_bounces: i64,
+        radiance_bounces: Option<i64>,
+        batches: i64,
+        pass_spp: Option<i64>,
         adaptive: Option<bool>,
-        adaptive_cap: Option<u32>,
-        threads: usize,
+        adaptive_cap: Option<i64>,
+        threads: i64,
         tile: Option<String>,
         separatrices: bool,
         sep_threshold: f64,
@@ -638,8 +642,12 @@ impl Scene {
         progress: Option<Bound<'_, PyAny>>,
     ) -> PyResult<Field> {
         let res = match res {
-            VolRes::Longest(n) if n > 0 => VolumeRes::Longest(n),
-            VolRes::Dims(x, y, z) if x > 0 && y > 0 && z > 0 => VolumeRes::Dims([x, y, z]),
+            VolRes::Longest(n) if n > 0 => VolumeRes::Longest(options::count("res", n)?),
+            VolRes::Dims(x, y, z) if x > 0 && y > 0 && z > 0 => VolumeRes::Dims([
+                options::count("res", x)?,
+                options::count("res", y)?,
+                options::count("res", z)?,
+            ]),
             _ => return Err(param("res: every axis needs at least 1 voxel")),
         };
         let est = estimator!(&weighting, t0, t1, angle, max_bounces, radiance_bounces);

@@ -188,6 +188,10 @@ def test_strict_load_names_the_line(tmp_path):
         (dict(slice="z=0", window=(0.0, 0.0, 0.0, 0.0)), "window"),
         (dict(slice="z=0", separatrices=True, sep_scale=0.1), "scale"),
         (dict(slice="z=0", adaptive_cap=3, spp=4), "adaptive"),
+        (dict(slice="z=0", spp=-1), "spp=-1"),
+        (dict(slice="z=0", res=-5), "res=-5"),
+        (dict(slice="z=0", max_bounces=-1), "max_bounces=-1"),
+        (dict(slice="z=0", seed=-2), "seed=-2"),
     ],
 )
 def test_bad_values_raise_value_errors(scene, kwargs, words):
