@@ -392,6 +392,10 @@ impl Scene {
         batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None, adaptive_cap = None, threads = 0,
         tile = None, flatland = false, separatrices = false, sep_threshold = SepParams::default().z,
         sep_scale = None, sep_tau = None, progress = None))]
+    // What help() shows: the defaults above, as Python values (a test holds them equal).
+    #[pyo3(
+        text_signature = "(self, slice='z=0', *, res=256, window=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, flatland=False, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn slice(
         &self,
@@ -456,6 +460,10 @@ impl Scene {
         adaptive_cap = None, threads = 0, tile = None, separatrices = false,
         sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
         progress = None))]
+    // What help() shows: the defaults above, as Python values (a test holds them equal).
+    #[pyo3(
+        text_signature = "(self, slice='z=0', *, res=256, window=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn flatland(
         &self,
@@ -529,6 +537,10 @@ impl Scene {
         adaptive_cap = None, threads = 0, tile = None, separatrices = false,
         sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
         progress = None))]
+    // What help() shows: the defaults above, as Python values (a test holds them equal).
+    #[pyo3(
+        text_signature = "(self, name=None, *, eye=None, target=None, up=None, fov=40.0, size=(512, 512), spp=None, time=None, target_error=None, seed=1, weighting='importance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn camera(
         &self,
@@ -613,6 +625,10 @@ impl Scene {
         adaptive_cap = None, threads = 0, tile = None, separatrices = false,
         sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
         progress = None))]
+    // What help() shows: the defaults above, as Python values (a test holds them equal).
+    #[pyo3(
+        text_signature = "(self, res, *, box=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn volume(
         &self,

@@ -315,3 +315,23 @@ def test_separatrices_of_a_field_read_back(scene, tmp_path):
         assert np.array_equal(after[name], during[name]), name
     with pytest.raises(ftpd3d.ParameterError):
         plain.separatrices(scale=0.1)
+
+
+def test_help_shows_the_defaults_a_run_uses(scene):
+    import inspect
+
+    sig = inspect.signature(ftpd3d.Scene.slice).parameters
+    r = scene.slice(spp=1, progress=False)
+    assert r.shape == [sig["res"].default] * 2
+    assert r.meta["plane"] == sig["slice"].default
+    assert r.meta["weighting"] == sig["weighting"].default
+    assert int(r.meta["seed"]) == sig["seed"].default
+    assert float(r.meta["angle_deg"]) == sig["angle"].default
+    assert int(r.meta["max_bounces"]) == sig["max_bounces"].default
+    assert int(r.meta["batches"]) == sig["batches"].default
+    for method in ("flatland", "camera", "volume"):
+        params = inspect.signature(getattr(ftpd3d.Scene, method)).parameters
+        for k in ("seed", "angle", "max_bounces", "batches", "sep_threshold"):
+            assert params[k].default == sig[k].default, (method, k)
+    cam = inspect.signature(ftpd3d.Scene.camera).parameters
+    assert cam["size"].default == (512, 512) and cam["fov"].default == 40.0
