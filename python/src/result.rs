@@ -17,7 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 
 /// Per-cell arrays written with a field besides those its sums give (the separatrices', an
 /// interrupted pass's).
@@ -49,8 +49,12 @@ pub struct Field {
     progress: Progress,
     lattice: Option<Lattice>,
     extra: Extra,
-    /// Channel names and values in the order of `channels`, and each one's shape.
-    channels: Channels,
+    /// Names the field in errors.
+    name: PathBuf,
+    /// The channels, computed when first asked for: part 0's (or the VTI's arrays), and part 1's
+    /// exact counts and sums (not held until asked for by name or listed).
+    view: OnceLock<Channels>,
+    exact: OnceLock<Channels>,
     shape: Vec<usize>,
     stats: BTreeMap<&'static str, String>,
 }
@@ -79,21 +83,18 @@ impl Field {
         name: &Path,
         stats: BTreeMap<&'static str, String>,
     ) -> anyhow::Result<Field> {
-        let mut all = app::progress_arrays(&progress);
-        all.extend(extra.iter().cloned());
-        let (channels, shape) = match lattice {
-            None => (
-                two_d_channels(&field, name, all)?,
-                vec![field.height, field.width],
-            ),
-            Some(l) => volume_channels(&field, name, l, &all)?,
+        let shape = match lattice {
+            None => vec![field.height, field.width],
+            Some(_) => vec![field.depth, field.height, field.width],
         };
         Ok(Field {
             field,
             progress,
             lattice,
             extra,
-            channels,
+            name: name.to_path_buf(),
+            view: OnceLock::new(),
+            exact: OnceLock::new(),
             shape,
             stats,
         })
@@ -163,19 +164,21 @@ fn check_extension(path: &Path, volume: bool) -> PyResult<()> {
     }
 }
 
-/// The EXR's channels (part 0's f32 view, then part 1's exact u32 counts and sums not already
-/// named), each in file order.
-fn two_d_channels(field: &LibField, name: &Path, extra: Extra) -> anyhow::Result<Channels> {
-    let mut out: Channels = output::exr_channels(field, name, extra)?
+/// The EXR's part 0 (f32 channels), each in file order.
+fn two_d_view(field: &LibField, name: &Path, extra: Extra) -> anyhow::Result<Channels> {
+    Ok(output::exr_channels(field, name, extra)?
         .into_iter()
         .map(|(n, v)| (n, Data::F32(v)))
-        .collect();
-    for (n, v) in exr::exact_channel_values(name, field)? {
-        if !out.iter().any(|(m, _)| *m == n) {
-            out.push((n, Data::U32(v)));
-        }
-    }
-    Ok(out)
+        .collect())
+}
+
+/// The EXR's part 1 (exact u32 counts and sums) but the names part 0 already has, in file order.
+fn two_d_exact(field: &LibField, name: &Path, view: &[String]) -> anyhow::Result<Channels> {
+    Ok(exr::exact_channel_values(name, field)?
+        .into_iter()
+        .filter(|(n, _)| !view.contains(n))
+        .map(|(n, v)| (n, Data::U32(v)))
+        .collect())
 }
 
 /// The VTI's arrays, each of its VTK type; the shape (nz, ny, nx).
@@ -184,7 +187,7 @@ fn volume_channels(
     name: &Path,
     l: Lattice,
     extra: &[(&str, Vec<f64>)],
-) -> anyhow::Result<(Channels, Vec<usize>)> {
+) -> anyhow::Result<Channels> {
     let arrays = vti::vti_arrays(name, field, l.origin, l.spacing, extra)?;
     let mut out = Vec::new();
     for a in arrays {
@@ -214,7 +217,7 @@ fn volume_channels(
         };
         out.push((name, data));
     }
-    Ok((out, vec![field.depth, field.height, field.width]))
+    Ok(out)
 }
 
 #[pymethods]
@@ -224,14 +227,15 @@ impl Field {
     /// VTI (x fastest), with a last axis for arrays of several components. f32 for the EXR's
     /// view channels, uint32 for its exact counts and sums; the VTI's own types.
     fn __getitem__<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
-        let Some((stored, data)) = self
-            .channels
-            .iter()
-            .find(|(n, _)| n == name || n.split_once('#').is_some_and(|(base, _)| base == name))
-        else {
+        let is = |n: &String| n == name || n.split_once('#').is_some_and(|(base, _)| base == name);
+        let found = match self.view(py)?.iter().find(|(n, _)| is(n)) {
+            Some(c) => Some(c),
+            None => self.exact(py)?.iter().find(|(n, _)| is(n)),
+        };
+        let Some((stored, data)) = found else {
             return Err(PyKeyError::new_err(format!(
                 "no channel {name:?}; the channels are: {}",
-                self.names().join(", ")
+                self.names(py)?.join(", ")
             )));
         };
         let mut shape = self.shape.clone();
@@ -247,24 +251,24 @@ impl Field {
         Ok(array)
     }
 
-    fn __contains__(&self, name: &str) -> bool {
-        self.names().iter().any(|n| n == name)
+    fn __contains__(&self, py: Python<'_>, name: &str) -> PyResult<bool> {
+        Ok(self.names(py)?.iter().any(|n| n == name))
     }
 
-    fn __len__(&self) -> usize {
-        self.channels.len()
+    fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(self.names(py)?.len())
     }
 
     fn __iter__(slf: PyRef<'_, Self>) -> PyResult<Bound<'_, PyAny>> {
-        let names = slf.names();
+        let names = slf.names(slf.py())?;
         let list = pyo3::types::PyList::new(slf.py(), names)?;
         Ok(list.try_iter()?.into_any())
     }
 
-    /// The channel names, in the file's order.
+    /// The channel names, in the file's order (the EXR's part 0, then part 1's others).
     #[getter]
-    fn channels(&self) -> Vec<String> {
-        self.names()
+    fn channels(&self, py: Python<'_>) -> PyResult<Vec<String>> {
+        self.names(py)
     }
 
     /// The run's description as the file's header holds it (`ftpd3d.<key>` attributes of the EXR,
@@ -355,19 +359,53 @@ impl Field {
             .join("x");
         let what = self.field.meta.get("domain").cloned().unwrap_or_default();
         format!(
-            "<ftpd3d.Field {what} {dims}, {} channels{}>",
-            self.channels.len(),
+            "<ftpd3d.Field {what} {dims}{}>",
             if self.partial() { ", partial" } else { "" }
         )
     }
 }
 
 impl Field {
-    fn names(&self) -> Vec<String> {
-        self.channels
+    /// Part 0's channels (the VTI's arrays for a volume), computed on first use.
+    fn view(&self, py: Python<'_>) -> PyResult<&Channels> {
+        if let Some(c) = self.view.get() {
+            return Ok(c);
+        }
+        let mut all = app::progress_arrays(&self.progress);
+        all.extend(self.extra.iter().cloned());
+        let made = py
+            .detach(|| match self.lattice {
+                None => two_d_view(&self.field, &self.name, all),
+                Some(l) => volume_channels(&self.field, &self.name, l, &all),
+            })
+            .map_err(to_py)?;
+        Ok(self.view.get_or_init(|| made))
+    }
+
+    /// Part 1's channels but those part 0 names (none for a volume), computed on first use.
+    fn exact(&self, py: Python<'_>) -> PyResult<&Channels> {
+        if let Some(c) = self.exact.get() {
+            return Ok(c);
+        }
+        let made = match self.lattice {
+            Some(_) => Vec::new(),
+            None => {
+                let view: Vec<String> = self.view(py)?.iter().map(|(n, _)| n.clone()).collect();
+                py.detach(|| two_d_exact(&self.field, &self.name, &view))
+                    .map_err(to_py)?
+            }
+        };
+        Ok(self.exact.get_or_init(|| made))
+    }
+
+    fn names(&self, py: Python<'_>) -> PyResult<Vec<String>> {
+        let view = self.view(py)?;
+        let exact = self.exact(py)?;
+        Ok(view
             .iter()
+            .chain(exact)
             .map(|(n, _)| n.split_once('#').map_or(n.as_str(), |(b, _)| b).to_string())
-            .collect()
+            .collect())
     }
 }
 
