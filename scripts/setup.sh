@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Installs what ftpd3d needs on Debian/Ubuntu and is missing: Embree (3.13 on Debian 12, 4.3 on
-# Debian 13 / Ubuntu 24.04), libclang for bindgen, pkg-config, and a Rust toolchain (rustup) when
-# cargo is absent. Safe to run again: it installs nothing that is already there.
+# Debian 13 / Ubuntu 24.04), libclang for bindgen, pkg-config, a Rust toolchain (rustup) when
+# cargo is absent, and for the Python module's tests python3 with venv and pip, and maturin,
+# pytest and numpy (pip). Safe to run again: it installs nothing that is already there.
 set -euo pipefail
 need=()
-for pkg in libembree-dev libclang-dev pkg-config; do
+for pkg in libembree-dev libclang-dev pkg-config python3-venv python3-pip; do
   dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then
@@ -19,4 +20,11 @@ if ! command -v cargo >/dev/null 2>&1; then
   curl --proto '=https' --tlsv1.2 -sSf https://sh.rustup.rs | sh -s -- -y --profile minimal
   # shellcheck disable=SC1091
   . "$HOME/.cargo/env"
+fi
+# The Python module's tests (tests/python.rs) build the package with maturin in a venv that sees
+# these packages.
+if ! python3 -c "import maturin, pytest, numpy" >/dev/null 2>&1; then
+  echo "setup: installing maturin, pytest and numpy (pip)" >&2
+  python3 -m pip install --quiet maturin pytest numpy 2>/dev/null \
+    || python3 -m pip install --quiet --break-system-packages maturin pytest numpy
 fi

@@ -139,6 +139,7 @@ fn time_budget_ends_within_one_pass_of_it() {
     };
     let mut field = s.field(&o);
     let mut progress = Progress::default();
+    let taken = std::sync::atomic::AtomicU64::new(0);
     let stats = s.run(
         &mut field,
         &mut progress,
@@ -146,8 +147,11 @@ fn time_budget_ends_within_one_pass_of_it() {
         Hooks {
             stop: None,
             after_pass: Some(&mut record),
+            samples: Some(&taken),
         },
     );
+    // The caller's count saw every sample the run took.
+    assert_eq!(taken.into_inner(), stats.samples);
     let longest = ends.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
     assert_eq!(stats.stop, StopReason::Time);
     assert!(stats.passes >= 1);
@@ -191,6 +195,7 @@ fn target_error_stops_as_soon_as_it_is_reached() {
         Hooks {
             stop: None,
             after_pass: Some(&mut record),
+            samples: None,
         },
     );
     assert_eq!(stats.stop, StopReason::TargetError);
@@ -223,7 +228,11 @@ fn drive<'a>(
         field,
         o,
         progress,
-        Hooks { stop, after_pass },
+        Hooks {
+            stop,
+            after_pass,
+            samples: None,
+        },
         |cell, smp: &mut ftpd3d::rng::Sampler| {
             if let (Some(flag), Some(t)) = (stop, trip)
                 && calls.fetch_add(1, Ordering::Relaxed) + 1 == t

@@ -18,6 +18,7 @@ mod mirror;
 mod mis;
 mod outdoor;
 mod pinned;
+mod python;
 mod radiance_cap;
 mod run_info;
 mod separatrix;

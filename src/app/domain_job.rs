@@ -57,6 +57,7 @@ pub(super) fn run_domain_job(
     let hooks = Hooks {
         stop: Some(&render::INTERRUPT),
         after_pass: Some(&mut checkpoint),
+        samples: None,
     };
     let run = run_domain(scene, domain, params, opts, info, start, hooks)?;
     let error = render::error_stats(&run.field.cells);

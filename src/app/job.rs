@@ -9,6 +9,15 @@ use crate::render::RenderOptions;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+/// Cells along the longer side of a slice when none is given.
+pub const DEFAULT_RES: usize = 256;
+/// A camera image's size in pixels (width, height) when none is given.
+pub const DEFAULT_IMAGE_SIZE: (usize, usize) = (512, 512);
+/// The vertical field of view, in degrees, of a camera placed by eye and target when none is given.
+pub const DEFAULT_FOV_DEG: f64 = 40.0;
+/// The up vector of a camera placed by eye and target when none is given.
+pub const DEFAULT_UP: glam::DVec3 = glam::DVec3::Y;
+
 /// Where a run's samples start.
 #[derive(Clone, Debug)]
 pub enum DomainArg {

@@ -9,22 +9,29 @@ mod check;
 mod describe;
 mod domain_job;
 mod job;
+mod lights;
 mod memory;
 mod progress;
 pub mod report;
 mod resolve;
 mod run_domain;
+mod sampling;
 
 pub use check::check_job;
 pub use describe::describe_domain;
-pub use job::{CameraArg, DomainArg, Job, slice_output};
+pub use job::{
+    CameraArg, DEFAULT_FOV_DEG, DEFAULT_IMAGE_SIZE, DEFAULT_RES, DEFAULT_UP, DomainArg, Job,
+    slice_output,
+};
+pub use lights::{LightError, environment, point_light, sky, sun};
 pub use memory::{FALLBACK_MEMORY_BYTES, available_memory, check_volume_memory, volume_bytes};
 pub use progress::{
-    RESUME_KEYS, check_resume, mark_progress, read_progress, write_progress, write_progress_with,
-    write_volume_progress, write_volume_progress_with,
+    RESUME_KEYS, check_resume, mark_progress, progress_arrays, read_progress, write_progress,
+    write_progress_with, write_volume_progress, write_volume_progress_with,
 };
-pub use resolve::{JobDomain, resolve_camera};
+pub use resolve::{JobDomain, PLACED_CAMERA, resolve_camera};
 pub use run_domain::{DomainRun, Start, run_domain};
+pub use sampling::{DEFAULT_BUDGET, Sampling};
 
 use crate::domain::slice::resolve_plane;
 use crate::domain::volume::Volume;

@@ -166,8 +166,9 @@ pub fn write_volume_progress_with(
     )?)
 }
 
-/// The per-cell arrays of a pass interrupted part-way (none between passes).
-fn progress_arrays(progress: &Progress) -> Vec<(&'static str, Vec<f64>)> {
+/// The per-cell arrays of a pass interrupted part-way (none between passes), as the writers add
+/// them to a field's file.
+pub fn progress_arrays(progress: &Progress) -> Vec<(&'static str, Vec<f64>)> {
     let mut extra = Vec::new();
     if let Some(f) = &progress.inflight {
         extra.push((

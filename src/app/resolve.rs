@@ -78,6 +78,10 @@ impl JobDomain {
     }
 }
 
+/// The name of a camera placed by eye and target (rather than one of the scene file), as a run's
+/// description holds it: every front end gives it, so that their fields merge.
+pub const PLACED_CAMERA: &str = "command line";
+
 /// Resolves the camera of a job against the scene.
 pub fn resolve_camera(
     arg: &CameraArg,
@@ -91,7 +95,7 @@ pub fn resolve_camera(
             up,
             fov_deg,
         } => scene::sidecar::camera_of(&scene::sidecar::CameraSpec {
-            name: Some("command line".into()),
+            name: Some(PLACED_CAMERA.into()),
             eye: eye.to_array(),
             target: target.to_array(),
             up: Some(up.to_array()),

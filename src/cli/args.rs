@@ -146,7 +146,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "U0,V0,U1,V1", allow_hyphen_values = true, value_parser = parse_window)]
     pub window: Option<[f64; 4]>,
     /// Cells along the longer side of the slice.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = crate::app::DEFAULT_RES)]
     pub res: usize,
     /// Samples (deflection pairs) per cell [default: no cap; without --spp, --time and
     /// --target-error a run stops at --target-error 0.05 or after --time 60s, whichever comes
@@ -197,15 +197,15 @@ pub struct RunArgs {
     /// Point the camera looks at.
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3, requires = "eye")]
     pub target: Option<glam::DVec3>,
-    /// Camera up vector.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3, default_value = "0,1,0")]
-    pub up: glam::DVec3,
+    /// Camera up vector [default: 0,1,0].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    pub up: Option<glam::DVec3>,
     /// Vertical field of view of --eye cameras, degrees.
-    #[arg(long, default_value_t = 40.0)]
+    #[arg(long, default_value_t = crate::app::DEFAULT_FOV_DEG)]
     pub fov: f64,
-    /// Camera image size in pixels.
-    #[arg(long, value_name = "W,H", value_parser = parse_size, default_value = "512,512")]
-    pub size: (usize, usize),
+    /// Camera image size in pixels [default: 512,512].
+    #[arg(long, value_name = "W,H", value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
     #[command(flatten)]
     pub estimator: EstimatorFlags,
     /// Seed of the random streams (same seed, same result, on any number of threads).

@@ -6,9 +6,8 @@ use super::report::shell_quote;
 use crate::analysis::separatrix::SepParams;
 use crate::app::{self, CameraArg, DomainArg, Job};
 use crate::domain::slice::SliceArg;
-use crate::render::{Adaptive, Budget, RenderOptions, StopReason};
+use crate::render::{RenderOptions, StopReason};
 use std::path::PathBuf;
-use std::time::Duration;
 
 /// The main run: the job of `args`, with the signal handler installed, to its outputs. Returns
 /// why the last domain's run stopped.
@@ -18,18 +17,6 @@ pub fn run(args: &RunArgs) -> anyhow::Result<Option<StopReason>> {
     let outcomes = app::run_job(&job)?;
     Ok(outcomes.last().map(|o| o.stats.stop))
 }
-
-/// The budget of a run given no --spp, --time or --target-error: p95 relative error 0.05 or one
-/// minute, whichever comes first, so that a first run shows clean structure soon on a small
-/// machine (what the README's first command reaches: `docs/performance.md#the-first-command`). A
-/// time budget makes the number of passes depend on the machine: `--spp N` gives a reproducible
-/// run.
-const DEFAULT_BUDGET: Budget = Budget {
-    cap_spp: false,
-    time: Some(Duration::from_secs(60)),
-    target_error: Some(0.05),
-    max_passes: None,
-};
 
 impl RunArgs {
     /// The job these arguments ask for, checked as far as it can be without loading the scene.
@@ -102,7 +89,7 @@ impl RunArgs {
         if let Some(camera) = self.camera_arg() {
             let camera = DomainArg::Camera {
                 camera,
-                size: self.size,
+                size: self.size.unwrap_or(app::DEFAULT_IMAGE_SIZE),
             };
             return Ok((camera, format!("{stem}_camera.exr"), WeightArg::Importance));
         }
@@ -128,7 +115,7 @@ impl RunArgs {
             (_, Some(eye), Some(target)) => Some(CameraArg::Explicit {
                 eye,
                 target,
-                up: self.up,
+                up: self.up.unwrap_or(app::DEFAULT_UP),
                 fov_deg: self.fov,
             }),
             (Some(name), _, _) => Some(CameraArg::Scene((!name.is_empty()).then(|| name.clone()))),
@@ -151,7 +138,7 @@ impl RunArgs {
 
     /// --adaptive-cap on a run that is not adaptive is refused rather than ignored.
     fn check_adaptive_cap(&self) -> anyhow::Result<()> {
-        if self.adaptive_cap.is_some() && !self.adaptive_sampling() {
+        if self.adaptive_cap.is_some() && !self.sampling().is_adaptive() {
             anyhow::bail!(
                 "--adaptive-cap applies to adaptive runs: add --adaptive (runs of --spp or --time \
                  alone are uniform)"
@@ -170,39 +157,33 @@ impl RunArgs {
         self.sep.params().map(Some)
     }
 
-    /// Whether passes after the second go where the error is largest: asked for by --adaptive, and
-    /// the default of a run that stops at a target error (--target-error, or the default budget),
-    /// since that stop is a percentile of the relative error over cells and the allocation fills
-    /// cells up to a common relative error; --uniform turns it off. A run of --spp or --time alone
-    /// stays uniform.
-    fn adaptive_sampling(&self) -> bool {
-        let target = self.target_error.is_some() || (self.spp.is_none() && self.time.is_none());
-        self.adaptive || (target && !self.uniform)
+    /// What the sampling flags ask for: --spp, --time and --target-error (none of them: the
+    /// default budget, [`app::DEFAULT_BUDGET`]), --adaptive or --uniform (neither: adaptive when
+    /// the run stops at a target error, [`app::Sampling::is_adaptive`]), and the rest as given.
+    fn sampling(&self) -> app::Sampling {
+        app::Sampling {
+            spp: self.spp,
+            batches: self.batches,
+            pass_spp: self.pass_spp,
+            time: self.time,
+            target_error: self.target_error,
+            adaptive: if self.adaptive {
+                Some(true)
+            } else if self.uniform {
+                Some(false)
+            } else {
+                None
+            },
+            adaptive_cap: self.adaptive_cap,
+            seed: self.seed,
+            threads: self.threads,
+            tile: self.tile,
+            progress: !self.quiet,
+        }
     }
 
     fn render(&self) -> RenderOptions {
-        RenderOptions {
-            spp: self.spp.unwrap_or(RenderOptions::default().spp),
-            batches: self.batches,
-            seed: self.seed,
-            threads: self.threads,
-            progress: !self.quiet,
-            budget: if self.spp.is_none() && self.time.is_none() && self.target_error.is_none() {
-                DEFAULT_BUDGET
-            } else {
-                Budget {
-                    cap_spp: self.spp.is_some(),
-                    time: self.time,
-                    target_error: self.target_error,
-                    max_passes: None,
-                }
-            },
-            pass_spp: self.pass_spp,
-            adaptive: self.adaptive_sampling().then_some(Adaptive {
-                max_share: self.adaptive_cap.unwrap_or(Adaptive::default().max_share),
-            }),
-            tile: self.tile,
-        }
+        self.sampling().render_options()
     }
 }
 

@@ -18,9 +18,7 @@ pub fn parse_point_light(s: &str) -> Result<(DVec3, DVec3), String> {
         three(p, "position", "x,y,z")?,
         three(i, "intensity", "r,g,b")?,
     );
-    if int.min_element() < 0.0 {
-        return Err(format!("'{s}': intensity must be ≥ 0"));
-    }
+    crate::app::point_light(pos, int).map_err(|e| format!("'{s}': {e}"))?;
     Ok((pos, int))
 }
 
@@ -39,37 +37,21 @@ pub fn parse_sun(s: &str) -> Result<crate::scene::Light, String> {
     };
     let dir = three(parts[0], "direction", "x,y,z")?;
     let e = three(parts[1], "irradiance", "r,g,b")?;
-    let Some(direction) = dir.try_normalize() else {
-        return Err(format!("'{s}': the direction must be finite and not zero"));
-    };
-    if e.min_element() < 0.0 {
-        return Err(format!("'{s}': irradiance must be ≥ 0"));
-    }
     let diameter = match parts.get(2) {
-        None => crate::scene::DEFAULT_SUN_DIAMETER_DEG,
-        Some(t) => t
-            .trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|d| (0.0..180.0).contains(d))
-            .ok_or_else(|| {
-                format!("'{s}': the angular diameter must be a number of degrees in [0, 180)")
-            })?,
+        None => None,
+        Some(t) => Some(
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{s}': {}", crate::app::LightError::Diameter))?,
+        ),
     };
-    Ok(crate::scene::Light::distant(
-        direction,
-        e,
-        0.5 * diameter.to_radians(),
-    ))
+    crate::app::sun(dir, e, diameter).map_err(|e| format!("'{s}': {e}"))
 }
 
 /// Parses `--sky r,g,b`: constant radiance from every direction that leaves the scene.
 pub fn parse_sky(s: &str) -> Result<crate::scene::Light, String> {
     let radiance = DVec3::from(parse_floats::<3>(s, "r,g,b")?);
-    if radiance.min_element() < 0.0 {
-        return Err(format!("'{s}': radiance must be ≥ 0"));
-    }
-    Ok(crate::scene::Light::Sky { radiance })
+    crate::app::sky(radiance).map_err(|e| format!("'{s}': {e}"))
 }
 
 /// Parses `--env FILE[:SCALE[:ROT_DEG]]` and reads the map: a lat-long `.exr` or `.hdr` (+y up),
@@ -93,11 +75,7 @@ pub fn parse_env(s: &str) -> Result<crate::scene::Light, String> {
         nums.first().copied().unwrap_or(1.0),
         nums.get(1).copied().unwrap_or(0.0),
     );
-    let map = crate::scene::env::EnvMap::load(std::path::Path::new(&file), scale, rot)
-        .map_err(|e| format!("{e:#}"))?;
-    Ok(crate::scene::Light::Env(
-        crate::scene::env::Environment::new(map),
-    ))
+    crate::app::environment(std::path::Path::new(&file), scale, rot).map_err(|e| format!("{e:#}"))
 }
 
 /// Parses `X,Y,Z` (`--eye`, `--target`, `--up`).

@@ -16,7 +16,7 @@ pub struct SepFlags {
     #[arg(
         long,
         value_name = "Z",
-        default_value_t = 3.0,
+        default_value_t = SepParams::default().z,
         allow_negative_numbers = true
     )]
     pub sep_threshold: f64,
@@ -40,6 +40,8 @@ impl SepFlags {
 
     /// Whether any of the flags was given (a value other than its default).
     pub fn given(&self) -> bool {
-        self.sep_scale.is_some() || self.sep_tau.is_some() || self.sep_threshold != 3.0
+        self.sep_scale.is_some()
+            || self.sep_tau.is_some()
+            || self.sep_threshold != SepParams::default().z
     }
 }

@@ -34,7 +34,7 @@ use crate::ftpd::Weighting;
 use crate::ftpd::moments::Moments;
 use crate::output::exact::{EXACT, EXACT_COMP, ExactArrays, read_exact};
 use crate::output::{FileError, f32_of, write_file_atomically};
-use crate::run_info::{DomainKind, RunInfo};
+use crate::run_info::DomainKind;
 use exr::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -45,17 +45,11 @@ use std::result::Result;
 /// cell in field order. Written to a temporary name, then renamed.
 pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> Result<(), FileError> {
     let (w, h) = (field.width, field.height);
-    if field.depth != 1 || w == 0 || h == 0 {
-        return Err(FileError::unfit(
-            path,
-            format!("an EXR holds one 2D slice (got {w}x{h}x{})", field.depth),
-        ));
-    }
-    // The description decides the colour channels (and a malformed one is refused before writing).
-    let info = field.info(&path.display().to_string())?;
-    let order = file_order(w, h);
-    let view = view_channels(path, field, &info, extra, &order)?;
-    let exact = exact_channels(path, field, &order)?;
+    let view = view_channels(path, field, extra)?
+        .into_iter()
+        .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data)))
+        .collect();
+    let exact = exact_channels(path, field, &file_order(w, h))?;
     let image = two_parts(w, h, &field.meta, view, exact);
     write_file_atomically(path, |tmp| {
         image.write().to_file(tmp).map_err(|e| match e {
@@ -63,6 +57,18 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> Resu
             e => FileError::encode(path, e),
         })
     })
+}
+
+/// Refuses a field an EXR cannot hold: a volume, or an empty grid.
+pub(super) fn check_2d(path: &Path, field: &Field) -> Result<(), FileError> {
+    let (w, h) = (field.width, field.height);
+    if field.depth != 1 || w == 0 || h == 0 {
+        return Err(FileError::unfit(
+            path,
+            format!("an EXR holds one 2D slice (got {w}x{h}x{})", field.depth),
+        ));
+    }
+    Ok(())
 }
 
 /// The field index of each pixel in file order: field row 0 is the bottom (v minimal), EXR row 0
@@ -76,21 +82,28 @@ fn file_order(w: usize, h: usize) -> Vec<usize> {
 
 type Channels = Vec<AnyChannel<FlatSamples>>;
 
-/// Part 0's f32 channels, for viewing: σ (and as grey), its moments and error, weight, validity,
-/// the rounded sums and counts, the fluence or a camera's beauty image, and `extra`.
-fn view_channels(
+/// Part 0's f32 channels of a 2D field (depth 1) as [`write_exr`] writes them, which calls it: σ
+/// (and as grey), its moments and error, weight, validity, the rounded sums and counts, the
+/// fluence or a camera's beauty image, and `extra` (one value per cell in field order). Each is
+/// its name and one value per cell in file order (row 0 at the top, the plane's largest v), and
+/// they come sorted by name, as the file lists them. The run's description (`field.meta`) decides
+/// the colour channels; `path` names the field in errors. A front end that shows a field without
+/// writing it gets the file's channels from here, bit for bit.
+pub fn view_channels(
     path: &Path,
     field: &Field,
-    info: &RunInfo,
     extra: &[(&str, Vec<f64>)],
-    order: &[usize],
-) -> Result<Channels, FileError> {
+) -> Result<Vec<(String, Vec<f32>)>, FileError> {
+    check_2d(path, field)?;
+    let (w, h) = (field.width, field.height);
+    // A malformed description is refused before anything is computed.
+    let info = field.info(&path.display().to_string())?;
+    let order = file_order(w, h);
     let vals = field.values();
     let per =
         |f: &dyn Fn(usize) -> f64| -> Vec<f32> { order.iter().map(|&k| f32_of(f(k))).collect() };
-    let mut chans = Channels::new();
-    let mut f32ch =
-        |name: &str, data: Vec<f32>| chans.push(AnyChannel::new(name, FlatSamples::F32(data)));
+    let mut chans: Vec<(String, Vec<f32>)> = Vec::new();
+    let mut f32ch = |name: &str, data: Vec<f32>| chans.push((name.to_string(), data));
     f32ch("ftpd", per(&|k| vals[k].sigma));
     // FreeImage's EXR loader knows only colour models (R,G,B[,A] or Y) and refuses a part whose
     // channels are all named otherwise ("Unsupported color model"): σ as grey.
@@ -135,11 +148,36 @@ fn view_channels(
         }
         f32ch(name, per(&|k| data[k]));
     }
+    chans.sort_by(|a, b| a.0.cmp(&b.0));
     Ok(chans)
+}
+
+/// Part 1's u32 channels of a 2D field as [`write_exr`] writes them: the exact counts (`samples`,
+/// `batches`, `groups`) and the bits of every exact sum as hi/lo pairs (`exact.<sum>.hi/.lo`),
+/// each in file order (row 0 at the top), in the order they are made (the file lists them sorted
+/// by name).
+pub fn exact_channel_values(
+    path: &Path,
+    field: &Field,
+) -> Result<Vec<(String, Vec<u32>)>, FileError> {
+    check_2d(path, field)?;
+    exact_u32(path, field, &file_order(field.width, field.height))
 }
 
 /// Part 1's u32 channels: the exact counts, and the bits of every exact sum as hi/lo pairs.
 fn exact_channels(path: &Path, field: &Field, order: &[usize]) -> Result<Channels, FileError> {
+    Ok(exact_u32(path, field, order)?
+        .into_iter()
+        .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::U32(data)))
+        .collect())
+}
+
+/// The exact counts and sums, by name, in `order`.
+fn exact_u32(
+    path: &Path,
+    field: &Field,
+    order: &[usize],
+) -> Result<Vec<(String, Vec<u32>)>, FileError> {
     if let Some(c) = field.cells.iter().find(|c| c.n > u32::MAX as u64) {
         return Err(FileError::unfit(
             path,
@@ -152,9 +190,8 @@ fn exact_channels(path: &Path, field: &Field, order: &[usize]) -> Result<Channel
     let cells = &field.cells;
     let per =
         |f: &dyn Fn(&Moments) -> u32| -> Vec<u32> { order.iter().map(|&k| f(&cells[k])).collect() };
-    let mut chans = Channels::new();
-    let mut u32ch =
-        |name: &str, data: Vec<u32>| chans.push(AnyChannel::new(name, FlatSamples::U32(data)));
+    let mut chans: Vec<(String, Vec<u32>)> = Vec::new();
+    let mut u32ch = |name: &str, data: Vec<u32>| chans.push((name.to_string(), data));
     u32ch("samples", per(&|c| c.n as u32));
     u32ch("batches", per(&|c| c.batches.min(u32::MAX as u64) as u32));
     u32ch("groups", per(&|c| c.groups as u32));
@@ -347,4 +384,25 @@ pub fn read_channel(path: &Path, name: &str) -> Result<(usize, usize, Vec<f32>),
     })?;
     let v: Vec<f32> = c.values_as_f32().collect();
     Ok((w, h, file_order(w, h).into_iter().map(|e| v[e]).collect()))
+}
+
+/// Every f32 channel of an EXR file, by name (the first part's where two parts have one), each in
+/// field order (row 0 = bottom): for a reader that keeps the channels a field's sums do not give
+/// back (the separatrices', an interrupted pass's), to write them again as they were.
+pub fn read_f32_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>, FileError> {
+    let image = read_image(path)?;
+    let size = image.layer_data[0].size;
+    let order = file_order(size.x(), size.y());
+    let mut out: Vec<(String, Vec<f32>)> = Vec::new();
+    for layer in &image.layer_data {
+        for c in &layer.channel_data.list {
+            let name = c.name.to_string();
+            if let FlatSamples::F32(v) = &c.sample_data
+                && !out.iter().any(|(n, _)| *n == name)
+            {
+                out.push((name, order.iter().map(|&e| v[e]).collect()));
+            }
+        }
+    }
+    Ok(out)
 }

@@ -124,19 +124,42 @@ pub fn write_outputs_with(
     field: &Field,
     path: &Path,
     png: bool,
-    mut extra: Vec<(&str, Vec<f64>)>,
+    extra: Vec<(&str, Vec<f64>)>,
 ) -> Result<(), FileError> {
     let sigma = field.sigma();
     let valid = field.valid();
-    let (w, h) = (field.width, field.height);
-    let (gx, gy) = png::sobel(&sigma, &valid, w, h);
-    extra.insert(0, ("grad.x", gx));
-    extra.insert(1, ("grad.y", gy));
+    let extra = with_gradient(field, &sigma, &valid, extra);
     exr::write_exr(path, field, &extra)?;
     if png {
-        write_previews(path, &sigma, &valid, w, h)?;
+        write_previews(path, &sigma, &valid, field.width, field.height)?;
     }
     Ok(())
+}
+
+/// The f32 channels of the EXR that [`write_outputs_with`] writes for `field` and `extra`, computed
+/// by the writer's own steps ([`exr::view_channels`]): name and values in file order (row 0 at the
+/// top), sorted by name. `name` stands for the field in errors.
+pub fn exr_channels(
+    field: &Field,
+    name: &Path,
+    extra: Vec<(&str, Vec<f64>)>,
+) -> Result<Vec<(String, Vec<f32>)>, FileError> {
+    exr::check_2d(name, field)?;
+    let extra = with_gradient(field, &field.sigma(), &field.valid(), extra);
+    exr::view_channels(name, field, &extra)
+}
+
+/// `extra` after the Sobel gradient of σ (`grad.x`, `grad.y`, per cell), as the EXR holds them.
+fn with_gradient<'a>(
+    field: &Field,
+    sigma: &[f64],
+    valid: &[bool],
+    mut extra: Vec<(&'a str, Vec<f64>)>,
+) -> Vec<(&'a str, Vec<f64>)> {
+    let (gx, gy) = png::sobel(sigma, valid, field.width, field.height);
+    extra.insert(0, ("grad.x", gx));
+    extra.insert(1, ("grad.y", gy));
+    extra
 }
 
 /// Writes the `.vti` (see [`vti`]; `origin` is the centre of voxel (0, 0, 0), `spacing` the voxel

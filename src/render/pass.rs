@@ -30,8 +30,8 @@ pub(super) struct Counters {
 }
 
 /// One pass to run: its index, the cells it covers, per-cell sizes, the cells that already
-/// completed it (resumed runs) and the stop flag checked between chunks. Per-cell vectors are
-/// indexed over the whole field.
+/// completed it (resumed runs), the stop flag checked between chunks and the caller's sample
+/// count. Per-cell vectors are indexed over the whole field.
 pub(super) struct PassJob<'a> {
     pub(super) seed: u64,
     pub(super) cells: std::ops::Range<usize>,
@@ -39,6 +39,8 @@ pub(super) struct PassJob<'a> {
     pub(super) sizes: PassSizes<'a>,
     pub(super) done: Option<&'a [bool]>,
     pub(super) stop: Option<&'a AtomicBool>,
+    /// The caller's count of samples taken ([`super::Hooks::samples`]).
+    pub(super) samples: Option<&'a AtomicU64>,
 }
 
 /// Runs one pass over the cells not yet `done`; returns per chunk whether it ran (false: skipped
@@ -61,6 +63,7 @@ where
         ref sizes,
         done,
         stop,
+        samples,
     } = *job;
     let first = cells.start;
     pool.install(|| {
@@ -114,6 +117,9 @@ where
                 counters.capped.fetch_add(cap, Relaxed);
                 counters.clamped.fetch_add(cl, Relaxed);
                 counters.samples.fetch_add(n, Relaxed);
+                if let Some(s) = samples {
+                    s.fetch_add(n, Relaxed);
+                }
                 bar.inc(n);
                 true
             })

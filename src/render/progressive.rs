@@ -12,7 +12,7 @@ use crate::rng::Sampler;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
 use std::time::Instant;
 
 /// Process-wide stop request, set by the command line's SIGINT/SIGTERM handler and passed to the
@@ -28,6 +28,9 @@ pub struct Hooks<'a> {
     /// Stop between chunks once this is set.
     pub stop: Option<&'a AtomicBool>,
     pub after_pass: Option<&'a mut AfterPass<'a>>,
+    /// Samples taken, added to as each chunk of cells finishes: a front end reads it from another
+    /// thread to show progress.
+    pub samples: Option<&'a AtomicU64>,
 }
 
 /// Runs `kernel(cell, sampler)` `opts.spp` times for every cell of `field`, adding to its sums, on
@@ -253,6 +256,7 @@ impl<'a> Driver<'a> {
             sizes,
             done,
             stop: hooks.stop,
+            samples: hooks.samples,
         };
         let ran = run_pass(pool, field, &job, &self.counters, &self.bar, kernel);
         self.taken += self.counters.samples.load(Relaxed) - before;

@@ -43,7 +43,7 @@ mod read;
 mod write;
 
 pub use read::read_vti;
-pub use write::{write_vti, write_vti_with};
+pub use write::{VtiArray, vti_arrays, write_vti, write_vti_with};
 
 use crate::field::Field;
 use crate::ftpd::moments::{CellValue, Moments};
@@ -59,8 +59,9 @@ pub struct Vti {
     /// Position of the first point (the centre of voxel (0, 0, 0)).
     pub origin: DVec3,
     pub spacing: DVec3,
-    /// Arrays of a run's progress, by name (`pass.done`, `pass.units`: see [`write_vti_with`]),
-    /// empty for a finished run.
+    /// The Float64 arrays besides the exact sums, by name: a run's progress (`pass.done`,
+    /// `pass.units`: see [`write_vti_with`]) and the separatrices' arrays; empty for a finished
+    /// run without separatrices.
     pub extra: BTreeMap<String, Vec<f64>>,
 }
 

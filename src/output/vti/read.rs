@@ -34,7 +34,7 @@ pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
     read_exact(&mut field, &file)?;
     let mut extra = BTreeMap::new();
     for (name, (ty, _)) in &file.arrays {
-        if name.starts_with("pass.") && ty == "Float64" {
+        if !name.starts_with("exact.") && ty == "Float64" {
             extra.insert(name.clone(), file.float64s(name)?);
         }
     }

@@ -37,25 +37,100 @@ pub fn write_vti_with(
     extra: &[(&str, Vec<f64>)],
 ) -> Result<(), FileError> {
     let n = check_volume(path, field, origin, spacing)?;
+    let derived = Derived::of(path, field, spacing)?;
+    let arrays = derived.arrays(path, field, extra, n)?;
     let dims = [field.width, field.height, field.depth];
-    let vals = field.values();
-    let grad = gradient_magnitude(&vals, dims, spacing);
-    let radiance = field.info(&path.display().to_string())?.weighting == Some(Weighting::Radiance);
-    let mut arrays = view_arrays(&field.cells, &vals, &grad, radiance);
-    arrays.extend(exact_arrays(&field.cells));
-    for (name, values) in extra {
-        if values.len() != n {
-            return Err(FileError::unfit(
-                path,
-                format!("array '{name}' has {} values for {n} voxels", values.len()),
-            ));
-        }
-        arrays.push(f64_array(name.to_string(), |i| values[i]));
-    }
     let header = header(dims, origin, spacing, &field.meta, &arrays, n);
     write_file_atomically(path, |tmp| {
         write_file(tmp, &header, &arrays, n).map_err(|source| FileError::write(path, source))
     })
+}
+
+/// One array of a `.vti` as [`write_vti_with`] stores it: its name, VTK type (`Float32`,
+/// `Float64`, `UInt32`, `UInt8`), components per voxel, and the little-endian bytes of every
+/// voxel in point order (x fastest, then y, then z).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VtiArray {
+    pub name: String,
+    pub ty: &'static str,
+    pub components: usize,
+    pub bytes: Vec<u8>,
+}
+
+/// Every array that [`write_vti_with`] writes for `field`, `spacing` and `extra`, in the file's
+/// order, computed by the writer's own steps: what a front end shows as the file's arrays without
+/// writing it. Holds every array in memory at once (the writer streams them); `path` names the
+/// volume in errors.
+pub fn vti_arrays(
+    path: &Path,
+    field: &Field,
+    origin: DVec3,
+    spacing: DVec3,
+    extra: &[(&str, Vec<f64>)],
+) -> Result<Vec<VtiArray>, FileError> {
+    let n = check_volume(path, field, origin, spacing)?;
+    let derived = Derived::of(path, field, spacing)?;
+    let arrays = derived.arrays(path, field, extra, n)?;
+    Ok(arrays
+        .iter()
+        .map(|a| {
+            let mut bytes = Vec::with_capacity(a.bytes(n) as usize);
+            for i in 0..n {
+                (a.put)(i, &mut bytes);
+            }
+            VtiArray {
+                name: a.name.clone(),
+                ty: a.ty,
+                components: a.comps,
+                bytes,
+            }
+        })
+        .collect())
+}
+
+/// What the arrays are computed from besides the sums: the finalised values, the gradient
+/// magnitude, and whether the run was radiance-weighted (else `fluence` is zeros).
+struct Derived {
+    vals: Vec<CellValue>,
+    grad: Vec<f32>,
+    radiance: bool,
+}
+
+impl Derived {
+    fn of(path: &Path, field: &Field, spacing: DVec3) -> Result<Derived, FileError> {
+        let dims = [field.width, field.height, field.depth];
+        let vals = field.values();
+        let grad = gradient_magnitude(&vals, dims, spacing);
+        let info = field.info(&path.display().to_string())?;
+        Ok(Derived {
+            vals,
+            grad,
+            radiance: info.weighting == Some(Weighting::Radiance),
+        })
+    }
+
+    /// The arrays of the file: the view, the exact sums, then `extra` (each checked to hold one
+    /// value per voxel of the `n`).
+    fn arrays<'a>(
+        &'a self,
+        path: &Path,
+        field: &'a Field,
+        extra: &'a [(&str, Vec<f64>)],
+        n: usize,
+    ) -> Result<Vec<Array<'a>>, FileError> {
+        let mut arrays = view_arrays(&field.cells, &self.vals, &self.grad, self.radiance);
+        arrays.extend(exact_arrays(&field.cells));
+        for (name, values) in extra {
+            if values.len() != n {
+                return Err(FileError::unfit(
+                    path,
+                    format!("array '{name}' has {} values for {n} voxels", values.len()),
+                ));
+            }
+            arrays.push(f64_array(name.to_string(), |i| values[i]));
+        }
+        Ok(arrays)
+    }
 }
 
 /// The number of voxels, once the field is a whole grid on a valid lattice whose counts fit the
