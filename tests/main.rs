@@ -16,6 +16,7 @@ mod merge;
 mod mirror;
 mod mis;
 mod outdoor;
+mod pairs;
 mod pinned;
 mod radiance_cap;
 mod run_info;
