@@ -2,8 +2,12 @@
 //! pair per sample, from the standard errors a run computes.
 //!
 //! ```sh
-//! cargo run --release --example pairs_design [-- RES SPP ROUNDS]    # defaults: 32 256 3
+//! cargo run --release --example pairs_design [-- RES SPP ROUNDS [RADIANCE [UNWEIGHTED [SCENES]]]]
 //! ```
+//!
+//! Defaults: 32 256 3; RADIANCE and UNWEIGHTED are the designs of each weighting separated by
+//! `;` (`1,1,1,1;2,2,1,8`; 1,1,1,1 is always run first, as the base; an empty list skips the
+//! weighting), SCENES the shipped scenes separated by `,` (`cornell_mirror.obj,stair_wall.obj`).
 //!
 //! For each scene (Cornell box with mirror, stair wall; slice z = 0) and weighting (radiance,
 //! unweighted), every design runs the same slice with the same samples per cell, in `ROUNDS`
@@ -12,8 +16,9 @@
 //! variance of σ, summed over the cells every design resolves; se from the independent
 //! scrambled-Sobol' groups of 8 samples, so it includes what stratification gains), the process
 //! CPU seconds per sample and the rays per sample. Printed against 1,1,1,1: the variance ratio
-//! V₁/V, the time ratio t/t₁, and the efficiency (V₁ t₁)/(V t), the factor by which the design
-//! needs less time for the same error.
+//! V₁/V, the time ratio t/t₁, the efficiency (V₁ t₁)/(V t), the factor by which the design needs
+//! less time for the same error, and the same with rays for time (which the machine's load does
+//! not change).
 
 use ftpd3d::domain::Plane;
 use ftpd3d::field::Field;
@@ -50,17 +55,36 @@ fn main() -> anyhow::Result<()> {
     let res: usize = args.first().map_or(Ok(32), |a| a.parse())?;
     let spp: u32 = args.get(1).map_or(Ok(256), |a| a.parse())?;
     let rounds: u64 = args.get(2).map_or(Ok(3), |a| a.parse())?;
+    let designs_of = |i: usize, default: &str| -> anyhow::Result<Vec<Design>> {
+        let text = args.get(i).map_or(default, String::as_str);
+        let mut out = vec![Design::SINGLE];
+        for d in text.split(';').filter(|t| !t.trim().is_empty()) {
+            let d: Design = d.parse().map_err(anyhow::Error::msg)?;
+            if d != Design::SINGLE {
+                out.push(d);
+            }
+        }
+        Ok(out)
+    };
+    let radiance = designs_of(3, "1,1,1,8;1,1,2,8;2,2,1,2;2,2,1,4;2,2,1,8;2,2,2,4")?;
+    let unweighted = designs_of(4, "1,1,1,4;1,1,1,8;2,2,1,2;2,2,1,4;2,2,1,8;2,2,2,4")?;
+    let skip = |i: usize| args.get(i).is_some_and(|t| t.trim().is_empty());
+    let scenes: Vec<String> = args
+        .get(5)
+        .map_or("cornell_mirror.obj,stair_wall.obj", String::as_str)
+        .split(',')
+        .map(str::to_string)
+        .collect();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     println!(
         "slice z=0, {res} cells on the long side, {spp} spp, {rounds} rounds, {} threads",
         rayon::current_num_threads()
     );
     println!(
-        "| scene | weighting | design | variance ratio | time ratio | efficiency | rays/sample |"
+        "| scene | weighting | design | variance ratio | time ratio | efficiency | rays/sample | efficiency by rays |"
     );
-    println!("|---|---|---|---|---|---|---|");
-    let d = Design::new;
-    for name in ["cornell_mirror.obj", "stair_wall.obj"] {
+    println!("|---|---|---|---|---|---|---|---|");
+    for name in &scenes {
         let scene = load_scene(&root.join(name))?;
         let plane = Plane::axis_slice(
             &scene.bounds,
@@ -69,23 +93,13 @@ fn main() -> anyhow::Result<()> {
             res,
         )?;
         for weighting in [Weighting::Radiance, Weighting::Unweighted] {
-            let designs: Vec<Design> = match weighting {
-                Weighting::Radiance => vec![
-                    Design::SINGLE,
-                    d(1, 1, 1, 8),
-                    d(1, 1, 2, 8),
-                    d(1, 1, 4, 8),
-                    d(2, 2, 1, 8),
-                    d(2, 2, 2, 8),
-                ],
-                _ => vec![
-                    Design::SINGLE,
-                    d(1, 1, 1, 4),
-                    d(1, 1, 1, 8),
-                    d(1, 1, 2, 8),
-                    d(2, 2, 1, 8),
-                ],
+            let (designs, arg) = match weighting {
+                Weighting::Radiance => (&radiance, 3),
+                _ => (&unweighted, 4),
             };
+            if skip(arg) {
+                continue;
+            }
             let mut acc = vec![Acc::default(); designs.len()];
             for round in 0..rounds {
                 for k in 0..designs.len() {
@@ -117,14 +131,16 @@ fn main() -> anyhow::Result<()> {
                 .collect();
             let total = |a: &Acc| both.iter().map(|&c| a.v[c]).sum::<f64>();
             let per_sample = |a: &Acc| a.cpu / a.samples as f64;
-            let (v1, t1) = (total(&acc[0]), per_sample(&acc[0]));
+            let rays = |a: &Acc| a.rays as f64 / a.samples as f64;
+            let (v1, t1, r1) = (total(&acc[0]), per_sample(&acc[0]), rays(&acc[0]));
             for (design, a) in designs.iter().zip(&acc) {
                 let (vr, tr) = (v1 / total(a), per_sample(a) / t1);
                 println!(
-                    "| {} | {weighting} | {design} | {vr:.2} | {tr:.2} | {:.2} | {:.1} |",
+                    "| {} | {weighting} | {design} | {vr:.2} | {tr:.2} | {:.2} | {:.1} | {:.2} |",
                     name.trim_end_matches(".obj"),
                     vr / tr,
-                    a.rays as f64 / a.samples as f64
+                    rays(a),
+                    vr * r1 / rays(a)
                 );
             }
             eprintln!(

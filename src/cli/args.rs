@@ -78,7 +78,7 @@ pub struct EstimatorFlags {
     /// Deflection pairs per sample, kA,kB,J,M: kA walks along the direction, J directions in
     /// its cone with kB walks each, every walk read at M run lengths (one in each of M equal parts
     /// of [t0, t1]); Δ is averaged over all kA·kB·J·M pairs. 1,1,1,1 is one pair per sample
-    /// [default: 1,1,2,8 for radiance weighting, else 1,1,1,8].
+    /// [default: 2,2,1,2].
     #[arg(long, value_name = "KA,KB,J,M")]
     pub pairs: Option<crate::ftpd::Design>,
 }
@@ -155,7 +155,7 @@ pub struct RunArgs {
     /// Cells along the longer side of the slice.
     #[arg(long, default_value_t = 256)]
     pub res: usize,
-    /// Samples (deflection pairs) per cell [default: no cap; without --spp, --time and
+    /// Samples per cell (each takes the pairs of --pairs) [default: no cap; without --spp, --time and
     /// --target-error a run stops at --target-error 0.05 or after --time 60s, whichever comes
     /// first]. With --adaptive: the mean over cells.
     #[arg(long)]

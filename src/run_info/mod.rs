@@ -23,7 +23,7 @@
 //! | `angle_deg`, `max_bounces` | cone half-angle, bounce cap | decimal |
 //! | `radiance_bounces` | bounce cap of radiance paths (absent: `max_bounces`, as before it was written) | decimal |
 //! | `features`, `kernel` | feature set, kernel | text |
-//! | `pairs` | deflection pairs per sample, kA,kB,J,M ([`crate::ftpd::Design`]; absent: written before designs, one pair per sample with another sample layout) | `1,1,2,8`; a merge of several: `1,1,1,8; 1,1,2,8` |
+//! | `pairs` | deflection pairs per sample, kA,kB,J,M ([`crate::ftpd::Design`]; absent: written before designs, one pair per sample with another sample layout) | `2,2,1,2`; a merge of several: `1,1,1,1; 2,2,1,2` |
 //! | `point_lights` | point lights added to the scene file's | `x,y,z:r,g,b;…` |
 //! | `sun` | suns added to the scene file's | `x,y,z:r,g,b:diameter;…` |
 //! | `sky` | sky or environment map added to the scene file's | `r,g,b` or `file:scale:rotation` |
