@@ -121,8 +121,8 @@ fn a_sample_averages_every_combination_of_its_design() {
 }
 
 /// The command line's `--pairs`: results bit-identical on 1 and 2 threads, a resumed run equal
-/// to the same run in one go, a resume with another design refused with the flag named, and
-/// designs out of range refused.
+/// to the same run in one go, a resume with another design refused with the flag named, the
+/// design in `--explain`, and designs out of range refused.
 #[test]
 fn pairs_flag_runs_resumes_and_refuses() {
     let dir = temp_dir("pairs", "flag");
@@ -203,6 +203,25 @@ fn pairs_flag_runs_resumes_and_refuses() {
         assert!(!r.ok && r.err.contains("--pairs"), "{bad}: {}", r.err);
         assert!(!r.err.contains("panicked"), "{bad}: {}", r.err);
     }
+    // --explain says what a sample takes.
+    let r = ftpd3d(&[
+        "--scene",
+        scene.to_str().unwrap(),
+        "--explain",
+        "--pairs",
+        "2,1,3,4",
+    ]);
+    assert!(r.ok, "{}", r.err);
+    let line = r
+        .out
+        .lines()
+        .find(|l| l.starts_with("pairs "))
+        .unwrap_or_default();
+    assert!(
+        line.contains("2,1,3,4 per sample") && line.ends_with("24 pairs from 5 walks"),
+        "{}",
+        r.out
+    );
     for bad in ["1,1,2", "1,1,2,x"] {
         let r = run(&["--pairs", bad, "--spp", "1", "-o", &out("bad.exr")]);
         assert!(!r.ok && r.err.contains("--pairs"), "{bad}: {}", r.err);
