@@ -40,6 +40,7 @@ fn main() -> anyhow::Result<()> {
             angle_deg: 2.0,
             max_bounces: 32,
             radiance_bounces: None,
+            ..Default::default()
         }
         .resolve(&scene)?;
         let plane = Plane::axis_slice(

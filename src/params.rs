@@ -6,7 +6,8 @@
 
 use crate::domain::Plane;
 use crate::domain::offset::{box_offset, flat_extent, plane_offset};
-use crate::ftpd::{Params, Weighting};
+use crate::ftpd::design::DesignError;
+use crate::ftpd::{Design, Params, Weighting};
 use crate::scene::{self, Scene};
 
 /// Estimator settings as a caller gives them; `None` means "relative to the scene" (see
@@ -21,10 +22,13 @@ pub struct EstimatorArgs {
     pub max_bounces: u32,
     /// Cap on scattering events of radiance paths alone (`None`: `max_bounces`).
     pub radiance_bounces: Option<u32>,
+    /// The deflection pairs of a sample (`None`: the weighting's, [`Design::default_for`]).
+    pub design: Option<Design>,
 }
 
 impl Default for EstimatorArgs {
-    /// Radiance weighting, run lengths relative to the scene, a 2° cone, 32 bounces.
+    /// Radiance weighting, run lengths relative to the scene, a 2° cone, 32 bounces, the
+    /// weighting's deflection pairs.
     fn default() -> Self {
         EstimatorArgs {
             weighting: Weighting::Radiance,
@@ -33,6 +37,7 @@ impl Default for EstimatorArgs {
             angle_deg: 2.0,
             max_bounces: 32,
             radiance_bounces: None,
+            design: None,
         }
     }
 }
@@ -61,6 +66,9 @@ pub enum ParamError {
         "a radiance-path cap of {bounces} scattering events for a {weighting} run, which traces no radiance paths"
     )]
     RadianceCapUnused { bounces: u32, weighting: Weighting },
+    /// A design of deflection pairs out of range.
+    #[error("deflection pairs per sample: {0}")]
+    Design(#[from] DesignError),
     /// Flatland radiance weighting, and no light meets the plane.
     #[error("flatland radiance weighting: no light of {scene} meets the slice plane {plane}")]
     NoLightInPlane { scene: String, plane: String },
@@ -135,6 +143,10 @@ impl EstimatorArgs {
                 weighting: self.weighting,
             });
         }
+        let design = self
+            .design
+            .unwrap_or_else(|| Design::default_for(self.weighting));
+        design.check()?;
         if self.weighting == Weighting::Radiance && scene.lights.is_empty() {
             return Err(ParamError::NoLights {
                 scene: scene.source.display().to_string(),
@@ -149,6 +161,7 @@ impl EstimatorArgs {
             max_bounces: self.max_bounces,
             radiance_bounces: self.radiance_bounces,
             flat: None,
+            design,
         })
     }
 }

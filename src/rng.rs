@@ -38,9 +38,11 @@ pub fn hash_unit(words: &[u32]) -> f64 {
     (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
-/// Numbers per sample drawn from the scrambled Sobol' sequence: the run length, the start
-/// direction's strategy and its two or three numbers, and the first numbers of the paths after
-/// them (see [`crate::ftpd::sample_at`] for their order).
+/// Numbers per sample drawn from the scrambled Sobol' sequence: the start point's in its cell,
+/// the start direction's (its strategy, light and two numbers with radiance weighting), then the
+/// run lengths' and the cone directions' offsets as far as they fit; the rest of the sample, its
+/// radiance path and its walks (each walk from a [`Sampler::child`] stream) draw from random
+/// streams (see [`crate::ftpd::visit_at`] for the order).
 pub const QMC_DIMS: u32 = 8;
 
 /// Samples per scrambled Sobol' sequence: one independent unit of the standard error. Longer
@@ -161,6 +163,12 @@ impl Sampler {
     pub fn new(seed: u64, pass: u64, cell: u64) -> Self {
         let hi = mix64(seed ^ mix64(pass.wrapping_mul(0xD6E8_FEB8_6659_FD93)));
         let lo = mix64(cell ^ mix64(hi));
+        Sampler::new_raw(hi, lo)
+    }
+
+    /// The stream of the 128-bit state `hi`:`lo`.
+    #[inline]
+    fn new_raw(hi: u64, lo: u64) -> Self {
         // MCG state must be odd; the generator forces that itself.
         Sampler {
             rng: Pcg64Mcg::new(((hi as u128) << 64) | lo as u128),
@@ -178,6 +186,24 @@ impl Sampler {
         }
     }
 
+    /// A random-only stream of its own for each `k` under `key` (a [`Sampler::fork_key`]): the
+    /// walks of one sample each draw from one, so that no number is shared between walks.
+    #[inline]
+    pub fn child(key: u64, k: u64) -> Self {
+        let hi = mix64(key ^ 0xA076_1D64_78BD_642F);
+        let lo = mix64(hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        let mut s = Sampler::new_raw(hi, lo);
+        s.dim = QMC_DIMS;
+        s
+    }
+
+    /// 64 bits of the random stream, for the keys of [`Sampler::child`] streams; takes no
+    /// dimension of the current QMC point.
+    #[inline]
+    pub fn fork_key(&mut self) -> u64 {
+        self.rng.next_u64()
+    }
+
     /// Starts sample `index` of group `batch` of this stream: its first [`QMC_DIMS`] numbers are
     /// point `index` of the group's scrambled Sobol' sequence. Without this call (tests, single
     /// points, the reference estimator) every number is the random stream's.
@@ -190,12 +216,6 @@ impl Sampler {
         self.group = batch;
         self.index = index;
         self.dim = 0;
-    }
-
-    /// The rest of the current sample draws from the random stream only.
-    #[inline]
-    pub fn random_only(&mut self) {
-        self.dim = QMC_DIMS;
     }
 
     /// Uniform in [0, 1): the next dimension of the current QMC point, or 53 random bits.

@@ -130,14 +130,17 @@ fn converge_writes_the_csv_the_plot_and_a_half_slope() {
         num(unweighted, "slope_spp"),
         num(unweighted, "slope_spp_se"),
     );
-    // Monte Carlo: error ∝ samples^-1/2. Allowed: 3 standard errors of the fitted slope, plus 0.05
-    // for the bend of the curve at a few samples (the σ estimator's bias there, and the error of
-    // the 256-spp self-reference, which the net error leaves out only on average): on these 24²
-    // cells the slope is -0.543 with a spread of 0.014 over seeds (43 seeds, 1 to 337 by 8; the
-    // fit reports 0.009 to 0.026), so the allowance leaves 4 spreads, and no seed failed. The
-    // radiance slope there: -0.47 to -0.39 (spread 0.017), far inside its range.
+    // Monte Carlo: error ∝ samples^-1/2. Allowed: 3 standard errors of the fitted slope, plus 0.16
+    // for the bend of the curve at a few samples (the σ estimator's bias there, the error of the
+    // 256-spp self-reference, which the net error leaves out only on average, and the
+    // stratification of the run lengths and Sobol' points, which pays most at few samples): on
+    // these 24² cells, with the default of 8 pairs per sample (2,2,1,2), the slope is -0.607 with
+    // a spread of 0.014 over seeds (8 seeds, 1 to 57 by 8: -0.583 to -0.623; the fit reports
+    // 0.010 to 0.024), so the allowance leaves 4 spreads. With one pair per sample it was -0.543
+    // with a spread of 0.014 (43 seeds). The radiance slope there: -0.48 to -0.54 (8 seeds), far
+    // inside its range.
     assert!(
-        (slope + 0.5).abs() < 3.0 * se + 0.05,
+        (slope + 0.5).abs() < 3.0 * se + 0.16,
         "unweighted slope {slope} ± {se}"
     );
     // Radiance weights are heavy-tailed (rare samples 100x the mean): at these sample counts the

@@ -174,6 +174,7 @@ fn z_scores(mode: AlphaMode) -> Vec<(String, f64)> {
         max_bounces: 8,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(weighting),
     };
     crate::support::z_scores_of_two_scenes([&cut, &squares], &points, params, 11, 3000)
 }

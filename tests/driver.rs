@@ -36,6 +36,7 @@ fn cornell(res: usize) -> Setup {
         angle_deg: 2.0,
         max_bounces: 32,
         radiance_bounces: None,
+        design: Default::default(),
     }
     .resolve(&scene)
     .unwrap();

@@ -14,7 +14,7 @@ use crate::support::{
     translated, z_limit, z0,
 };
 use ftpd3d::domain::Plane;
-use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_at, sample_point};
+use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_at, visit_point};
 use ftpd3d::kernel::{PlainFlat, RadianceFlat, Record};
 use ftpd3d::math::{Rgb, luminance, reflect};
 use ftpd3d::render::RenderOptions;
@@ -111,6 +111,7 @@ fn params(weighting: Weighting, flat: Flatland) -> Params {
         max_bounces: 32,
         radiance_bounces: None,
         flat: Some(flat),
+        design: ftpd3d::ftpd::Design::default_for(weighting),
     }
 }
 
@@ -924,15 +925,17 @@ fn flatland_mirror_is_an_isometry() {
         max_bounces: 32,
         radiance_bounces: None,
         flat: Some(z0()),
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Unweighted),
     };
     let mut s = Sampler::new(11, 0, 0);
     let (mut both, mut worst) = (0, 0.0f64);
     for _ in 0..50_000 {
-        let smp = sample_point(&scene, DVec3::new(0.0, 0.3, 0.0), &p, &mut s);
-        if smp.bounces.0 == smp.bounces.1 {
-            worst = worst.max(smp.delta.abs());
-            both += (smp.bounces == (1, 1)) as u32;
-        }
+        visit_point(&scene, DVec3::new(0.0, 0.3, 0.0), &p, &mut s, &mut |pair| {
+            if pair.bounces.0 == pair.bounces.1 {
+                worst = worst.max(pair.delta.abs());
+                both += (pair.bounces == (1, 1)) as u32;
+            }
+        });
     }
     assert!(both > 10_000, "{both}");
     assert!(worst < 1e-9, "{worst}");

@@ -5,7 +5,7 @@ use crate::support::scene_path;
 use ftpd3d::domain::Plane;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::moments::Moments;
-use ftpd3d::ftpd::{Params, Weighting, sample_point};
+use ftpd3d::ftpd::{Params, Weighting, visit_point};
 use ftpd3d::render::RenderOptions;
 use ftpd3d::render::run_plane;
 use ftpd3d::rng::Sampler;
@@ -22,6 +22,7 @@ fn unweighted(t0: f64, t1: f64, angle_deg: f64) -> Params {
         max_bounces: 32,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Unweighted),
     }
 }
 
@@ -73,15 +74,16 @@ fn empty_space_gives_exactly_zero() {
     }
 }
 
-/// Per-sample Δ for pairs at height `h` above `scene`'s plane.
+/// Δ and the bounce counts of every pair of `n` samples at height `h` above `scene`'s plane.
 fn pair_deltas(scene: &Scene, h: f64, p: &Params, n: usize) -> Vec<(f64, (u32, u32))> {
     let mut s = Sampler::new(11, 0, 0);
-    (0..n)
-        .map(|_| {
-            let smp = sample_point(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
-            (smp.delta, smp.bounces)
-        })
-        .collect()
+    let mut out = Vec::new();
+    for _ in 0..n {
+        visit_point(scene, DVec3::new(0.0, h, 0.0), p, &mut s, &mut |pair| {
+            out.push((pair.delta, pair.bounces))
+        });
+    }
+    out
 }
 
 #[test]
@@ -103,7 +105,8 @@ fn mirror_is_an_isometry_for_pairs_that_both_reflect() {
     );
 }
 
-/// Moments over the pairs accepted by `keep`, in 16 batches, at a point at height h.
+/// Moments over the pairs accepted by `keep` (each sample's sums over them divided by its number
+/// of pairs), in 16 batches, at a point at height h.
 fn moments_where(
     scene: &Scene,
     h: f64,
@@ -115,10 +118,16 @@ fn moments_where(
         let mut s = Sampler::new(21, batch, 0);
         let mut b = Moments::default();
         for _ in 0..4000 {
-            let smp = sample_point(scene, DVec3::new(0.0, h, 0.0), p, &mut s);
-            if keep(smp.bounces) {
-                b.add_sample(smp.c, smp.delta, smp.weight);
-            }
+            let mut sums = [0.0; 3];
+            let smp = visit_point(scene, DVec3::new(0.0, h, 0.0), p, &mut s, &mut |pair| {
+                if keep(pair.bounces) {
+                    sums[0] += pair.c;
+                    sums[1] += pair.c * pair.delta;
+                    sums[2] += pair.c * pair.delta * pair.delta;
+                }
+            });
+            let n = f64::from(p.design.pairs());
+            b.add_unit(sums[0] / n, sums[1] / n, sums[2] / n, smp.weight);
         }
         total.add_batch(&b);
     }
@@ -212,6 +221,7 @@ fn small_run(seed: u64, threads: usize) -> Field {
         max_bounces: 16,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
     };
     run_plane(&scene, &plane, &p, &opts(16, seed, threads))
         .unwrap()
@@ -282,6 +292,7 @@ fn camera_image_of_an_empty_scene_is_zero_and_beauty_sees_the_light() {
         max_bounces: 8,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Importance),
     };
     // Empty: the only geometry is 10 km behind the camera.
     let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();

@@ -17,6 +17,7 @@ mod merge;
 mod mirror;
 mod mis;
 mod outdoor;
+mod pairs;
 mod pinned;
 mod python;
 mod radiance_cap;

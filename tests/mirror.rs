@@ -117,6 +117,7 @@ fn params() -> Params {
         max_bounces: 8,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
     }
 }
 
@@ -228,6 +229,7 @@ fn flatland_mirror_images_agree_with_the_estimator_without_them() {
         max_bounces: 16,
         radiance_bounces: None,
         flat: Some(plane),
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
     };
     let lo = with.bounds.min;
     let hi = with.bounds.max;
@@ -243,7 +245,7 @@ fn flatland_mirror_images_agree_with_the_estimator_without_them() {
                     let mut m = Moments::default();
                     for _ in 0..4000 {
                         let smp = sample_point(scene, *x, &p, &mut s);
-                        m.add_sample(smp.c, smp.delta, smp.weight);
+                        m.add_unit(smp.c, smp.cd, smp.cd2, smp.weight);
                     }
                     m
                 })

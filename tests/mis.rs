@@ -24,6 +24,7 @@ fn mis_radiance_weighting_matches_the_reference() {
         max_bounces: 12,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
     };
     let points = [
         DVec3::new(0.2, 1.0, 0.0),
@@ -73,6 +74,7 @@ fn mis_radiance_weighting_matches_the_reference_under_sky_sun_and_spot() {
         max_bounces: 12,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
     };
     let points = [at(0.3, 0.5, 0.5), at(0.6, 0.8, 0.3)].map(|x| scene.off_surfaces(x));
     agrees_with_reference(&scene, &points, &p, 24000, (500, 600), "outdoor point");
@@ -116,6 +118,7 @@ fn mis_emission_texture_agrees_with_the_reference() {
         max_bounces: 4,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
     };
     let points = [
         DVec3::new(0.25, 0.5, 0.5),

@@ -342,6 +342,7 @@ fn fluence_under_sky_and_sun_matches_the_closed_form() {
             max_bounces: 16,
             radiance_bounces: None,
             flat: flat.then_some(pl),
+            design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
         };
         let mut s = Sampler::new(19, 0, 0);
         let n = 200_000;

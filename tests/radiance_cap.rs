@@ -16,7 +16,7 @@
 use crate::support::{
     Mean, extruded, flat_furnace, ftpd3d, ftpd3d_in, furnace, gauss_legendre, temp_dir, z_limit, z0,
 };
-use ftpd3d::ftpd::{Params, Start, Weighting, sample, sample_point};
+use ftpd3d::ftpd::{Params, Start, Weighting, sample, sample_point, visit_point};
 use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::{Rgb, luminance};
 use ftpd3d::rng::Sampler;
@@ -35,6 +35,7 @@ fn params(weighting: Weighting, cap: Option<u32>, flat: bool) -> Params {
         max_bounces: 32,
         radiance_bounces: cap,
         flat: flat.then(z0),
+        design: ftpd3d::ftpd::Design::default_for(weighting),
     }
 }
 
@@ -141,8 +142,11 @@ fn the_walks_keep_max_bounces() {
     let mut s = Sampler::new(80, 0, 0);
     let most = (0..500)
         .map(|_| {
-            let smp = sample_point(&scene, DVec3::ZERO, &p, &mut s);
-            smp.bounces.0.max(smp.bounces.1)
+            let mut most = 0;
+            visit_point(&scene, DVec3::ZERO, &p, &mut s, &mut |pair| {
+                most = most.max(pair.bounces.0.max(pair.bounces.1));
+            });
+            most
         })
         .max()
         .unwrap();

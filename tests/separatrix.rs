@@ -414,6 +414,7 @@ fn params(flat: Option<Flatland>) -> Params {
         max_bounces: 8,
         radiance_bounces: None,
         flat,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
     }
 }
 

@@ -65,13 +65,14 @@ fn run_point(
             assert!(
                 smp.c.is_finite()
                     && smp.c >= 0.0
-                    && smp.delta.is_finite()
+                    && smp.cd.is_finite()
+                    && smp.cd2.is_finite()
                     && is_finite3(smp.weight),
                 "non-finite sample at {x}: {smp:?}"
             );
-            run.capped += smp.capped as u64;
+            run.capped += u64::from(smp.capped);
             run.clamped += smp.clamped as u64;
-            b.add_sample(smp.c, smp.delta, smp.weight);
+            b.add_unit(smp.c, smp.cd, smp.cd2, smp.weight);
         }
         run.total.add_batch(&b);
     }
@@ -127,6 +128,7 @@ fn params(weighting: Weighting, t0: f64, t1: f64, angle_deg: f64, max_bounces: u
         max_bounces,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(weighting),
     }
 }
 

@@ -11,7 +11,7 @@
 
 use crate::support::{Mean, assert_within, furnace, gauss_legendre, scene_path, t_limit, z_limit};
 use ftpd3d::ftpd::moments::{Moments, sigma_from};
-use ftpd3d::ftpd::{Params, Weighting, radiance_direction, sample_point};
+use ftpd3d::ftpd::{Design, Params, Weighting, radiance_direction, sample_point};
 use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::Rgb;
 use ftpd3d::rng::Sampler;
@@ -686,7 +686,7 @@ fn run_ftpd(
         let mut b = Moments::default();
         for _ in 0..per_batch {
             let smp = sample_point(scene, x, p, &mut s);
-            b.add_sample(smp.c, smp.delta, smp.weight);
+            b.add_unit(smp.c, smp.cd, smp.cd2, smp.weight);
             run.c.add(smp.c);
         }
         run.m1.add(b.s1 / b.s0);
@@ -699,6 +699,20 @@ fn run_ftpd(
 
 #[test]
 fn valid_unweighted_ftpd_at_a_diffuse_plane_matches_quadrature() {
+    plane_ftpd_matches_quadrature(Design::SINGLE, 4001, 32, 100_000);
+}
+
+/// The same with all pairs of 2 walks along ω and 3 cone directions with 2 walks each, read at 4
+/// run lengths (all equal here: t0 = t1): the average over a sample's 48 pairs has the single
+/// pair's expectations.
+#[test]
+fn valid_all_pairs_ftpd_at_a_diffuse_plane_matches_quadrature() {
+    plane_ftpd_matches_quadrature(Design::new(2, 2, 3, 4), 4002, 16, 40_000);
+}
+
+/// Unweighted FTPD of `design` above the diffuse plane, from `batches` × `per_batch` samples,
+/// against the quadrature of [`PlaneSetup::diffuse_pair`].
+fn plane_ftpd_matches_quadrature(design: Design, seed: u64, batches: u64, per_batch: usize) {
     let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
     let Bsdf::Diffuse { kd } = scene.materials[0].bsdf else {
         panic!("diffuse_plane.obj is Lambertian");
@@ -741,11 +755,12 @@ fn valid_unweighted_ftpd_at_a_diffuse_plane_matches_quadrature() {
         max_bounces: 64, // walks bounce at most once here: the cap is never reached
         radiance_bounces: None,
         flat: None,
+        design,
     };
     let started = std::time::Instant::now();
-    let run = run_ftpd(&scene, setup.x(), &p, 4001, 32, 100_000);
-    // Four quantities judged together; m1 and m2 with standard errors from 32 batches.
-    let (k, k_batches) = (z_limit(4), t_limit(4, 31.0));
+    let run = run_ftpd(&scene, setup.x(), &p, seed, batches, per_batch);
+    // Four quantities judged together; m1 and m2 with standard errors from the batches.
+    let (k, k_batches) = (z_limit(4), t_limit(4, (batches - 1) as f64));
     println!("plane FTPD Monte Carlo: {:.2?}", started.elapsed());
     // The quadrature error (bounded by the difference of the two resolutions) must be negligible
     // against the statistical tolerance.
@@ -828,6 +843,7 @@ fn valid_glossy_sigma_falls_with_the_exponent_towards_its_mirror_limit() {
         max_bounces: 64,
         radiance_bounces: None,
         flat: None,
+        design: ftpd3d::ftpd::Design::default_for(Weighting::Unweighted),
     };
     let run = |bsdf: Bsdf, seed: u64, per_batch: usize| {
         let scene = big_plane(crate::support::material("plane", bsdf));

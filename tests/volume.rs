@@ -29,6 +29,7 @@ fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> J
             angle_deg: 2.0,
             max_bounces: 32,
             radiance_bounces: None,
+            design: Default::default(),
         },
         render: RenderOptions {
             spp,

@@ -52,9 +52,10 @@ pub fn check_resume(
         // Runs that stop at a target error became adaptive by default: say how to match a file
         // started before, or with the other allocation.
         let hint = match (key, a.get(key).map(String::as_str)) {
-            ("adaptive", Some("off")) => " (this file's passes were uniform: add --uniform)",
-            ("adaptive", Some(_)) => " (this file's passes were adaptive: add --adaptive)",
-            _ => "",
+            ("adaptive", Some("off")) => " (this file's passes were uniform: add --uniform)".into(),
+            ("adaptive", Some(_)) => " (this file's passes were adaptive: add --adaptive)".into(),
+            ("pairs", Some(p)) => format!(" (add --pairs {p})"),
+            _ => String::new(),
         };
         bail!(
             "--resume {}: {key} differs: the file has {}, this run {}{hint}; a run resumes only \

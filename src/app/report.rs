@@ -33,7 +33,7 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
     };
     format!(
         "stopped after {} passes ({}): {} samples in {:.2} s{earlier}, {:.3e} samples/s, \
-         {:.3e} rays/s; relative error mean {:.4}, p95 {:.4}{unestimated}; {} pairs hit the \
+         {:.3e} rays/s; relative error mean {:.4}, p95 {:.4}{unestimated}; {} walks hit the \
          bounce cap ({}){radiance_cap}, {} non-finite samples dropped",
         stats.passes,
         stats.stop,

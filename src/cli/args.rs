@@ -75,6 +75,12 @@ pub struct EstimatorFlags {
     /// --max-bounces [default: --max-bounces].
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub radiance_bounces: Option<u32>,
+    /// Deflection pairs per sample, kA,kB,J,M: kA walks along the direction, J directions in
+    /// its cone with kB walks each, every walk read at M run lengths (one in each of M equal parts
+    /// of [t0, t1]); Δ is averaged over all kA·kB·J·M pairs. 1,1,1,1 is one pair per sample
+    /// [default: 2,2,1,2].
+    #[arg(long, value_name = "KA,KB,J,M")]
+    pub pairs: Option<crate::ftpd::Design>,
 }
 
 impl EstimatorFlags {
@@ -103,6 +109,7 @@ impl EstimatorFlags {
             angle_deg: self.angle,
             max_bounces: self.max_bounces,
             radiance_bounces: self.radiance_bounces,
+            design: self.pairs,
         }
     }
 }
@@ -148,7 +155,7 @@ pub struct RunArgs {
     /// Cells along the longer side of the slice.
     #[arg(long, default_value_t = crate::app::DEFAULT_RES)]
     pub res: usize,
-    /// Samples (deflection pairs) per cell [default: no cap; without --spp, --time and
+    /// Samples per cell (each takes the pairs of --pairs) [default: no cap; without --spp, --time and
     /// --target-error a run stops at --target-error 0.05 or after --time 60s, whichever comes
     /// first]. With --adaptive: the mean over cells.
     #[arg(long)]

@@ -106,7 +106,6 @@ fn record_rays(
     let mut field = Field::new(w, h, d);
     let sample = ftpd::sampler(ftpd::kernel_for(params), true);
     render::run_in(pool, &mut field, &o, |cell, s: &mut Sampler| {
-        ftpd::before_start(params, s);
         sample(scene, domain.start(scene, cell, s), params, s)
     })?;
     // Gather the logs of every worker of the pool.

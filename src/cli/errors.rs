@@ -118,6 +118,10 @@ pub fn param(e: &ParamError) -> String {
              camera's beauty image; a --weight {weighting} run traces none (use --max-bounces to \
              cap its walks)"
         ),
+        ParamError::Design(d) => format!(
+            "--pairs: {} = {} must lie between 1 and {} (--pairs kA,kB,J,M)",
+            d.what, d.value, d.max
+        ),
         ParamError::NoLightInPlane { scene, plane } => format!(
             "--flatland --weight radiance: no light of {scene} meets the slice plane {plane} \
              (emissive triangles must cross it, point lights lie in it); use --weight unweighted \

@@ -178,6 +178,18 @@ fn light_kinds(scene: &Scene) -> String {
 /// lights) and those it skips, with why.
 fn write_kernel(out: &mut impl Write, scene: &Scene, params: &Params) -> anyhow::Result<()> {
     writeln!(out, "kernel     {}", crate::ftpd::kernel_for(params))?;
+    let d = params.design;
+    writeln!(
+        out,
+        "pairs      {d} per sample (--pairs): {} walks along the direction, {} cone directions \
+         with {} walks each, {} run lengths: {} pairs from {} walks",
+        d.along,
+        d.cones,
+        d.across,
+        d.lengths,
+        d.pairs(),
+        d.walks()
+    )?;
     let effects = crate::ftpd::effects::effects(scene, params);
     let on: Vec<&str> = effects
         .iter()

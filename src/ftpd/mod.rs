@@ -1,21 +1,30 @@
 //! The FTPD estimator: one sample at a point (paper sections 5.1-5.3 and 6.1, eqs. 9-14).
 //!
-//! 1. run length `T ~ U[t0, t1]`;
-//! 2. a direction ω with weight `w(x, ω) / p(ω)`: uniform on the sphere; for radiance weighting `w`
+//! 1. a direction ω with weight `w(x, ω) / p(ω)`: uniform on the sphere; for radiance weighting `w`
 //!    is the radiance of the light passing `x` along ω, estimated by a path traced from `x` towards −ω;
-//! 3. ω' uniform in the cone of half-angle θmax around ω; `r = tan(θ/2) / tan(θmax/2)` and the
-//!    regulariser `s(r) = 3r² − 2r³` (section 5.1);
-//! 4. two independent walks of length T from x along ω and ω' with throughputs βA, βB;
-//! 5. `Δ = s(r) (‖a − b‖ / (T ‖ω − ω'‖) − 1)` (eq. 9, both paths start at x);
-//! 6. contribution `c = luminance(weight · βA · βB)`, accumulated as ΣP, ΣΔ, ΣΔ² (eq. 14).
+//! 2. run lengths T in [t0, t1] and directions ω' uniform in the cone of half-angle θmax around ω;
+//!    `r = tan(θ/2) / tan(θmax/2)` and the regulariser `s(r) = 3r² − 2r³` (section 5.1);
+//! 3. independent walks of length T from x along ω and ω' with throughputs βA, βB;
+//! 4. `Δ = s(r) (‖a − b‖ / (T ‖ω − ω'‖) − 1)` (eq. 9, both paths start at x);
+//! 5. contribution `c = luminance(weight · βA · βB)`, accumulated as ΣP, ΣΔ, ΣΔ² (eq. 14).
+//!
+//! A sample takes the pairs of a [`Design`] ([`pairs`]): several walks along ω and along several
+//! ω', each read at several run lengths, with c, cΔ and cΔ² averaged over every combination; one
+//! pair ([`Design::SINGLE`]) is the estimator as the equations state it, and every design has its
+//! expectation.
 //!
 //! In flatland (a kernel whose [`Space`] is the plane [`Params::flat`]) ω is uniform on the circle
 //! of in-plane directions (density 1/2π), ω' is ω turned by an angle uniform in [−θmax, θmax], and
 //! all densities are per radian ([`crate::transport::space`]).
 
+pub mod design;
 pub mod effects;
 pub mod moments;
+pub mod pairs;
 pub mod reference;
+
+pub use design::Design;
+pub use pairs::Pair;
 
 use crate::kernel::{Kernel, KernelChoice, Space};
 use crate::math::{Rgb, luminance};
@@ -66,6 +75,8 @@ pub struct Params {
     /// prepared for the same plane ([`Scene::prepare_flatland`]) and the kernel must be a flatland
     /// one (its [`Space`] the plane).
     pub flat: Option<Flatland>,
+    /// The deflection pairs of one sample ([`Design`]), checked ([`Design::check`]).
+    pub design: Design,
 }
 
 impl Params {
@@ -94,7 +105,7 @@ impl Params {
 /// [`Params::one_minus_cos_max`] and `(θmax / 2).tan()`, remembered per thread for the last θmax so
 /// that a run does not evaluate `sin` and `tan` again for every sample (θmax is fixed for a run).
 #[inline]
-fn cone_constants(p: &Params) -> (f64, f64) {
+pub(crate) fn cone_constants(p: &Params) -> (f64, f64) {
     use std::cell::Cell;
     thread_local! {
         static LAST: Cell<(u64, f64, f64)> = const { Cell::new((u64::MAX, 0.0, 0.0)) };
@@ -131,9 +142,28 @@ pub fn pairwise_deviation(dist_ab: f64, t: f64, chord: f64, r: f64) -> f64 {
     if d.is_finite() { d } else { 0.0 }
 }
 
-/// Result of one FTPD sample.
+/// One FTPD sample: the averages over its deflection pairs ([`Design`]) of the contribution c and
+/// its products with Δ, one unit of the moments ([`moments::Moments::add_unit`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Sample {
+    /// Mean over the pairs of c = luminance(weight · βA · βB) (0 for a pair with an absorbed walk).
+    pub c: f64,
+    /// Mean over the pairs of cΔ.
+    pub cd: f64,
+    /// Mean over the pairs of cΔ².
+    pub cd2: f64,
+    /// Direction weight w/p (RGB), for the fluence.
+    pub weight: Rgb,
+    pub rays: u32,
+    /// Walks that reached the bounce cap.
+    pub capped: u32,
+    /// A non-finite intermediate was replaced by zero.
+    pub clamped: bool,
+}
+
+/// One deflection pair traced on its own ([`pair_from`]): the reference estimator's sample.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SinglePair {
     /// Contribution c = luminance(weight · βA · βB) (0 when a walk was absorbed).
     pub c: f64,
     pub delta: f64,
@@ -176,6 +206,43 @@ pub fn radiance_direction<K: Kernel>(
     s: &mut Sampler,
     rays: &mut u32,
 ) -> (DVec3, Rgb) {
+    let nums = DirectionNumbers::draw(s);
+    radiance_direction_from::<K>(scene, x, max_bounces, nums, s, rays)
+}
+
+/// The numbers that choose a radiance-weighted start direction: the strategy (and, rescaled, the
+/// mirror plane), the light, and the point on it or the uniform direction.
+#[derive(Clone, Copy, Debug)]
+pub struct DirectionNumbers {
+    pub strategy: f64,
+    pub u_l: f64,
+    pub u: (f64, f64),
+}
+
+impl DirectionNumbers {
+    #[inline]
+    pub fn draw(s: &mut Sampler) -> Self {
+        let strategy = s.next_f64();
+        let u_l = s.next_f64();
+        DirectionNumbers {
+            strategy,
+            u_l,
+            u: s.next_2d(),
+        }
+    }
+}
+
+/// [`radiance_direction`] from numbers drawn before (the sample's first ones, [`visit_at`]); the
+/// radiance path draws from `s`.
+#[inline]
+pub fn radiance_direction_from<K: Kernel>(
+    scene: &Scene,
+    x: DVec3,
+    max_bounces: u32,
+    nums: DirectionNumbers,
+    s: &mut Sampler,
+    rays: &mut u32,
+) -> (DVec3, Rgb) {
     let sp = K::Space::of(scene);
     let lights = K::Space::lights(scene);
     // The images need a mirror that can still reflect (the first hit scatters below the cap).
@@ -191,8 +258,7 @@ pub fn radiance_direction<K: Kernel>(
     // Densities per steradian, or per radian in flatland.
     let p_uniform = alpha * K::Space::PDF_UNIFORM;
     let mut st = RadianceStats::default();
-    let strategy = s.next_f64();
-    let (u_l, u) = (s.next_f64(), s.next_2d());
+    let DirectionNumbers { strategy, u_l, u } = nums;
     if strategy < alpha {
         let omega = sp.uniform(u);
         // Light passing x along ω arrives from −ω.
@@ -255,16 +321,28 @@ pub fn radiance_direction<K: Kernel>(
 pub enum Start {
     /// A point off every surface; the estimator draws the direction ([`sample_at`]).
     Point(DVec3),
-    /// A camera: the pair starts at `eye` along `dir` ([`sample_camera`]).
+    /// A camera: the pairs start at `eye` along `dir` ([`sample_camera`]).
     Eye { eye: DVec3, dir: DVec3 },
 }
 
 /// One sample from `start` with kernel `K` ([`sample_at`] or [`sample_camera`]).
 #[inline]
 pub fn sample<K: Kernel>(scene: &Scene, start: Start, p: &Params, s: &mut Sampler) -> Sample {
+    visit::<K, _>(scene, start, p, s, &mut |_| {})
+}
+
+/// [`sample`], showing each of the sample's pairs to `visit` (tests look at single pairs).
+#[inline]
+pub fn visit<K: Kernel, V: FnMut(&Pair) + ?Sized>(
+    scene: &Scene,
+    start: Start,
+    p: &Params,
+    s: &mut Sampler,
+    visit: &mut V,
+) -> Sample {
     match start {
-        Start::Point(x) => sample_at::<K>(scene, x, p, s),
-        Start::Eye { eye, dir } => sample_camera::<K>(scene, eye, dir, p, s),
+        Start::Point(x) => visit_at::<K, V>(scene, x, p, s, visit),
+        Start::Eye { eye, dir } => visit_camera::<K, V>(scene, eye, dir, p, s, visit),
     }
 }
 
@@ -300,19 +378,25 @@ pub fn sampler(k: KernelChoice, record: bool) -> SampleFn {
 /// choose a kernel themselves (tests, single points). `x` may lie on a surface: it starts on the
 /// surface's front side ([`Scene::off_surfaces`]).
 pub fn sample_point(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
-    let x = scene.off_surfaces(x);
-    sampler(kernel_for(p), false)(scene, Start::Point(x), p, s)
+    visit_point(scene, x, p, s, &mut |_| {})
 }
 
-/// Called before a sample's start (its point in the cell) is drawn: radiance-weighted samples draw
-/// every number, the start's included, from the random stream. With radiance weighting the
-/// scrambled Sobol' points do not reduce the error (it lies in the rare light paths), while
-/// computing a point is a noticeable share of a cheap sample, even when only the start's two
-/// dimensions are used.
-#[inline]
-pub fn before_start(p: &Params, s: &mut Sampler) {
-    if p.weighting == Weighting::Radiance {
-        s.random_only();
+/// [`sample_point`], showing each of the sample's pairs to `visit`.
+pub fn visit_point(
+    scene: &Scene,
+    x: DVec3,
+    p: &Params,
+    s: &mut Sampler,
+    visit: &mut dyn FnMut(&Pair),
+) -> Sample {
+    use crate::kernel::{Plain3D, PlainFlat, Radiance3D, RadianceFlat};
+    let x = Start::Point(scene.off_surfaces(x));
+    let k = kernel_for(p);
+    match (k.radiance, k.flatland) {
+        (true, false) => self::visit::<Radiance3D, _>(scene, x, p, s, visit),
+        (false, false) => self::visit::<Plain3D, _>(scene, x, p, s, visit),
+        (true, true) => self::visit::<RadianceFlat, _>(scene, x, p, s, visit),
+        (false, true) => self::visit::<PlainFlat, _>(scene, x, p, s, visit),
     }
 }
 
@@ -323,29 +407,53 @@ pub fn before_start(p: &Params, s: &mut Sampler) {
 /// them first with [`Scene::off_surfaces`].
 #[inline]
 pub fn sample_at<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
+    visit_at::<K, _>(scene, x, p, s, &mut |_| {})
+}
+
+/// [`sample_at`], showing each pair to `visit`.
+///
+/// The sample's numbers in the order of their importance, so that the first ones, which are the
+/// dimensions of a scrambled Sobol' point ([`Sampler::begin_sample`]), go where stratifying pays
+/// most: after the start point's (drawn by the domain), the direction's, then the run length's
+/// and the cone direction's ([`pairs::Offsets`]); the radiance path and the walks draw after
+/// them (the walks from streams of their own, [`Sampler::child`]).
+#[inline]
+pub fn visit_at<K: Kernel, V: FnMut(&Pair) + ?Sized>(
+    scene: &Scene,
+    x: DVec3,
+    p: &Params,
+    s: &mut Sampler,
+    visit: &mut V,
+) -> Sample {
     debug_assert!(K::RADIANCE || p.weighting != Weighting::Radiance);
     debug_assert_eq!(K::Space::DIMS == 2, p.flat.is_some());
     debug_assert!(p.flat.is_none() || p.flat == Some(scene.flat().plane));
-    // The numbers in the order of their importance, so that the first ones, which may be QMC
-    // dimensions ([`Sampler::begin_sample`]), go to the run length, the cone offset and the
-    // start direction (radiance weighting draws from the random stream only: [`before_start`]).
-    before_start(p, s);
-    let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
-    let u_cone = s.next_2d();
-    let mut rays = 0;
-    let (omega, weight) = if K::RADIANCE && p.weighting == Weighting::Radiance {
-        radiance_direction::<K>(scene, x, p.radiance_cap(), s, &mut rays)
+    let radiance = K::RADIANCE && p.weighting == Weighting::Radiance;
+    let nums = if radiance {
+        DirectionNumbers::draw(s)
     } else {
-        (K::Space::of(scene).uniform(s.next_2d()), Rgb::ONE)
+        DirectionNumbers {
+            strategy: 0.0,
+            u_l: 0.0,
+            u: s.next_2d(),
+        }
     };
-    let mut out = pair_from::<K>(scene, x, omega, t, u_cone, weight, p, s);
+    let off = pairs::Offsets::draw(s);
+    let key = s.fork_key();
+    let mut rays = 0;
+    let (omega, weight) = if radiance {
+        radiance_direction_from::<K>(scene, x, p.radiance_cap(), nums, s, &mut rays)
+    } else {
+        (K::Space::of(scene).uniform(nums.u), Rgb::ONE)
+    };
+    let mut out = pairs::pairs::<K, V>(scene, x, omega, weight, off, key, p, visit);
     out.rays += rays;
     out
 }
 
-/// One importance-weighted sample from a camera (paper section 5.7): the pair starts at the eye
+/// One importance-weighted sample from a camera (paper section 5.7): the pairs start at the eye
 /// along the pixel direction `omega` with weight 1; `weight` of the result carries the radiance
-/// arriving along the same primary ray (a plain path-traced beauty image), not the pair's weight.
+/// arriving along the same primary ray (a plain path-traced beauty image), not the pairs' weight.
 #[inline]
 pub fn sample_camera<K: Kernel>(
     scene: &Scene,
@@ -354,9 +462,22 @@ pub fn sample_camera<K: Kernel>(
     p: &Params,
     s: &mut Sampler,
 ) -> Sample {
-    let t = p.t0 + (p.t1 - p.t0) * s.next_f64();
-    let u_cone = s.next_2d();
-    let mut out = pair_from::<K>(scene, eye, omega, t, u_cone, Rgb::ONE, p, s);
+    visit_camera::<K, _>(scene, eye, omega, p, s, &mut |_| {})
+}
+
+/// [`sample_camera`], showing each pair to `visit`.
+#[inline]
+pub fn visit_camera<K: Kernel, V: FnMut(&Pair) + ?Sized>(
+    scene: &Scene,
+    eye: DVec3,
+    omega: DVec3,
+    p: &Params,
+    s: &mut Sampler,
+    visit: &mut V,
+) -> Sample {
+    let off = pairs::Offsets::draw(s);
+    let key = s.fork_key();
+    let mut out = pairs::pairs::<K, V>(scene, eye, omega, Rgb::ONE, off, key, p, visit);
     if K::RADIANCE {
         let mut st = RadianceStats::default();
         out.weight = radiance::<K>(scene, eye, omega, p.radiance_cap(), s, &mut st).total();
@@ -367,8 +488,9 @@ pub fn sample_camera<K: Kernel>(
     out
 }
 
-/// The deflection pair for a given start point, direction ω, run length, the two numbers that
-/// place ω' in the cone, and weight.
+/// One deflection pair for a given start point, direction ω, run length, the two numbers that
+/// place ω' in the cone, and weight, both walks drawing from `s` ([`walk_counted`]): the plain
+/// pair the reference estimator ([`reference`]) is built from.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn pair_from<K: Kernel>(
@@ -380,8 +502,8 @@ pub fn pair_from<K: Kernel>(
     weight: Rgb,
     p: &Params,
     s: &mut Sampler,
-) -> Sample {
-    let mut out = Sample {
+) -> SinglePair {
+    let mut out = SinglePair {
         weight,
         ..Default::default()
     };

@@ -135,18 +135,39 @@ impl Moments {
         self.add_group(&GroupSums { c, a: cd, b: cd2 });
     }
 
-    /// One sample to the sums, the sample count and the fluence only, not to the product sums: it
-    /// belongs to a group that [`Moments::add_group`] folds in. Returns its (c, cΔ, cΔ²).
+    /// One sample of a single pair (c, Δ) to the sums, the sample count and the fluence only, not
+    /// to the product sums: it belongs to a group that [`Moments::add_group`] folds in. Returns its
+    /// (c, cΔ, cΔ²).
     #[inline]
     pub fn add_to_sums(&mut self, c: f64, delta: f64, weight_rgb: Rgb) -> (f64, f64, f64) {
         let cd = c * delta;
+        self.add_unit_to_sums(c, cd, cd * delta, weight_rgb)
+    }
+
+    /// One sample given as its (c, cΔ, cΔ²) (the averages over its pairs,
+    /// [`crate::ftpd::Sample`]) to the sums, the sample count and the fluence only, as
+    /// [`Moments::add_to_sums`]. Returns the triple.
+    #[inline]
+    pub fn add_unit_to_sums(
+        &mut self,
+        c: f64,
+        cd: f64,
+        cd2: f64,
+        weight_rgb: Rgb,
+    ) -> (f64, f64, f64) {
         add_compensated(&mut self.s0, &mut self.comp[0], c);
         add_compensated(&mut self.s1, &mut self.comp[1], cd);
-        let cd2 = cd * delta;
         add_compensated(&mut self.s2, &mut self.comp[2], cd2);
         self.n += 1;
         self.fluence += weight_rgb;
         (c, cd, cd2)
+    }
+
+    /// One sample of a [`crate::ftpd::Sample`]'s averages, an independent unit of its own.
+    #[inline]
+    pub fn add_unit(&mut self, c: f64, cd: f64, cd2: f64, weight_rgb: Rgb) {
+        let (c, a, b) = self.add_unit_to_sums(c, cd, cd2, weight_rgb);
+        self.add_group(&GroupSums { c, a, b });
     }
 
     /// The products of one complete group's sums (whose samples went in by

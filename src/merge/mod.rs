@@ -225,6 +225,14 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> Result<Merged, MergeError> 
     let mut warnings = Vec::new();
     let mut info = estimate_of(&infos[0]);
     warnings.extend(join_differing(&mut info, &infos));
+    if info.pairs.as_deref().is_some_and(|p| p.contains(';')) {
+        // Each design's samples estimate the same expectations, one unit each: the sums add.
+        warnings.push(format!(
+            "the inputs took different deflection pairs per sample ({}): every sample counts \
+             once, whatever its pairs",
+            info.pairs.as_deref().unwrap_or_default()
+        ));
+    }
     let parts = coalesce(all_parts.iter().map(|(p, _)| p.clone()).collect());
     let covered = set_parts(&mut info, &infos, parts, rows(&field));
     let h = covered.len();
@@ -271,6 +279,7 @@ fn estimate_of(one: &RunInfo) -> RunInfo {
 fn join_differing(info: &mut RunInfo, infos: &[RunInfo]) -> Option<String> {
     info.embree = join_text(infos.iter().map(|i| i.embree.as_ref()));
     info.kernel = join_text(infos.iter().map(|i| i.kernel.as_ref()));
+    info.pairs = join_text(infos.iter().map(|i| i.pairs.as_ref()));
     info.schedule = join_text(infos.iter().map(|i| i.schedule.as_ref()));
     info.adaptive = join_text(infos.iter().map(|i| i.adaptive.as_ref()));
     info.budget_time = join_text(infos.iter().map(|i| i.budget_time.as_ref()));

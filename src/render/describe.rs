@@ -51,6 +51,7 @@ pub fn describe_run(
         features: Some(scene.features.to_string()),
         flatland: params.flat.is_some(),
         kernel: Some(ftpd::kernel_for(params).to_string()),
+        pairs: Some(params.design.to_string()),
         tiles: opts.tile.into_iter().collect(),
         ..RunInfo::default()
     }

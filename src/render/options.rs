@@ -152,7 +152,7 @@ pub struct RunStats {
     /// Samples taken in this invocation (a resumed run does not count the file's).
     pub samples: u64,
     pub rays: u64,
-    /// Pairs with a walk that reached the bounce cap.
+    /// Walks that reached the bounce cap before their longest run length.
     pub capped: u64,
     /// Samples whose contribution was not finite and was dropped.
     pub clamped: u64,

@@ -100,9 +100,9 @@ where
                             s.begin_sample(group, k);
                             let smp = kernel(idx, &mut s);
                             r += smp.rays as u64;
-                            cap += smp.capped as u64;
+                            cap += u64::from(smp.capped);
                             cl += smp.clamped as u64;
-                            sums.add(b.add_to_sums(smp.c, smp.delta, smp.weight));
+                            sums.add(b.add_unit_to_sums(smp.c, smp.cd, smp.cd2, smp.weight));
                             if k + 1 == QMC_GROUP || i + 1 == spp {
                                 b.add_group(&sums);
                                 sums = GroupSums::default();

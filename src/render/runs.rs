@@ -117,10 +117,7 @@ fn drive<K: crate::kernel::Kernel>(
         opts,
         progress,
         hooks,
-        |cell, s: &mut Sampler| {
-            ftpd::before_start(params, s);
-            ftpd::sample::<K>(scene, domain.start(scene, cell, s), params, s)
-        },
+        |cell, s: &mut Sampler| ftpd::sample::<K>(scene, domain.start(scene, cell, s), params, s),
     )
 }
 

@@ -23,6 +23,7 @@
 //! | `angle_deg`, `max_bounces` | cone half-angle, bounce cap | decimal |
 //! | `radiance_bounces` | bounce cap of radiance paths (absent: `max_bounces`, as before it was written) | decimal |
 //! | `features`, `kernel` | feature set, kernel | text |
+//! | `pairs` | deflection pairs per sample, kA,kB,J,M ([`crate::ftpd::Design`]; absent: written before designs, one pair per sample with another sample layout) | `2,2,1,2`; a merge of several: `1,1,1,1; 2,2,1,2` |
 //! | `point_lights` | point lights added to the scene file's | `x,y,z:r,g,b;…` |
 //! | `sun` | suns added to the scene file's | `x,y,z:r,g,b:diameter;…` |
 //! | `sky` | sky or environment map added to the scene file's | `r,g,b` or `file:scale:rotation` |
@@ -110,6 +111,9 @@ pub struct RunInfo {
     /// Directions confined to the slice plane.
     pub flatland: bool,
     pub kernel: Option<String>,
+    /// The deflection pairs of a sample ([`crate::ftpd::Design`] as text); a merge of fields of
+    /// different designs lists them.
+    pub pairs: Option<String>,
     pub seed: Option<u64>,
     /// The distinct seeds of a merged field.
     pub seeds: Vec<u64>,
@@ -170,6 +174,7 @@ const KNOWN: &[&str] = &[
     "sky",
     "flatland",
     "kernel",
+    "pairs",
     "seed",
     "seeds",
     "tile",
@@ -224,7 +229,7 @@ pub const ESTIMATE_KEYS: &[&str] = &[
 /// What a resumed run must share with its file beyond [`ESTIMATE_KEYS`]: which random streams,
 /// pass sizes, kernel and tile produced the samples (a tile resumed as a whole grid would give
 /// its other cells only the later passes). Budgets may change between invocations.
-pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel", "tile"];
+pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel", "pairs", "tile"];
 
 impl RunInfo {
     /// The radiance paths' cap: `radiance_bounces`, or for files written before it was recorded
@@ -239,7 +244,8 @@ impl RunInfo {
     }
 
     /// The first attribute of `keys` (from [`ESTIMATE_KEYS`] and [`RESUME_KEYS`]) on which `self`
-    /// and `other` differ, compared as typed values (absent on both counts as agreeing).
+    /// and `other` differ, compared as typed values (absent on both counts as agreeing; an absent
+    /// `pairs` agrees with any).
     pub fn first_difference(&self, other: &RunInfo, keys: &[&str]) -> Option<&'static str> {
         let (a, b) = (self, other);
         fn by<T, U: PartialEq>(x: &Option<T>, y: &Option<T>, f: impl Fn(&T) -> U) -> bool {
@@ -275,6 +281,10 @@ impl RunInfo {
                 "schedule" => a.schedule == b.schedule,
                 "adaptive" => a.adaptive == b.adaptive,
                 "kernel" => a.kernel == b.kernel,
+                // Files written before designs have none; their samples are units of the same
+                // expectations, so such a file resumes with any design (as it resumed with the
+                // estimators that came after it).
+                "pairs" => a.pairs.is_none() || b.pairs.is_none() || a.pairs == b.pairs,
                 "tile" => a.tiles == b.tiles,
                 other => panic!("RunInfo::first_difference: '{other}' is not a compared attribute"),
             }

@@ -204,6 +204,7 @@ impl Reader<'_> {
             .get("flatland", "true or false", boolean)?
             .unwrap_or(false);
         info.kernel = self.text("kernel");
+        info.pairs = self.text("pairs");
         Ok(())
     }
 

@@ -91,6 +91,7 @@ impl RunInfo {
         put("sky", text(&self.sky));
         put("flatland", Some(self.flatland.to_string()));
         put("kernel", text(&self.kernel));
+        put("pairs", text(&self.pairs));
         put("seed", shown(&self.seed));
         if !self.seeds.is_empty() {
             put("seeds", Some(join(&self.seeds, ",")));

@@ -1,5 +1,6 @@
 //! Light transport: sampling warps, scattering models, and the random walks built from them.
 pub mod bsdf;
+pub mod deflection;
 pub mod light;
 pub mod mirror;
 pub mod sampling;

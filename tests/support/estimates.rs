@@ -21,7 +21,7 @@ pub fn point_estimate(
     let (mut f, mut f2) = (0.0, 0.0);
     for _ in 0..n {
         let smp = sample_point(scene, at, p, &mut s);
-        m.add_sample(smp.c, smp.delta, smp.weight);
+        m.add_unit(smp.c, smp.cd, smp.cd2, smp.weight);
         let w = ftpd3d::math::luminance(smp.weight);
         f += w;
         f2 += w * w;
@@ -119,7 +119,7 @@ pub fn agrees_with_reference(
             let mut m = Moments::default();
             for _ in 0..n {
                 let smp = sample_point(scene, *x, p, &mut s);
-                m.add_sample(smp.c, smp.delta, smp.weight);
+                m.add_unit(smp.c, smp.cd, smp.cd2, smp.weight);
             }
             m
         });

@@ -1,0 +1,182 @@
+//! The walks of a deflection sample read at several run lengths (paper section 5.1): one walk
+//! traced to the longest run length gives its end point at every shorter one on the way.
+//!
+//! A walk of length T is a prefix of a walk of length T' > T: both draw the same numbers at the
+//! same hits until T is used up (a hit at or beyond the remaining length ends the shorter walk
+//! before it scatters, absorption and the bounce cap take effect at hits only), so the point the
+//! longer walk reaches at arc length T is the end point of the shorter walk, with its throughput
+//! and scattering events. [`walk_ends`] reads every run length of a sorted list off one walk.
+//!
+//! Walks that start at the same point along the same direction share their first segment: its
+//! hit is a fixed function of the ray, so it is traced once ([`FirstSegment`]) and each walk goes
+//! on from it with its own random numbers.
+
+use crate::kernel::{Kernel, Space};
+use crate::math::Rgb;
+use crate::rng::Sampler;
+use crate::scene::{Hit, Scene};
+use crate::transport::bsdf::Mode;
+use crate::transport::trace;
+use glam::DVec3;
+
+/// Where a walk is at one run length: its point, its throughput (the product of `f |cos| / pdf`;
+/// zero once the walk was absorbed) and its scattering events so far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct End {
+    pub p: DVec3,
+    pub beta: Rgb,
+    pub bounces: u32,
+}
+
+impl Default for End {
+    fn default() -> Self {
+        End {
+            p: DVec3::ZERO,
+            beta: Rgb::ZERO,
+            bounces: 0,
+        }
+    }
+}
+
+/// The first segment of the walks from `x` along `dir`: the closest hit within the longest run
+/// length, traced once for all of them.
+#[derive(Clone, Copy, Debug)]
+pub struct FirstSegment {
+    pub x: DVec3,
+    pub dir: DVec3,
+    pub hit: Option<Hit>,
+}
+
+impl FirstSegment {
+    /// Traces the ray from `x` (off every surface) along the unit `dir` up to `t_max`.
+    #[inline]
+    pub fn trace<K: Kernel>(scene: &Scene, x: DVec3, dir: DVec3, t_max: f64) -> Self {
+        FirstSegment {
+            x,
+            dir,
+            hit: trace::intersect::<K>(scene, x, dir, t_max),
+        }
+    }
+
+    /// Whether every walk from it is straight up to `t_max` (no hit within it): then all of them
+    /// are the same deterministic line and one stands for all.
+    #[inline]
+    pub fn is_straight(&self) -> bool {
+        self.hit.is_none()
+    }
+}
+
+/// What [`walk_ends`] traced: rays beyond the shared first segment, and whether the walk reached
+/// the bounce cap before its longest run length.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WalkStats {
+    pub rays: u32,
+    pub capped: bool,
+}
+
+/// One walk from `first` read at each run length of `lengths` (ascending, positive), into
+/// `ends` (as long as `lengths`): the end point of a walk of exactly that Euclidean length (paper
+/// section 5.1: scattering at every hit by sampling the BSDF, straight on after leaving the
+/// scene). A walk that reaches `max_bounces` scattering events ends at the hit where it would
+/// scatter once more, for every longer run length; a walk absorbed at a hit has zero throughput
+/// from there on. Draws three numbers from `s` per scattering event.
+#[inline]
+pub fn walk_ends<K: Kernel>(
+    scene: &Scene,
+    first: &FirstSegment,
+    lengths: &[f64],
+    max_bounces: u32,
+    s: &mut Sampler,
+    ends: &mut [End],
+) -> WalkStats {
+    debug_assert_eq!(lengths.len(), ends.len());
+    debug_assert!(lengths.windows(2).all(|w| w[0] <= w[1]));
+    let sp = K::Space::of(scene);
+    let t_max = lengths.last().copied().unwrap_or(0.0);
+    let mut stats = WalkStats::default();
+    // `base` is the true start of the current segment (x, then surface points), `origin` the
+    // same point pushed off the surface for the ray query, `travelled` the arc length up to
+    // `base`. Lengths are measured from `base`, so the offsets never change the geometry.
+    let (mut base, mut origin, mut d) = (first.x, first.x, first.dir);
+    let mut travelled = 0.0;
+    let mut beta = Rgb::ONE;
+    let mut bounces = 0;
+    let mut hit = first.hit;
+    let mut next = 0;
+    loop {
+        // The segment ends at the hit (or never); every run length it covers ends on it.
+        let seg_end = hit.map_or(f64::INFINITY, |h| travelled + (h.p - base).dot(d));
+        while next < lengths.len() && lengths[next] <= seg_end {
+            ends[next] = End {
+                p: base + d * (lengths[next] - travelled),
+                beta,
+                bounces,
+            };
+            next += 1;
+        }
+        let Some(h) = hit else {
+            debug_assert_eq!(next, lengths.len());
+            return stats;
+        };
+        if next == lengths.len() {
+            return stats;
+        }
+        if bounces >= max_bounces {
+            // Capped: the longer run lengths end at this hit.
+            stats.capped = true;
+            fill(
+                &mut ends[next..],
+                End {
+                    p: h.p,
+                    beta,
+                    bounces,
+                },
+            );
+            return stats;
+        }
+        let u_lobe = s.next_f64();
+        let u = s.next_2d();
+        let (bsdf, lobe) = K::Space::scatter(scene, h.material);
+        let textured;
+        let (bsdf, lobe) = match scene.textured_bsdf(&h) {
+            Some(b) => {
+                textured = (K::Space::textured_lobe(&b, lobe), b);
+                (&textured.1, &textured.0)
+            }
+            None => (bsdf, lobe),
+        };
+        let sampled = bsdf.sample_in(sp, lobe, -d, h.ng, h.ns, u_lobe, u, s, Mode::Importance);
+        let absorbed = End {
+            p: h.p,
+            beta: Rgb::ZERO,
+            bounces,
+        };
+        let Some(bs) = sampled else {
+            fill(&mut ends[next..], absorbed);
+            return stats;
+        };
+        beta *= bs.weight;
+        if beta == Rgb::ZERO {
+            fill(&mut ends[next..], absorbed);
+            return stats;
+        }
+        bounces += 1;
+        origin = scene.spawn_origin_from(&h, bs.wi, origin);
+        d = bs.wi;
+        base = h.p;
+        travelled = seg_end;
+        stats.rays += 1;
+        hit = trace::intersect::<K>(
+            scene,
+            origin,
+            d,
+            (t_max - travelled) + (origin - base).length(),
+        );
+    }
+}
+
+fn fill(ends: &mut [End], e: End) {
+    for x in ends {
+        *x = e;
+    }
+}
