@@ -48,6 +48,11 @@ pub struct FirstCommandArgs {
     /// Compare the output the command wrote last instead of running it again.
     #[arg(long)]
     no_run: bool,
+    /// Instead of the command, its ftpd3d arguments with `--spp N --pass-spp 8 --adaptive` (the
+    /// passes of its default budget, stopped at a sample count instead of a minute): a figure that
+    /// does not depend on the machine's load. Written to the work directory.
+    #[arg(long, value_name = "N", conflicts_with = "no_run")]
+    spp: Option<u32>,
 }
 
 /// The README's main-job command: the first non-empty line of its first code block.
@@ -152,11 +157,34 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
     let command = first_command(&readme)
         .with_context(|| format!("{}: no code block", readme_path.display()))?;
     let (tool, out) = tool_args(&command)?;
-    let out = tree.join(out);
+    let mut out = tree.join(out);
     let tree_bin = tree.join("target").join("release").join("ftpd3d");
+    let work_dir = match &args.work_dir {
+        Some(d) => d.clone(),
+        None => crate::target_dir()?.join("first-command"),
+    };
     eprintln!("first command ({}): {command}", tree.display());
     let cost = if args.no_run {
         None
+    } else if let Some(spp) = args.spp {
+        prebuild(&tree)?;
+        std::fs::create_dir_all(&work_dir)
+            .with_context(|| format!("{}: cannot create it", work_dir.display()))?;
+        let stem = out
+            .file_stem()
+            .map_or("first".into(), |s| s.to_string_lossy().into_owned());
+        out = work_dir.join(format!("{stem}_spp{spp}.exr"));
+        let mut a = without_output(&tool);
+        a.extend(["--spp", &spp.to_string(), "--pass-spp", "8", "--adaptive"].map(String::from));
+        let mut cmd = Command::new(&tree_bin);
+        cmd.args(&a).current_dir(&tree).arg("-o").arg(&out);
+        eprintln!(
+            "instead: {} {} -o {}",
+            tree_bin.display(),
+            a.join(" "),
+            out.display()
+        );
+        Some(run_costed(&mut cmd, &tree_bin.display().to_string())?)
     } else {
         prebuild(&tree)?;
         let mut cmd = Command::new("bash");
@@ -165,10 +193,6 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
     };
     let field =
         ftpd3d::output::exr::read_exr(&out).with_context(|| format!("{}", out.display()))?;
-    let work_dir = match &args.work_dir {
-        Some(d) => d.clone(),
-        None => crate::target_dir()?.join("first-command"),
-    };
     let reference_bin = args.reference_bin.clone().unwrap_or(tree_bin);
     let reference = reference(&work_dir, &out, &tool, args.ref_spp, &reference_bin)?;
     print!(
