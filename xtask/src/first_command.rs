@@ -157,6 +157,10 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
     let command = first_command(&readme)
         .with_context(|| format!("{}: no code block", readme_path.display()))?;
     let (tool, out) = tool_args(&command)?;
+    // The reference is named after the command's output, whichever file is compared with it.
+    let ref_stem = out
+        .file_stem()
+        .map_or("first".into(), |s| s.to_string_lossy().into_owned());
     let mut out = tree.join(out);
     let tree_bin = tree.join("target").join("release").join("ftpd3d");
     let work_dir = match &args.work_dir {
@@ -170,10 +174,7 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
         prebuild(&tree)?;
         std::fs::create_dir_all(&work_dir)
             .with_context(|| format!("{}: cannot create it", work_dir.display()))?;
-        let stem = out
-            .file_stem()
-            .map_or("first".into(), |s| s.to_string_lossy().into_owned());
-        out = work_dir.join(format!("{stem}_spp{spp}.exr"));
+        out = work_dir.join(format!("{ref_stem}_spp{spp}.exr"));
         let mut a = without_output(&tool);
         a.extend(["--spp", &spp.to_string(), "--pass-spp", "8", "--adaptive"].map(String::from));
         let mut cmd = Command::new(&tree_bin);
@@ -194,7 +195,7 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
     let field =
         ftpd3d::output::exr::read_exr(&out).with_context(|| format!("{}", out.display()))?;
     let reference_bin = args.reference_bin.clone().unwrap_or(tree_bin);
-    let reference = reference(&work_dir, &out, &tool, args.ref_spp, &reference_bin)?;
+    let reference = reference(&work_dir, &ref_stem, &tool, args.ref_spp, &reference_bin)?;
     print!(
         "{}",
         report(&tree, &out, &field, cost, &reference, args.ref_spp)?
@@ -219,14 +220,11 @@ fn prebuild(tree: &Path) -> anyhow::Result<()> {
 /// The cached reference of the command's slice, or computed now with `bin`.
 fn reference(
     work_dir: &Path,
-    out: &Path,
+    stem: &str,
     tool: &[String],
     spp: u32,
     bin: &Path,
 ) -> anyhow::Result<Field> {
-    let stem = out
-        .file_stem()
-        .map_or("first".into(), |s| s.to_string_lossy().into_owned());
     let path = work_dir.join(format!("{stem}_ref{spp}.exr"));
     if path.is_file() {
         return ftpd3d::output::exr::read_exr(&path).with_context(|| path.display().to_string());
