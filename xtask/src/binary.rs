@@ -63,3 +63,17 @@ pub fn seconds(field: &Field, path: &Path) -> anyhow::Result<f64> {
         .elapsed
         .with_context(|| format!("{}: no elapsed time stored", path.display()))
 }
+
+/// Runs `bin` with `args` (the slice, estimator and budget flags), writing its EXR (no PNG) to
+/// `out`; returns the field read back and what the process cost.
+pub fn run_costed(
+    bin: &Path,
+    args: &[String],
+    out: &Path,
+) -> anyhow::Result<(Field, crate::cost::Cost)> {
+    let mut cmd = std::process::Command::new(bin);
+    cmd.args(args).args(["--quiet", "--no-png", "-o"]).arg(out);
+    let cost = crate::cost::run_costed(&mut cmd, &bin.display().to_string())?;
+    let field = ftpd3d::output::exr::read_exr(out).with_context(|| format!("{}", out.display()))?;
+    Ok((field, cost))
+}

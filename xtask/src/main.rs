@@ -5,6 +5,8 @@
 //! cargo xtask efficiency --baseline OLD/ftpd3d --scene scenes/cornell_mirror.obj [flags]
 //! cargo xtask converge --baseline OLD/ftpd3d --scene scenes/cornell_mirror.obj --slice z=0 \
 //!     --out-dir out/conv [the flags of ftpd3d converge]
+//! cargo xtask equal-time --baseline OLD/ftpd3d [--candidate LABEL=BIN ...] [flags]
+//! cargo xtask first-command [--tree DIR]
 //! ```
 //!
 //! The candidate is this tree's `ftpd3d`, built in release first, unless `--candidate BIN` names
@@ -12,7 +14,10 @@
 
 mod binary;
 mod converge;
+mod cost;
 mod efficiency;
+mod equal_time;
+mod first_command;
 
 use anyhow::{Context, bail};
 use clap::{Parser, Subcommand};
@@ -41,6 +46,19 @@ enum Command {
     /// Example: cargo xtask converge --baseline /path/to/old/ftpd3d --scene scenes/cornell_mirror.obj
     /// --slice z=0 --out-dir out/conv
     Converge(converge::ConvergeBaselineArgs),
+    /// Squared error of σ at the same time budget, a baseline build against candidates, rounds
+    /// interleaved, against a cached independent reference: efficiency ratios by compute and by
+    /// CPU seconds.
+    ///
+    /// Example: cargo xtask equal-time --baseline /path/to/old/ftpd3d --scene
+    /// scenes/cornell_mirror.obj --weight radiance
+    EqualTime(equal_time::EqualTimeArgs),
+    /// Runs the README's first command as written, timed, and measures its σ against a cached
+    /// reference: the 95th percentile of the relative error, reported and actual.
+    ///
+    /// Example: cargo xtask first-command
+    #[command(name = "first-command")]
+    First(first_command::FirstCommandArgs),
 }
 
 fn main() -> ExitCode {
@@ -48,6 +66,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Efficiency(args) => efficiency::run(args),
         Command::Converge(args) => converge::run(args),
+        Command::EqualTime(args) => equal_time::run(args),
+        Command::First(args) => first_command::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -66,13 +86,27 @@ fn existing(flag: &str, path: &Path) -> anyhow::Result<PathBuf> {
     Ok(path.to_path_buf())
 }
 
+/// The workspace root (where this xtask was built from).
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The target directory this program runs from (`cargo xtask` runs it from `<target>/release/`).
+fn target_dir() -> anyhow::Result<PathBuf> {
+    let exe = std::env::current_exe().context("cannot find this program's path")?;
+    exe.parent()
+        .and_then(Path::parent)
+        .map(Path::to_path_buf)
+        .context("this program does not run from a target directory")
+}
+
 /// The candidate binary: `given`, or else this tree's `ftpd3d`, built in release into the target
 /// directory this program runs from (`cargo xtask` runs it from `<target>/release/`).
 fn candidate(given: Option<&Path>) -> anyhow::Result<PathBuf> {
     if let Some(c) = given {
         return existing("--candidate", c);
     }
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join("../Cargo.toml");
+    let manifest = workspace_root().join("Cargo.toml");
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let status = std::process::Command::new(&cargo)
         .args([
@@ -91,12 +125,7 @@ fn candidate(given: Option<&Path>) -> anyhow::Result<PathBuf> {
     if !status.success() {
         bail!("building this tree's ftpd3d failed ({status}); or give --candidate BIN");
     }
-    let exe = std::env::current_exe().context("cannot find this program's path")?;
-    let target = exe
-        .parent()
-        .and_then(Path::parent)
-        .context("this program does not run from a target directory")?;
-    let bin = target.join("release").join("ftpd3d");
+    let bin = target_dir()?.join("release").join("ftpd3d");
     if !bin.is_file() {
         bail!(
             "{}: no ftpd3d after the build (another target directory?); give --candidate BIN",

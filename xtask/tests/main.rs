@@ -1,5 +1,6 @@
-//! The developer tools against builds of this tree: `cargo xtask converge --baseline` and `cargo
-//! xtask efficiency`, each comparing this tree's ftpd3d with itself.
+//! The developer tools against builds of this tree: `cargo xtask converge --baseline`, `cargo xtask
+//! efficiency`, `equal-time` and `first-command`, each comparing this tree's ftpd3d with itself.
 mod converge;
 mod efficiency;
+mod equal_time;
 mod support;

@@ -23,6 +23,7 @@
 mod measure;
 mod table;
 
+pub use measure::quantile;
 use measure::{Level, Speedup, errors, speedup};
 pub use table::table;
 

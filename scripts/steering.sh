@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Issue 25's steering figures for this tree (docs/performance.md#what-accuracy-costs-in-time):
+# 1. `cargo xtask equal-time`: RMSE² of σ at equal time (--time 10s, rounds interleaved) against
+#    8ae9f4f, Cornell box and stair wall, radiance and unweighted, 48², against cached independent
+#    references (target/equal-time/);
+# 2. `cargo xtask first-command`: the README's first command as written, its wall time and the 95th
+#    percentile of its relative error (reported, and actual against a cached reference in
+#    target/first-command/).
+# The baseline binary is $FTPD3D_BASELINE, or 8ae9f4f built once in a git worktree under the
+# target directory (as scripts/efficiency.sh does; a release build of 8ae9f4f takes about 8 min
+# on two idle cores).
+#
+#   scripts/steering.sh                         # both, about 12 min on two idle cores
+#   scripts/steering.sh --equal-time-only -- --scene scenes/cornell_mirror.obj --weight radiance
+#   FTPD3D_BASELINE=/path/to/ftpd3d-8ae9f4f scripts/steering.sh
+#
+# Flags after `--` go to `cargo xtask equal-time` (e.g. --rounds 6, --candidate LABEL=BIN).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+base_rev=8ae9f4f
+equal=1
+first=1
+extra=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --equal-time-only) first=0 ;;
+    --first-command-only) equal=0 ;;
+    --) shift; extra=("$@"); break ;;
+    *) echo "steering.sh: unknown argument $1 (use -- before the xtask's flags)" >&2; exit 2 ;;
+  esac
+  shift
+done
+target=${CARGO_TARGET_DIR:-$root/target}
+if [ $equal -eq 1 ]; then
+  baseline=${FTPD3D_BASELINE:-}
+  if [ -z "$baseline" ]; then
+    tree=$target/baseline-$base_rev/src
+    baseline=$target/baseline-$base_rev/release/ftpd3d
+    if [ ! -x "$baseline" ]; then
+      [ -d "$tree" ] || git worktree add --detach "$tree" "$base_rev" >&2
+      (cd "$tree" && CARGO_TARGET_DIR=$target/baseline-$base_rev cargo build --release --quiet --bin ftpd3d)
+    fi
+  fi
+  [ -x "$baseline" ] || { echo "steering.sh: no baseline binary at $baseline" >&2; exit 1; }
+  CARGO_TARGET_DIR=$target cargo xtask equal-time --baseline "$baseline" "${extra[@]}"
+fi
+if [ $first -eq 1 ]; then
+  CARGO_TARGET_DIR=$target cargo xtask first-command
+fi
