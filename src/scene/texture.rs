@@ -301,8 +301,8 @@ impl Texture {
     }
 }
 
-/// A texture coordinate transform (glTF's `KHR_texture_transform`): scale, then rotate
-/// (counter-clockwise by `rotation` radians), then offset.
+/// A texture coordinate transform (glTF's `KHR_texture_transform`): scale, then rotate by
+/// `rotation` radians (see [`apply`](Self::apply) for the sense), then offset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UvTransform {
     pub offset: [f64; 2],
@@ -321,16 +321,19 @@ impl Default for UvTransform {
 }
 
 impl UvTransform {
-    /// The extension's matrix `T · R · S` applied to `(u, v)` in glTF's UV convention. The
-    /// extension writes R in GLSL as `mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)`, which is
-    /// column-major: `u' = cos·u − sin·v`, `v' = sin·u + cos·v`.
+    /// The extension's `T · R · S` applied to `(u, v)` in glTF's UV space (v down):
+    /// `u' = cos·u + sin·v`, `v' = −sin·u + cos·v` after the scale, then the offset. This is the
+    /// turn the extension's worked example (offset (0, 1), rotation π/2, scale ½ uses the lower
+    /// left quadrant, turned clockwise), its sample model TextureTransformTest and the common
+    /// implementations agree on; the GLSL matrix in its text, read column-major, would turn the
+    /// other way.
     #[inline]
     pub fn apply(&self, u: f64, v: f64) -> (f64, f64) {
         let (su, sv) = (u * self.scale[0], v * self.scale[1]);
         let (s, c) = self.rotation.sin_cos();
         (
-            c * su - s * sv + self.offset[0],
-            s * su + c * sv + self.offset[1],
+            c * su + s * sv + self.offset[0],
+            -s * su + c * sv + self.offset[1],
         )
     }
 }
@@ -438,19 +441,24 @@ mod tests {
 
     #[test]
     fn uv_transform_follows_khr_texture_transform() {
-        // Offset (0, 1), rotation π/2, scale (0.5, 0.5), by the extension's GLSL matrices
-        // (column-major): (1, 0) is scaled to (0.5, 0), rotated to (0, 0.5), offset to (0, 1.5);
-        // (0, 1) to (0, 0.5), (−0.5, 0), (−0.5, 1).
+        // The extension's example: offset (0, 1), rotation π/2, scale ½ maps the unit square onto
+        // the lower left quadrant (u ∈ [0, ½], v ∈ [½, 1], v down), turned clockwise: (1, 0) is
+        // scaled to (½, 0), turned to (0, −½), offset to (0, ½); (0, 1) to (0, ½), (½, 0), (½, 1).
         let t = UvTransform {
             offset: [0.0, 1.0],
             rotation: std::f64::consts::FRAC_PI_2,
             scale: [0.5, 0.5],
         };
         let (u, v) = t.apply(1.0, 0.0);
-        assert!(u.abs() < 1e-15 && (v - 1.5).abs() < 1e-15, "({u}, {v})");
+        assert!(u.abs() < 1e-15 && (v - 0.5).abs() < 1e-15, "({u}, {v})");
         let (u, v) = t.apply(0.0, 1.0);
         assert!(
-            (u + 0.5).abs() < 1e-15 && (v - 1.0).abs() < 1e-15,
+            (u - 0.5).abs() < 1e-15 && (v - 1.0).abs() < 1e-15,
+            "({u}, {v})"
+        );
+        let (u, v) = t.apply(1.0, 1.0);
+        assert!(
+            (u - 0.5).abs() < 1e-15 && (v - 0.5).abs() < 1e-15,
             "({u}, {v})"
         );
         assert_eq!(UvTransform::default().apply(0.3, 0.7), (0.3, 0.7));
