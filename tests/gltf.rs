@@ -14,14 +14,14 @@ use std::path::{Path, PathBuf};
 
 /// One binary buffer with its buffer views and accessors, assembled as a test goes.
 #[derive(Default)]
-struct Bin {
+pub(crate) struct Bin {
     data: Vec<u8>,
     views: Vec<Value>,
     accessors: Vec<Value>,
 }
 
 impl Bin {
-    fn view(&mut self, bytes: &[u8]) -> usize {
+    pub(crate) fn view(&mut self, bytes: &[u8]) -> usize {
         while !self.data.len().is_multiple_of(4) {
             self.data.push(0);
         }
@@ -31,7 +31,7 @@ impl Bin {
         self.views.len() - 1
     }
 
-    fn vec3(&mut self, v: &[[f32; 3]]) -> usize {
+    pub(crate) fn vec3(&mut self, v: &[[f32; 3]]) -> usize {
         let bytes: Vec<u8> = v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
         let view = self.view(&bytes);
         let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
@@ -49,7 +49,7 @@ impl Bin {
     }
 
     /// Unsigned short indices.
-    fn indices(&mut self, idx: &[u16]) -> usize {
+    pub(crate) fn indices(&mut self, idx: &[u16]) -> usize {
         let bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_le_bytes()).collect();
         let view = self.view(&bytes);
         self.accessors.push(
@@ -78,7 +78,7 @@ impl Bin {
     }
 
     /// Writes `name` (.gltf) with the buffer embedded as a base64 data URI.
-    fn write_embedded(&self, dir: &Path, name: &str, extra: Value) -> PathBuf {
+    pub(crate) fn write_embedded(&self, dir: &Path, name: &str, extra: Value) -> PathBuf {
         let uri = format!(
             "data:application/octet-stream;base64,{}",
             base64::engine::general_purpose::STANDARD.encode(&self.data)
@@ -805,7 +805,7 @@ fn png_uri(w: u32, h: u32, rgb: Vec<u8>) -> String {
 
 /// The unit quad in z = 0 with TEXCOORD_0 running over the texture (u along x; glTF's v points
 /// down, so the top edge y = 1 is v = 0): (positions, uvs, indices) accessors.
-fn textured_quad(bin: &mut Bin) -> (usize, usize, usize) {
+pub(crate) fn textured_quad(bin: &mut Bin) -> (usize, usize, usize) {
     let pos = bin.vec3(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
     let uv_bytes: Vec<u8> = [[0f32, 1.], [1., 1.], [1., 0.], [0., 0.]]
         .iter()

@@ -11,6 +11,7 @@ mod ftpd;
 mod gallery;
 mod geometry;
 mod gltf;
+mod images;
 mod layers;
 mod merge;
 mod mirror;

@@ -184,6 +184,10 @@ impl EnvMap {
     /// Reads `.exr` (the first RGB(A) layer) or `.hdr` (Radiance RGBE).
     pub fn load(path: &Path, scale: f64, rotation_deg: f64) -> Result<EnvMap, ImageError> {
         let name = path.display().to_string();
+        // Only regular files: a FIFO would block the load.
+        if let Some(kind) = crate::scene::files::not_regular(path) {
+            return Err(ImageError::NotRegular { name, kind });
+        }
         let ext = crate::scene::files::extension(path);
         let (w, h, texels) = match ext.as_deref() {
             Some("exr") => {

@@ -41,6 +41,12 @@ pub(super) fn malformed(path: &Path, what: String) -> LoadError {
     }
 }
 
+/// The extensions that give a texture an image in a format of their own (the extension's
+/// `source`); the texture decoder says which it reads, and a material whose image it cannot read
+/// keeps its factors, with a warning.
+pub(super) const IMAGE_EXTENSIONS: &[&str] =
+    &["KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif"];
+
 /// Reads and parses the file at `path`: the document and the GLB binary chunk, if any.
 pub(super) fn read(path: &Path) -> Result<(::gltf::Document, Option<Vec<u8>>), LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Unreadable {
@@ -61,7 +67,11 @@ pub(super) fn read(path: &Path) -> Result<(::gltf::Document, Option<Vec<u8>>), L
             _ => invalid(&e),
         })?;
     drop(bytes);
-    let root = document.into_json();
+    let mut root = document.into_json();
+    // Required image formats are read by the textures (or their materials keep their factors,
+    // with a warning): not a reason to refuse the file.
+    root.extensions_required
+        .retain(|e| !IMAGE_EXTENSIONS.contains(&e.as_str()));
     check_attribute_indices(&root).map_err(|e| invalid(&e))?;
     let doc = ::gltf::Document::from_json(root).map_err(|e| invalid(&e))?;
     Ok((doc, blob))

@@ -83,6 +83,12 @@ use std::path::Path;
 /// Loads a `.gltf` or `.glb` file (and the buffers and images it names) into a [`Scene`].
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
+    if let Some(kind) = crate::scene::files::not_regular(path) {
+        return Err(LoadError::NotRegular {
+            file: path.to_path_buf(),
+            kind,
+        });
+    }
     if !path.is_file() {
         return Err(LoadError::NotFound {
             file: path.to_path_buf(),
@@ -115,7 +121,14 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
         warnings: warnings.list,
         ..Default::default()
     };
-    let textures = textures::resolve(&doc, requests, &mut materials, &buffers, path)?;
+    let textures = textures::resolve(
+        &doc,
+        requests,
+        &mut materials,
+        &buffers,
+        path,
+        &mut report.warnings,
+    )?;
     report.texture_bytes = textures.bytes();
     let normals = if any_normals { normals } else { Vec::new() };
     let n_triangles = triangles.len();
