@@ -6,6 +6,7 @@ mod converge;
 mod courtyard;
 mod cutout;
 mod driver;
+mod envmap;
 mod flat;
 mod ftpd;
 mod gallery;

@@ -279,6 +279,7 @@ pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> Result<(), LoadErr
             sidecar: path.to_path_buf(),
             source,
         })?;
+        scene.report.warnings.extend(map.notes.iter().cloned());
         scene.add_light(Light::Env(Environment::new(map)));
     }
     for (i, c) in sc.camera.iter().enumerate() {
