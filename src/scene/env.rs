@@ -432,7 +432,9 @@ impl EnvMap {
             _ => {
                 return Err(ImageError::Invalid {
                     name: Some(name),
-                    what: "an environment map must be .exr or .hdr (lat-long, +y up)".into(),
+                    what:
+                        "an environment map must be .exr or .hdr (lat-long, Mitsuba 3's convention)"
+                            .into(),
                 });
             }
         };

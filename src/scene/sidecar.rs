@@ -22,7 +22,7 @@
 //! [sky]                           # uniform sky
 //! radiance = [0.2, 0.3, 0.5]
 //!
-//! [environment]                   # lat-long HDR map (.exr or .hdr), +y up
+//! [environment]                   # lat-long HDR map (.exr or .hdr), Mitsuba 3's convention
 //! file = "sky.hdr"                # relative to this file
 //! scale = 1.0                     # optional
 //! rotation_deg = 0.0              # optional: a turn about +y

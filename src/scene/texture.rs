@@ -619,6 +619,24 @@ mod tests {
         }
     }
 
+    /// An image beyond the decoder's memory limit gets a message naming the limit and the
+    /// variable that raises it; KTX2 bytes are named as such, not as undecodable PNG.
+    #[test]
+    fn limit_and_undecoded_formats_are_named() {
+        let limit = image::ImageError::Limits(image::error::LimitError::from_kind(
+            image::error::LimitErrorKind::InsufficientMemory,
+        ));
+        let msg = format!("{:#}", decode_error(Some("big.png"), limit));
+        assert!(
+            msg.contains("big.png") && msg.contains("GiB") && msg.contains(IMAGE_LIMIT_VAR),
+            "{msg}"
+        );
+        assert!(image_memory_limit() >= 1 << 32 || std::env::var(IMAGE_LIMIT_VAR).is_ok());
+        let ktx2 = b"\xABKTX 20\xBB\r\n\x1A\n\0\0\0\0";
+        let e = Texture::from_bytes(ktx2, "t", Encoding::Colour).unwrap_err();
+        assert!(format!("{e}").contains("KTX2"), "{e}");
+    }
+
     #[test]
     fn png_textures_are_decoded_once_and_srgb_to_linear() {
         let dir = std::env::temp_dir().join(format!("ftpd3d-tex-{}", std::process::id()));
