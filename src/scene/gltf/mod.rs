@@ -4,7 +4,10 @@
 //! winding flipped where the transform mirrors), and a mesh used by several nodes is copied once per
 //! node. TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are read, indexed or not; points and
 //! lines are skipped with a warning. Buffers are read by this module; images (base-colour, emissive
-//! and metallic-roughness textures) are decoded by `crate::scene::texture`.
+//! and metallic-roughness textures) are decoded by `crate::scene::texture`: file URIs are
+//! percent-decoded, and an image that is missing, not a regular file or not decodable (KTX2 from
+//! `KHR_texture_basisu`, WebP, AVIF) is a warning naming it and its materials, which keep their
+//! factors in that slot.
 //!
 //! Metallic-roughness mapping (base = `baseColorFactor` RGB, m = `metallicFactor`, r =
 //! `roughnessFactor`, all clamped to [0, 1]; α = r², Phong exponent n = 2/α² − 2 clamped to

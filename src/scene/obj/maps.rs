@@ -136,9 +136,12 @@ pub(super) fn apply(
             .map(|u| list[u.0].name.as_str())
             .collect();
         match names.as_slice() {
-            [] => "no material".to_string(),
-            [one] => format!("material '{one}'"),
-            [first, rest @ ..] => format!("material '{first}' and {} other(s)", rest.len()),
+            [] => "no material uses it".to_string(),
+            [one] => format!("material '{one}' keeps its constant values"),
+            [first, rest @ ..] => format!(
+                "material '{first}' and {} other(s) keep their constant values",
+                rest.len()
+            ),
         }
     };
     let (set, id) = decode(file, &files, users, report);
@@ -244,10 +247,9 @@ fn decode(
         .collect();
     for (k, d) in decoded.iter().enumerate() {
         match d {
-            Err(e) => report.warnings.push(format!(
-                "{file}: {e}; {} keep(s) its constant values in place of this map",
-                users(k)
-            )),
+            Err(e) => report
+                .warnings
+                .push(format!("{file}: {e}; {} in place of this map", users(k))),
             Ok(t) => report.warnings.extend(t.notes.iter().cloned()),
         }
     }
