@@ -243,25 +243,30 @@ fn mtl_and_obj_details_are_read_or_named() {
         .unwrap()
         .save(dir.join("rgb.png"))
         .unwrap();
+    image::RgbImage::from_raw(1, 1, vec![90, 90, 90])
+        .unwrap()
+        .save(dir.join("grey_rgb.png"))
+        .unwrap();
     std::fs::write(
         dir.join("m.mtl"),
         "newmtl Wood\nmap_Kd -s 1 1 1 my wood.png\n\
          newmtl Leaf\nKd 0.5 0.5 0.5\nmap_d opaque.png\n\
          newmtl Mask\nKd 0.5 0.5 0.5\nmap_d rgb.png\n\
-         newmtl Bright\nKd 1.5 0.2 0.2\n",
+         newmtl Bright\nKd 1.5 0.2 0.2\n\
+         newmtl GreyMask\nKd 0.5 0.5 0.5\nmap_d grey_rgb.png\n",
     )
     .unwrap();
     let mut obj = String::from("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 \\\n 0\n");
     obj.push_str("vt 0 0\nvt 1 0\nvt 1 1\n");
-    for m in ["Wood", "Leaf", "Mask", "Bright"] {
+    for m in ["Wood", "Leaf", "Mask", "Bright", "GreyMask"] {
         obj.push_str(&format!("usemtl {m}\nf 1/1 2/2 \\\n  3/3\n"));
     }
     obj.push_str("f 1 3 4\n");
     std::fs::write(dir.join("scene.obj"), &obj).unwrap();
     let scene = load_scene(&dir.join("scene.obj")).unwrap();
     let w = scene.report.warnings.join("\n");
-    // Four continued faces and the last one, which reaches the continued fourth vertex.
-    assert_eq!(scene.triangles.len(), 5, "{w}");
+    // Five continued faces and the last one, which reaches the continued fourth vertex.
+    assert_eq!(scene.triangles.len(), 6, "{w}");
     assert!(
         scene
             .positions
@@ -274,6 +279,11 @@ fn mtl_and_obj_details_are_read_or_named() {
     assert_eq!(by_name("Leaf").maps.alpha.as_ref().unwrap().channel, 3);
     assert_eq!(by_name("Mask").maps.alpha.as_ref().unwrap().channel, 0);
     assert!(w.contains("rgb.png") && w.contains("red channel"), "{w}");
+    assert!(
+        !w.contains("grey_rgb.png"),
+        "a grey RGB mask has one value to read: {w}"
+    );
+    assert_eq!(by_name("GreyMask").maps.alpha.as_ref().unwrap().channel, 0);
     assert!(w.contains("'Bright'") && w.contains("Kd exceeds 1"), "{w}");
 
     let utf16: Vec<u8> = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"

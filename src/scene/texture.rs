@@ -180,6 +180,15 @@ impl Texture {
         }
     }
 
+    /// True when every texel's red, green and blue are equal (a grey image, whatever its
+    /// channel count).
+    pub fn is_grey(&self) -> bool {
+        match &self.texels {
+            Texels::Float(t) => t.iter().all(|p| p[0] == p[1] && p[1] == p[2]),
+            Texels::Byte { rgba, .. } => rgba.iter().all(|p| p[0] == p[1] && p[1] == p[2]),
+        }
+    }
+
     /// True when some texel's alpha is below 1 (the image has a coverage channel in use).
     pub fn has_partial_alpha(&self) -> bool {
         match &self.texels {

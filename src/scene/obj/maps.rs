@@ -10,8 +10,8 @@
 //!   text says "multiplied"; exporters write a `Kd` beside the map that was never meant to darken
 //!   it). Colour maps are sRGB-decoded; `map_d` is read as stored.
 //! - Coverage α = `d` × the `map_d` texel: its alpha channel when the image has one (even if every
-//!   texel is opaque), else its grey level (a grey map) or, with a warning, the red channel of an
-//!   RGB image; or the channel `-imfchan` names. Cut-outs are
+//!   texel is opaque), else its grey level (a grey map, or an RGB image whose channels are equal)
+//!   or, with a warning, the red channel of a coloured RGB image; or the channel `-imfchan` names. Cut-outs are
 //!   stochastic ([`AlphaMode::Stochastic`]): present with probability α, so binary leaf masks
 //!   are exact and fractional `d` is unbiased. Dielectrics (`illum` 4, 6, 7, 9) ignore `d`:
 //!   their transparency is the refraction itself. `Tr` is not read (its sense differs between
@@ -148,8 +148,9 @@ pub(super) fn apply(
     for (k, slot, r, spec) in uses {
         if let Some(texture) = id[r] {
             let t = &set.textures[texture as usize];
-            // map_d without -imfchan on an RGB image: which channel is the coverage is a guess.
-            if slot == Slot::Alpha && spec.channel.is_none() && t.channels == 3 {
+            // map_d without -imfchan on a coloured RGB image: which channel is the coverage is a
+            // guess (a grey one has one value to read).
+            if slot == Slot::Alpha && spec.channel.is_none() && t.channels == 3 && !t.is_grey() {
                 report.warnings.push(format!(
                     "{file}: map_d {} of material '{}' has no alpha channel; its red channel is \
                      read as the coverage (-imfchan names another)",
