@@ -77,10 +77,10 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
             say(
                 job,
                 format!(
-                    "flatland in {}: {} light cross-sections, 2D power {:.4}",
+                    "flatland in {}: {} light cross-sections, 2D power {}",
                     plane.label,
                     f.lights.lights.len(),
-                    f.lights.total_power()
+                    report::power(f.lights.total_power())
                 ),
             );
         }

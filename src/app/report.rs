@@ -229,3 +229,29 @@ pub fn resume_line(path: &Path, field: &Field, progress: &Progress) -> String {
         }
     )
 }
+
+/// A power to 4 decimals, never "-0.0000": a sum of non-negative terms that rounds to zero (or is
+/// a negative zero) prints as 0.
+pub fn power(p: f64) -> String {
+    let text = format!("{p:.4}");
+    if text
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        "0.0000".to_string()
+    } else {
+        text
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn powers_that_round_to_zero_print_as_zero() {
+        assert_eq!(super::power(-0.0), "0.0000");
+        assert_eq!(super::power(-1e-9), "0.0000");
+        assert_eq!(super::power(0.0), "0.0000");
+        assert_eq!(super::power(1.23456), "1.2346");
+    }
+}

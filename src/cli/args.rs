@@ -54,8 +54,9 @@ pub struct EstimatorFlags {
     /// Add a uniform sky: radiance r,g,b from every direction that leaves the scene.
     #[arg(long, value_name = "R,G,B", value_parser = parse_sky)]
     pub sky: Option<crate::scene::Light>,
-    /// Add an environment map: a lat-long .exr or .hdr (+y up), its radiance × SCALE [default: 1],
-    /// turned about +y by ROT_DEG degrees [default: 0].
+    /// Add an environment map: a lat-long .exr or .hdr in Mitsuba 3's convention (+y up, u = 1/4
+    /// looks along +x), its radiance × SCALE [default: 1], turned about +y from +x towards +z by
+    /// ROT_DEG degrees [default: 0].
     #[arg(long, value_name = "FILE[:SCALE[:ROT_DEG]]", allow_hyphen_values = true, value_parser = parse_env)]
     pub env: Option<crate::scene::Light>,
     /// Shortest run length T, scene units [default: 0.1 × scene diagonal].

@@ -88,9 +88,9 @@ pub fn explain(
     if let Some(f) = &scene.flat {
         writeln!(
             out,
-            "           {} light cross-sections, 2D power {:.4}",
+            "           {} light cross-sections, 2D power {}",
             f.lights.lights.len(),
-            f.lights.total_power()
+            crate::app::report::power(f.lights.total_power())
         )?;
     }
     match params {
@@ -129,9 +129,9 @@ fn write_contents(out: &mut impl Write, path: &Path, scene: &Scene) -> anyhow::R
     }
     writeln!(
         out,
-        "lights     {}, total power {:.4}",
+        "lights     {}, total power {}",
         light_kinds(scene),
-        scene.lights.total_power()
+        crate::app::report::power(scene.lights.total_power())
     )?;
     writeln!(out, "cameras    {}", scene.cameras.len())?;
     if !scene.named_slices.is_empty() {

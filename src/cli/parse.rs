@@ -54,8 +54,9 @@ pub fn parse_sky(s: &str) -> Result<crate::scene::Light, String> {
     crate::app::sky(radiance).map_err(|e| format!("'{s}': {e}"))
 }
 
-/// Parses `--env FILE[:SCALE[:ROT_DEG]]` and reads the map: a lat-long `.exr` or `.hdr` (+y up),
-/// its radiance scaled by SCALE (default 1) and turned about +y by ROT_DEG degrees (default 0).
+/// Parses `--env FILE[:SCALE[:ROT_DEG]]` and reads the map: a lat-long `.exr` or `.hdr` (Mitsuba
+/// 3's convention), its radiance scaled by SCALE (default 1) and turned about +y by ROT_DEG
+/// degrees (default 0).
 pub fn parse_env(s: &str) -> Result<crate::scene::Light, String> {
     // The file name may itself hold ':' only before the last two fields that parse as numbers.
     let mut parts: Vec<&str> = s.split(':').collect();

@@ -1,21 +1,33 @@
 //! The environment map: radiance from every direction that leaves the scene, read from a lat-long
 //! (equirectangular) HDR image (`.exr`, `.hdr`), with its importance-sampling tables.
 //!
-//! Convention: +y is up. Texel column `i` of `width` covers φ ∈ [2π i/w, 2π (i+1)/w), row `j` of
-//! `height` covers θ ∈ [π j/h, π (j+1)/h) from +y (the top row is the zenith), and the direction is
-//! `(sin θ cos φ', cos θ, sin θ sin φ')` with φ' = φ + rotation (a turn of the map about +y).
-//! Radiance is constant over a texel (nearest lookup), so the map is exactly the function that is
-//! sampled.
+//! Convention: Mitsuba 3's (its `envmap` emitter). +y is up. The map coordinate u ∈ [0, 1) runs
+//! along the image's columns, v ∈ [0, 1] down its rows, θ = π v from +y and φ = 2π u, and the
+//! direction is `(sin θ sin φ, cos θ, −sin θ cos φ)` turned about +y by the map's rotation:
+//! u = 0 looks along −z, u = ¼ along +x, u = ½ along +z, u = ¾ along −x; the top row is the
+//! zenith. A rotation of α turns every direction from +x towards +z by α (it is Mitsuba's
+//! `to_world` rotation about +y by −α).
 //!
-//! Sampling (in light transport, `crate::transport::space`): in 3D a piecewise-constant 2D
-//! distribution over texels proportional to their mean channel × sin θ at the row's centre, then
-//! uniform within the texel in (φ, θ), so the density per steradian is `p(texel) · w h / (2π² sin θ)`;
-//! in flatland a piecewise-constant 1D distribution over angle around the plane's circle.
+//! Lookup, as Mitsuba's: bilinear between texel centres. Column i's centre is at u = (i + ½)/W
+//! and φ wraps around; row j lies at v = j/(H − 1) (the first row at the zenith, the last at the
+//! nadir, between them linear in θ). A map of one row is read as two equal rows.
+//!
+//! Sampling (in light transport, `crate::transport::space`): in 3D, (u, v) from the density that is
+//! bilinear between the same points, with vertex values luminance × the mean of sin θ over the
+//! vertex's tent (so it is never 0 at a row of positive radiance, even at the poles), sampled
+//! exactly (a row cell by its mass, v within it by the linear marginal, then u from the linear
+//! conditional at that v, by the cumulative sums of the two rows interpolated); the density per
+//! steradian is that density / (2π² sin θ). It is positive wherever the bilinear radiance is, and
+//! [`EnvMap::pdf_sphere`] evaluates the same continuous function, so a sample's density and the
+//! density at its direction agree to rounding. In flatland a piecewise-constant 1D distribution
+//! over angle around the plane's circle.
+//!
+//! Texels that are negative or not finite are set to 0, with a note that counts them.
 
 use crate::math::Rgb;
 use crate::scene::error::ImageError;
 use glam::DVec3;
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::path::Path;
 
 /// A piecewise-constant density on [0, 1) with `n` equal cells, and its inversion.
@@ -89,16 +101,16 @@ pub struct EnvMap {
     pub height: usize,
     /// Row-major from the top (zenith) row, scaled radiance.
     pub texels: Vec<Rgb>,
-    /// Turn about +y, radians.
+    /// Turn about +y, radians (from +x towards +z).
     pub rotation: f64,
     /// The factor the file's radiance was multiplied by.
     pub scale: f64,
-    /// Row choice ∝ the row's weight (3D).
-    pub rows: Piecewise1D,
-    /// Column choice within each row.
-    pub cols: Vec<Option<Piecewise1D>>,
+    /// The 3D sampling density over (u, v).
+    warp: Warp,
     /// Where the map came from (messages, metadata).
     pub source: String,
+    /// What the load changed, for the loader's warnings (texels set to 0, each naming the file).
+    pub notes: Vec<String>,
 }
 
 impl std::fmt::Debug for EnvMap {
@@ -111,14 +123,196 @@ impl std::fmt::Debug for EnvMap {
     }
 }
 
-/// The sampling weight of a texel: its mean channel (0 only for black).
+/// The sampling weight of a texel: its luminance (0 only for black).
 pub fn texel_weight(c: Rgb) -> f64 {
-    ((c.x + c.y + c.z) / 3.0).max(0.0)
+    crate::math::luminance(c).max(0.0)
+}
+
+/// Where (u, v) falls between the texel centres: columns `i0`, `i1` (wrapped) and rows `j0`,
+/// `j1 = j0 + 1`, with the weights of the second of each.
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    i0: usize,
+    i1: usize,
+    fx: f64,
+    j0: usize,
+    fy: f64,
+}
+
+/// The cell of (u, v) on a grid of `w` columns (periodic, centres at (i + ½)/w) and `h` ≥ 2 rows
+/// (at j/(h − 1)).
+#[inline]
+fn cell(u: f64, v: f64, w: usize, h: usize) -> Cell {
+    let x = u * w as f64 - 0.5;
+    let x = if x.is_finite() {
+        x.rem_euclid(w as f64)
+    } else {
+        0.0
+    };
+    let i0 = (x as usize).min(w - 1);
+    let y = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    } * (h - 1) as f64;
+    let j0 = (y as usize).min(h - 2);
+    Cell {
+        i0,
+        i1: (i0 + 1) % w,
+        fx: (x - i0 as f64).clamp(0.0, 1.0),
+        j0,
+        fy: (y - j0 as f64).clamp(0.0, 1.0),
+    }
+}
+
+impl Cell {
+    /// The bilinear mix of `at(i, j)` at this cell.
+    #[inline]
+    fn mix<T>(&self, at: impl Fn(usize, usize) -> T) -> T
+    where
+        T: std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
+    {
+        let (gx, gy) = (1.0 - self.fx, 1.0 - self.fy);
+        let j1 = self.j0 + 1;
+        (at(self.i0, self.j0) * gx + at(self.i1, self.j0) * self.fx) * gy
+            + (at(self.i0, j1) * gx + at(self.i1, j1) * self.fx) * self.fy
+    }
+}
+
+/// The mean of sin(π v) over the tent of vertex row `j` of `h` rows (rows at v = j/(h − 1)): the
+/// solid angle the row's vertex stands for, per unit of (u, v) area, / 2π².
+fn tent_sin(j: usize, h: usize) -> f64 {
+    let d = 1.0 / (h - 1) as f64;
+    if j == 0 || j == h - 1 {
+        // 2/d · ∫₀ᵈ (1 − s/d) sin(π s) ds
+        2.0 / d * (1.0 / PI - (PI * d).sin() / (PI * PI * d))
+    } else {
+        (PI * j as f64 * d).sin() * 2.0 * (1.0 - (PI * d).cos()) / (PI * d).powi(2)
+    }
+}
+
+/// `t` ∈ [0, 1] from a uniform `r` for the density ∝ a (1 − t) + b t (a, b ≥ 0).
+#[inline]
+fn linear_inverse(a: f64, b: f64, r: f64) -> f64 {
+    let den = a + ((1.0 - r) * a * a + r * b * b).sqrt();
+    if den > 0.0 {
+        (r * (a + b) / den).clamp(0.0, 1.0)
+    } else {
+        r
+    }
+}
+
+/// A density on the unit square, bilinear between vertex values on the map's grid (periodic in
+/// u), with the cumulative sums that sample it exactly.
+#[derive(Clone, Debug, PartialEq)]
+struct Warp {
+    w: usize,
+    h: usize,
+    /// Vertex values, row-major.
+    f: Vec<f64>,
+    /// Per vertex row, the cumulative masses of its `w` cells (trapezoids, periodic), `w + 1`
+    /// entries from 0; the last is the row's sum.
+    cum: Vec<f64>,
+    /// Cumulative masses of the `h − 1` row cells, normalised to 1 at the end.
+    rows: Vec<f64>,
+    /// The integral of the bilinear function over the unit square.
+    total: f64,
+}
+
+impl Warp {
+    fn new(f: Vec<f64>, w: usize, h: usize) -> Option<Warp> {
+        let mut cum = Vec::with_capacity(h * (w + 1));
+        for j in 0..h {
+            let row = &f[j * w..(j + 1) * w];
+            let mut acc = 0.0;
+            cum.push(0.0);
+            for i in 0..w {
+                acc += 0.5 * (row[i] + row[(i + 1) % w]);
+                cum.push(acc);
+            }
+        }
+        let sum = |j: usize| cum[j * (w + 1) + w];
+        // Row cell j: ∫ over u is (1 − t) S_j + t S_{j+1} with S = sum / w; its mass over v is
+        // their mean × 1/(h − 1).
+        let masses: Vec<f64> = (0..h - 1)
+            .map(|j| 0.5 * (sum(j) + sum(j + 1)) / (w * (h - 1)) as f64)
+            .collect();
+        let total: f64 = masses.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let mut acc = 0.0;
+        let rows = masses
+            .iter()
+            .map(|m| {
+                acc += m;
+                acc / total
+            })
+            .collect();
+        Some(Warp {
+            w,
+            h,
+            f,
+            cum,
+            rows,
+            total,
+        })
+    }
+
+    /// The density at (u, v).
+    #[inline]
+    fn density(&self, u: f64, v: f64) -> f64 {
+        cell(u, v, self.w, self.h).mix(|i, j| self.f[j * self.w + i]) / self.total
+    }
+
+    /// (u, v) with its density, from two uniform numbers.
+    fn sample(&self, xi: (f64, f64)) -> Option<(f64, f64, f64)> {
+        let (w, h) = (self.w, self.h);
+        // The row cell by its mass, then v within it by the linear marginal.
+        let j = self.rows.partition_point(|&c| c <= xi.0).min(h - 2);
+        let lo = if j == 0 { 0.0 } else { self.rows[j - 1] };
+        let p = self.rows[j] - lo;
+        if !(p > 0.0) {
+            return None;
+        }
+        let sum = |j: usize| self.cum[j * (w + 1) + w];
+        let (a, b) = (sum(j), sum(j + 1));
+        let t = linear_inverse(a, b, ((xi.0 - lo) / p).clamp(0.0, 1.0));
+        // u from the conditional at that v: the two rows' cumulative sums interpolated.
+        let cdf =
+            |k: usize| (1.0 - t) * self.cum[j * (w + 1) + k] + t * self.cum[(j + 1) * (w + 1) + k];
+        let target = xi.1.clamp(0.0, 1.0) * cdf(w);
+        let (mut lo_k, mut hi_k) = (0usize, w);
+        // The last k with cdf(k) ≤ target, below w.
+        while hi_k - lo_k > 1 {
+            let mid = (lo_k + hi_k) / 2;
+            if cdf(mid) <= target {
+                lo_k = mid;
+            } else {
+                hi_k = mid;
+            }
+        }
+        let k = lo_k;
+        let g = |i: usize| (1.0 - t) * self.f[j * w + i] + t * self.f[(j + 1) * w + i];
+        let (ga, gb) = (g(k), g((k + 1) % w));
+        let mass = 0.5 * (ga + gb);
+        if !(mass > 0.0) {
+            return None;
+        }
+        let s = linear_inverse(ga, gb, ((target - cdf(k)) / mass).clamp(0.0, 1.0));
+        let mut u = (k as f64 + 0.5 + s) / w as f64;
+        if u >= 1.0 {
+            u -= 1.0;
+        }
+        let v = (j as f64 + t) / (h - 1) as f64;
+        let density = ((1.0 - s) * ga + s * gb) / self.total;
+        Some((u, v, density))
+    }
 }
 
 impl EnvMap {
-    /// From texels (row-major from the zenith row), a scale and a rotation in degrees. Errors on
-    /// negative or non-finite texels and on a black map.
+    /// From texels (row-major from the zenith row), a scale and a rotation in degrees. Texels that
+    /// are negative or not finite (after scaling) become 0, with a note; errors on a black map.
     pub fn new(
         width: usize,
         height: usize,
@@ -141,30 +335,42 @@ impl EnvMap {
                 "the scale must be finite and ≥ 0 and the rotation finite".into(),
             ));
         }
-        if let Some(k) = texels
-            .iter()
-            .position(|c| !(c.min_element() >= 0.0 && c.is_finite()))
-        {
-            return Err(invalid(format!(
-                "texel ({}, {}) is negative or not finite",
-                k % width,
-                k / width
-            )));
+        let mut cleared = 0usize;
+        let mut texels: Vec<Rgb> = texels
+            .into_iter()
+            .map(|c| {
+                let c = c * scale;
+                if c.min_element() >= 0.0 && c.is_finite() {
+                    c
+                } else {
+                    cleared += 1;
+                    Rgb::new(c.x, c.y, c.z).map(|x| if x >= 0.0 && x.is_finite() { x } else { 0.0 })
+                }
+            })
+            .collect();
+        let mut notes = Vec::new();
+        if cleared > 0 {
+            notes.push(format!(
+                "{source}: {cleared} of {} texels had negative or non-finite values, set to 0",
+                texels.len()
+            ));
         }
-        let texels: Vec<Rgb> = texels.into_iter().map(|c| c * scale).collect();
-        let mut row_w = Vec::with_capacity(height);
-        let mut cols = Vec::with_capacity(height);
-        for j in 0..height {
-            let sin_t = (PI * (j as f64 + 0.5) / height as f64).sin();
-            let w: Vec<f64> = texels[j * width..(j + 1) * width]
-                .iter()
-                .map(|c| texel_weight(*c) * sin_t)
-                .collect();
-            let d = Piecewise1D::new(&w);
-            row_w.push(d.as_ref().map_or(0.0, |d| d.integral));
-            cols.push(d);
-        }
-        let Some(rows) = Piecewise1D::new(&row_w) else {
+        // One row: the same radiance at every θ, as two equal rows.
+        let height = if height == 1 {
+            texels.extend_from_within(..);
+            2
+        } else {
+            height
+        };
+        let f = (0..height)
+            .flat_map(|j| {
+                let s = tent_sin(j, height);
+                texels[j * width..(j + 1) * width]
+                    .iter()
+                    .map(move |c| texel_weight(*c) * s)
+            })
+            .collect();
+        let Some(warp) = Warp::new(f, width, height) else {
             return Err(invalid(
                 "the environment map is black everywhere (or its scale is 0)".into(),
             ));
@@ -175,36 +381,35 @@ impl EnvMap {
             texels,
             rotation: rotation_deg.to_radians(),
             scale,
-            rows,
-            cols,
+            warp,
             source: source.to_string(),
+            notes,
         })
     }
 
-    /// Reads `.exr` (the first RGB(A) layer) or `.hdr` (Radiance RGBE).
+    /// Reads `.exr` (the first layer: R, G, B, or a luminance-only Y) or `.hdr` (Radiance RGBE).
+    /// Only a regular file is opened.
     pub fn load(path: &Path, scale: f64, rotation_deg: f64) -> Result<EnvMap, ImageError> {
         let name = path.display().to_string();
+        // Only regular files: a FIFO would block the load.
+        if let Some(kind) = crate::scene::files::not_regular(path) {
+            return Err(ImageError::NotRegular { name, kind });
+        }
         let ext = crate::scene::files::extension(path);
         let (w, h, texels) = match ext.as_deref() {
             Some("exr") => {
-                use exr::prelude::*;
-                let img = read_first_rgba_layer_from_file(
-                    path,
-                    |res, _| {
-                        (
-                            res.width(),
-                            res.height(),
-                            vec![Rgb::ZERO; res.width() * res.height()],
-                        )
-                    },
-                    |(w, _, px): &mut (usize, usize, Vec<Rgb>),
-                     pos,
-                     (r, g, b, _a): (f32, f32, f32, f32)| {
-                        px[pos.y() * *w + pos.x()] = Rgb::new(r as f64, g as f64, b as f64);
-                    },
-                )
-                .map_err(ImageError::failed(&name, "cannot read as an OpenEXR image"))?;
-                img.layer_data.channel_data.pixels
+                let exr =
+                    crate::scene::files::read_exr(path).map_err(|source| ImageError::Decode {
+                        name: Some(name.clone()),
+                        what: "cannot read as an OpenEXR image",
+                        source,
+                    })?;
+                let px = exr
+                    .rgba
+                    .iter()
+                    .map(|p| Rgb::new(p[0] as f64, p[1] as f64, p[2] as f64))
+                    .collect();
+                (exr.width, exr.height, px)
             }
             Some("hdr") => {
                 let img = image::ImageReader::open(path)
@@ -227,49 +432,53 @@ impl EnvMap {
             _ => {
                 return Err(ImageError::Invalid {
                     name: Some(name),
-                    what: "an environment map must be .exr or .hdr (lat-long, +y up)".into(),
+                    what:
+                        "an environment map must be .exr or .hdr (lat-long, Mitsuba 3's convention)"
+                            .into(),
                 });
             }
         };
         EnvMap::new(w, h, texels, scale, rotation_deg, &name)
     }
 
-    /// The texel seen along the unit direction `d`.
+    /// The map coordinates (u, v) ∈ [0, 1) × [0, 1] of the unit direction `d`.
     #[inline]
-    pub fn texel_of(&self, d: DVec3) -> (usize, usize) {
-        let theta = d.y.clamp(-1.0, 1.0).acos();
-        let phi = (d.z.atan2(d.x) - self.rotation).rem_euclid(TAU);
-        let i = ((phi / TAU * self.width as f64) as usize).min(self.width - 1);
-        let j = ((theta / PI * self.height as f64) as usize).min(self.height - 1);
-        (i, j)
+    pub fn uv(&self, d: DVec3) -> (f64, f64) {
+        let v = d.y.clamp(-1.0, 1.0).acos() / PI;
+        let u = ((d.z.atan2(d.x) + FRAC_PI_2 - self.rotation) / TAU).rem_euclid(1.0);
+        (if u < 1.0 { u } else { 0.0 }, v)
     }
 
-    /// Radiance along the unit direction `d` (light arriving from `d`).
+    /// Radiance along the unit direction `d` (light arriving from `d`): bilinear between the
+    /// texel centres.
     #[inline]
     pub fn radiance(&self, d: DVec3) -> Rgb {
-        let (i, j) = self.texel_of(d);
-        self.texels[j * self.width + i]
+        let (u, v) = self.uv(d);
+        self.radiance_at(u, v)
     }
 
-    /// The direction for the map coordinates (φ/2π, θ/π) ∈ [0, 1)².
+    /// Radiance at the map coordinates (u, v).
+    #[inline]
+    pub fn radiance_at(&self, u: f64, v: f64) -> Rgb {
+        cell(u, v, self.width, self.height).mix(|i, j| self.texels[j * self.width + i])
+    }
+
+    /// The direction for the map coordinates (u, v) = (φ/2π, θ/π).
     #[inline]
     pub fn direction(&self, u: f64, v: f64) -> DVec3 {
         let (sin_t, cos_t) = (PI * v).sin_cos();
-        let (sin_p, cos_p) = (TAU * u + self.rotation).sin_cos();
+        let (sin_p, cos_p) = (TAU * u - FRAC_PI_2 + self.rotation).sin_cos();
         DVec3::new(sin_t * cos_p, cos_t, sin_t * sin_p)
     }
 
-    /// A direction with density ∝ weight × sin θ per texel, and its density per steradian.
-    pub fn sample_sphere(&self, u: (f64, f64)) -> Option<(DVec3, f64)> {
-        let (v, j) = self.rows.sample(u.0)?;
-        let cols = self.cols[j].as_ref()?;
-        let (uu, i) = cols.sample(u.1)?;
+    /// A direction from the bilinear density over (u, v), and its density per steradian.
+    pub fn sample_sphere(&self, xi: (f64, f64)) -> Option<(DVec3, f64)> {
+        let (u, v, p_uv) = self.warp.sample(xi)?;
         let sin_t = (PI * v).sin();
-        if !(sin_t > 0.0) {
+        if !(sin_t > 0.0 && p_uv > 0.0) {
             return None;
         }
-        let p_uv = self.rows.density(j) * cols.density(i);
-        Some((self.direction(uu, v), p_uv / (2.0 * PI * PI * sin_t)))
+        Some((self.direction(u, v), p_uv / (2.0 * PI * PI * sin_t)))
     }
 
     /// The density per steradian of [`sample_sphere`](Self::sample_sphere) at the unit `d`.
@@ -278,11 +487,15 @@ impl EnvMap {
         if !(sin_t > 0.0) {
             return 0.0;
         }
-        let (i, j) = self.texel_of(d);
-        let Some(cols) = &self.cols[j] else {
-            return 0.0;
-        };
-        self.rows.density(j) * cols.density(i) / (2.0 * PI * PI * sin_t)
+        let (u, v) = self.uv(d);
+        self.warp.density(u, v) / (2.0 * PI * PI * sin_t)
+    }
+
+    /// The integral of the luminance over the sphere / 4π (the map's mean luminance).
+    pub fn mean_luminance(&self) -> f64 {
+        // ∫ lum dω = 2π² ∫∫ lum(u, v) sin(π v) du dv, which is the warp's total (its vertex
+        // values carry the tents' mean sin θ): / 4π gives π/2 × total.
+        self.warp.total * PI / 2.0
     }
 }
 
@@ -328,10 +541,9 @@ impl Environment {
         }
     }
 
-    /// The mean radiance (channel mean) over the sphere, for the light's power.
+    /// The mean luminance over the sphere, for the light's power.
     pub fn mean_weight(&self) -> f64 {
-        // Σ weight · sin θ · (π/h)(2π/w) over texels, over 4π: the row table's mean × π/2.
-        self.map.rows.integral * PI / 2.0
+        self.map.mean_luminance()
     }
 }
 

@@ -18,8 +18,11 @@ use std::path::PathBuf;
 /// A scene file that could not be loaded.
 #[derive(Debug)]
 pub enum LoadError {
-    /// There is no regular file at the path.
+    /// There is nothing at the path.
     NotFound { file: PathBuf },
+    /// What is at the path is not a regular file (`kind`: "a directory", "a FIFO (named pipe)",
+    /// ...): it is refused before it is opened, which could block.
+    NotRegular { file: PathBuf, kind: &'static str },
     /// The file could not be read.
     Unreadable {
         file: PathBuf,
@@ -88,6 +91,11 @@ impl LoadError {
         use LoadError as E;
         match self {
             E::NotFound { file } => write!(f, "{}: no such scene file", file.display()),
+            E::NotRegular { file, kind } => write!(
+                f,
+                "{}: {kind}, not a regular file; a scene must be a regular file",
+                file.display()
+            ),
             E::Unreadable { file, .. } => write!(f, "{}: cannot read", file.display()),
             E::Changed { file } => write!(
                 f,
@@ -141,6 +149,7 @@ impl LoadError {
         use LoadError as E;
         match self {
             E::NotFound { file }
+            | E::NotRegular { file, .. }
             | E::Unreadable { file, .. }
             | E::Changed { file }
             | E::UnsupportedFormat { file, .. }
@@ -192,6 +201,9 @@ pub enum ImageError {
     },
     /// The image was decoded, but its texels cannot be used: `what` says why.
     Invalid { name: Option<String>, what: String },
+    /// What is at the path is not a regular file (`kind`: "a directory", "a FIFO (named pipe)",
+    /// ...): refused before it is opened, which could block.
+    NotRegular { name: String, kind: &'static str },
 }
 
 impl ImageError {
@@ -217,6 +229,7 @@ impl ImageError {
                 source,
             },
             ImageError::Invalid { what, .. } => ImageError::Invalid { name: None, what },
+            e @ ImageError::NotRegular { .. } => e,
         }
     }
 }
@@ -226,6 +239,12 @@ impl fmt::Display for ImageError {
         let (name, what) = match self {
             ImageError::Decode { name, what, .. } => (name, *what),
             ImageError::Invalid { name, what } => (name, what.as_str()),
+            ImageError::NotRegular { name, kind } => {
+                return write!(
+                    f,
+                    "{name}: {kind}, not a regular file; only regular files are read as images"
+                );
+            }
         };
         match name {
             Some(name) => write!(f, "{name}: {what}")?,
@@ -239,7 +258,7 @@ impl Error for ImageError {
     fn source(&self) -> Option<&(dyn Error + 'static)> {
         match self {
             ImageError::Decode { source, .. } => Some(source.as_ref()),
-            ImageError::Invalid { .. } => None,
+            ImageError::Invalid { .. } | ImageError::NotRegular { .. } => None,
         }
     }
 }

@@ -40,6 +40,9 @@ pub fn load_scene_with(
         _ => load_mesh(path, options)?,
     };
     for l in lights {
+        if let Light::Env(env) = l {
+            scene.report.warnings.extend(env.map.notes.iter().cloned());
+        }
         scene.add_light(l.clone());
     }
     Ok(scene)

@@ -22,7 +22,7 @@
 //! [sky]                           # uniform sky
 //! radiance = [0.2, 0.3, 0.5]
 //!
-//! [environment]                   # lat-long HDR map (.exr or .hdr), +y up
+//! [environment]                   # lat-long HDR map (.exr or .hdr), Mitsuba 3's convention
 //! file = "sky.hdr"                # relative to this file
 //! scale = 1.0                     # optional
 //! rotation_deg = 0.0              # optional: a turn about +y
@@ -279,6 +279,7 @@ pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> Result<(), LoadErr
             sidecar: path.to_path_buf(),
             source,
         })?;
+        scene.report.warnings.extend(map.notes.iter().cloned());
         scene.add_light(Light::Env(Environment::new(map)));
     }
     for (i, c) in sc.camera.iter().enumerate() {

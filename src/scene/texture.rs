@@ -66,6 +66,11 @@ pub struct Texture {
     pub height: usize,
     texels: Texels,
     pub source: String,
+    /// The channels the image has: 1 grey, 2 grey and alpha, 3 RGB, 4 RGBA.
+    pub channels: u8,
+    /// What the decode changed, for the loader's warnings (each names the image): texels that
+    /// were negative or not finite, set to 0.
+    pub notes: Vec<String>,
 }
 
 /// How a texture's texels are stored.
@@ -107,28 +112,52 @@ pub enum Encoding {
 }
 
 impl Texture {
-    /// From RGBA texels (row-major from the top).
+    /// From RGBA texels (row-major from the top). Colour channels that are negative or not
+    /// finite become 0 (light is never negative), alpha is brought into [0, 1] (1 where it is
+    /// not a number); a note says how many texels changed.
     pub fn new(
         width: usize,
         height: usize,
-        texels: Vec<[f32; 4]>,
+        mut texels: Vec<[f32; 4]>,
         source: &str,
     ) -> Result<Texture, ImageError> {
-        let invalid = |what: &str| ImageError::Invalid {
-            name: Some(source.to_string()),
-            what: what.to_string(),
-        };
         if width == 0 || height == 0 || texels.len() != width * height {
-            return Err(invalid("a texture needs at least one texel"));
+            return Err(ImageError::Invalid {
+                name: Some(source.to_string()),
+                what: "a texture needs at least one texel".into(),
+            });
         }
-        if texels.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(invalid("texels must be finite"));
+        let mut changed = 0usize;
+        for t in &mut texels {
+            let before = *t;
+            for c in &mut t[..3] {
+                if !(*c >= 0.0 && c.is_finite()) {
+                    *c = 0.0;
+                }
+            }
+            t[3] = if t[3].is_nan() {
+                1.0
+            } else {
+                t[3].clamp(0.0, 1.0)
+            };
+            changed += (before.map(f32::to_bits) != t.map(f32::to_bits)) as usize;
         }
+        let notes = if changed > 0 {
+            vec![format!(
+                "{source}: {changed} of {} texels had negative or non-finite values, set to 0 \
+                 (alpha into [0, 1])",
+                texels.len()
+            )]
+        } else {
+            Vec::new()
+        };
         Ok(Texture {
             width,
             height,
             texels: Texels::Float(texels),
             source: source.to_string(),
+            channels: 4,
+            notes,
         })
     }
 
@@ -151,6 +180,15 @@ impl Texture {
         }
     }
 
+    /// True when every texel's red, green and blue are equal (a grey image, whatever its
+    /// channel count).
+    pub fn is_grey(&self) -> bool {
+        match &self.texels {
+            Texels::Float(t) => t.iter().all(|p| p[0] == p[1] && p[1] == p[2]),
+            Texels::Byte { rgba, .. } => rgba.iter().all(|p| p[0] == p[1] && p[1] == p[2]),
+        }
+    }
+
     /// True when some texel's alpha is below 1 (the image has a coverage channel in use).
     pub fn has_partial_alpha(&self) -> bool {
         match &self.texels {
@@ -159,32 +197,35 @@ impl Texture {
         }
     }
 
-    /// Decodes `path`: PNG, JPEG, TGA, HDR through `image`, EXR through `exr`.
+    /// Decodes `path`: PNG, JPEG, TGA, HDR through `image`, EXR through `exr`. Only a regular
+    /// file is opened.
     pub fn load(path: &Path, encoding: Encoding) -> Result<Texture, ImageError> {
         let name = path.display().to_string();
+        regular(path)?;
         let ext = crate::scene::files::extension(path);
         if ext.as_deref() == Some("exr") {
-            use exr::prelude::*;
-            let img = read_first_rgba_layer_from_file(
-                path,
-                |res, _| (res.width(), vec![[0f32; 4]; res.width() * res.height()]),
-                |(w, px): &mut (usize, Vec<[f32; 4]>), pos, (r, g, b, a): (f32, f32, f32, f32)| {
-                    px[pos.y() * *w + pos.x()] = [r, g, b, a];
-                },
-            )
-            .map_err(ImageError::failed(&name, "cannot read as an OpenEXR image"))?;
-            let size = img.layer_data.size;
-            let (_, px) = img.layer_data.channel_data.pixels;
-            return Texture::new(size.width(), size.height(), px, &name);
+            let exr = crate::scene::files::read_exr(path).map_err(|source| ImageError::Decode {
+                name: Some(name.clone()),
+                what: "cannot read as an OpenEXR image",
+                source,
+            })?;
+            let mut t = Texture::new(exr.width, exr.height, exr.rgba, &name)?;
+            t.channels = exr.channels;
+            return Ok(t);
         }
-        let reader = image::ImageReader::open(path)
+        let mut head = [0u8; 16];
+        let n = std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+            .map_err(ImageError::failed(&name, "cannot open"))?;
+        if let Some(format) = undecoded_format(&head[..n]) {
+            return Err(not_decoded(Some(name), format));
+        }
+        let mut reader = image::ImageReader::open(path)
             .map_err(ImageError::failed(&name, "cannot open"))?
             .with_guessed_format()
             .map_err(ImageError::failed(&name, "cannot read"))?;
-        let img = reader.decode().map_err(ImageError::failed(
-            &name,
-            "cannot decode (PNG, JPEG, TGA, HDR or EXR)",
-        ))?;
+        reader.limits(decoder_limits());
+        let img = reader.decode().map_err(|e| decode_error(Some(&name), e))?;
         // 8-bit and 16-bit images are encoded; float images (HDR) are linear.
         Texture::from_image(img, &name, encoding)
     }
@@ -193,11 +234,18 @@ impl Texture {
     /// becomes the texture's [`source`](Texture::source). Errors name no file (the bytes have
     /// none): their holder says whose they are.
     pub fn from_bytes(bytes: &[u8], name: &str, encoding: Encoding) -> Result<Texture, ImageError> {
-        let img = image::load_from_memory(bytes).map_err(|e| ImageError::Decode {
-            name: None,
-            what: "cannot decode (PNG, JPEG, TGA or HDR)",
-            source: Box::new(e),
-        })?;
+        if let Some(format) = undecoded_format(bytes) {
+            return Err(not_decoded(None, format));
+        }
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| ImageError::Decode {
+                name: None,
+                what: "cannot read",
+                source: Box::new(e),
+            })?;
+        reader.limits(decoder_limits());
+        let img = reader.decode().map_err(|e| decode_error(None, e))?;
         Texture::from_image(img, name, encoding).map_err(ImageError::unnamed)
     }
 
@@ -208,6 +256,7 @@ impl Texture {
         encoding: Encoding,
     ) -> Result<Texture, ImageError> {
         let (w, h) = (img.width() as usize, img.height() as usize);
+        let channels = img.color().channel_count();
         if matches!(
             img.color(),
             image::ColorType::L8
@@ -230,6 +279,8 @@ impl Texture {
                     srgb: encoding == Encoding::Colour,
                 },
                 source: name.to_string(),
+                channels,
+                notes: Vec::new(),
             });
         }
         let encoded = !matches!(
@@ -248,7 +299,9 @@ impl Texture {
             .pixels()
             .map(|p| [decode(p[0]), decode(p[1]), decode(p[2]), p[3]])
             .collect();
-        Texture::new(w, h, texels, name)
+        let mut t = Texture::new(w, h, texels, name)?;
+        t.channels = channels;
+        Ok(t)
     }
 
     /// Bytes the texels take.
@@ -301,8 +354,91 @@ impl Texture {
     }
 }
 
-/// A texture coordinate transform (glTF's `KHR_texture_transform`): scale, then rotate
-/// (counter-clockwise by `rotation` radians), then offset.
+/// The memory the image decoder may use for one image: 4 GiB (a 16K × 16K RGBA image of 16-bit
+/// channels takes 2 GiB), or `FTPD3D_IMAGE_LIMIT_GIB` gibibytes. The `image` crate's default of
+/// 512 MiB refuses a 16K texture of 8-bit RGBA (1 GiB).
+pub fn image_memory_limit() -> u64 {
+    let gib = std::env::var(IMAGE_LIMIT_VAR)
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|g| *g > 0.0 && g.is_finite())
+        .unwrap_or(4.0);
+    (gib * (1u64 << 30) as f64).min(u64::MAX as f64) as u64
+}
+
+/// The environment variable that sets [`image_memory_limit`].
+pub const IMAGE_LIMIT_VAR: &str = "FTPD3D_IMAGE_LIMIT_GIB";
+
+fn decoder_limits() -> image::Limits {
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(image_memory_limit());
+    limits
+}
+
+/// A decode failure; one that exceeds the memory limit says which limit and how to raise it.
+fn decode_error(name: Option<&str>, e: image::ImageError) -> ImageError {
+    if let image::ImageError::Limits(_) = e {
+        let gib = image_memory_limit() as f64 / (1u64 << 30) as f64;
+        return ImageError::Invalid {
+            name: name.map(str::to_string),
+            what: format!(
+                "needs more memory than the image decoder's limit of {gib} GiB; set \
+                 {IMAGE_LIMIT_VAR} to a larger number of GiB to raise it"
+            ),
+        };
+    }
+    ImageError::Decode {
+        name: name.map(str::to_string),
+        what: "cannot decode (PNG, JPEG, TGA, HDR or EXR)",
+        source: Box::new(e),
+    }
+}
+
+/// Image formats recognised by their first bytes that this build does not decode.
+fn undecoded_format(head: &[u8]) -> Option<&'static str> {
+    const KTX2: &[u8] = b"\xABKTX 20\xBB\r\n\x1A\n";
+    const KTX1: &[u8] = b"\xABKTX 11\xBB\r\n\x1A\n";
+    if head.starts_with(KTX2) {
+        Some("KTX2 (Basis Universal or GPU-compressed)")
+    } else if head.starts_with(KTX1) {
+        Some("KTX")
+    } else if head.starts_with(b"RIFF") && head.get(8..12) == Some(b"WEBP") {
+        Some("WebP")
+    } else if head
+        .get(4..12)
+        .is_some_and(|b| b == b"ftypavif" || b == b"ftypavis")
+    {
+        Some("AVIF")
+    } else if head.starts_with(b"DDS ") {
+        Some("DDS")
+    } else {
+        None
+    }
+}
+
+fn not_decoded(name: Option<String>, format: &str) -> ImageError {
+    ImageError::Invalid {
+        name,
+        what: format!(
+            "a {format} image, a format this build does not decode (PNG, JPEG, TGA, HDR and EXR \
+             are)"
+        ),
+    }
+}
+
+/// Refuses what is not a regular file before it is opened (a FIFO would block the load).
+pub fn regular(path: &Path) -> Result<(), ImageError> {
+    match crate::scene::files::not_regular(path) {
+        Some(kind) => Err(ImageError::NotRegular {
+            name: path.display().to_string(),
+            kind,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// A texture coordinate transform (glTF's `KHR_texture_transform`): scale, then rotate by
+/// `rotation` radians (see [`apply`](Self::apply) for the sense), then offset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UvTransform {
     pub offset: [f64; 2],
@@ -321,16 +457,19 @@ impl Default for UvTransform {
 }
 
 impl UvTransform {
-    /// The extension's matrix `T · R · S` applied to `(u, v)` in glTF's UV convention. The
-    /// extension writes R in GLSL as `mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)`, which is
-    /// column-major: `u' = cos·u − sin·v`, `v' = sin·u + cos·v`.
+    /// The extension's `T · R · S` applied to `(u, v)` in glTF's UV space (v down):
+    /// `u' = cos·u + sin·v`, `v' = −sin·u + cos·v` after the scale, then the offset. This is the
+    /// turn the extension's worked example (offset (0, 1), rotation π/2, scale ½ uses the lower
+    /// left quadrant, turned clockwise), its sample model TextureTransformTest and the common
+    /// implementations agree on; the GLSL matrix in its text, read column-major, would turn the
+    /// other way.
     #[inline]
     pub fn apply(&self, u: f64, v: f64) -> (f64, f64) {
         let (su, sv) = (u * self.scale[0], v * self.scale[1]);
         let (s, c) = self.rotation.sin_cos();
         (
-            c * su - s * sv + self.offset[0],
-            s * su + c * sv + self.offset[1],
+            c * su + s * sv + self.offset[0],
+            -s * su + c * sv + self.offset[1],
         )
     }
 }
@@ -438,19 +577,24 @@ mod tests {
 
     #[test]
     fn uv_transform_follows_khr_texture_transform() {
-        // Offset (0, 1), rotation π/2, scale (0.5, 0.5), by the extension's GLSL matrices
-        // (column-major): (1, 0) is scaled to (0.5, 0), rotated to (0, 0.5), offset to (0, 1.5);
-        // (0, 1) to (0, 0.5), (−0.5, 0), (−0.5, 1).
+        // The extension's example: offset (0, 1), rotation π/2, scale ½ maps the unit square onto
+        // the lower left quadrant (u ∈ [0, ½], v ∈ [½, 1], v down), turned clockwise: (1, 0) is
+        // scaled to (½, 0), turned to (0, −½), offset to (0, ½); (0, 1) to (0, ½), (½, 0), (½, 1).
         let t = UvTransform {
             offset: [0.0, 1.0],
             rotation: std::f64::consts::FRAC_PI_2,
             scale: [0.5, 0.5],
         };
         let (u, v) = t.apply(1.0, 0.0);
-        assert!(u.abs() < 1e-15 && (v - 1.5).abs() < 1e-15, "({u}, {v})");
+        assert!(u.abs() < 1e-15 && (v - 0.5).abs() < 1e-15, "({u}, {v})");
         let (u, v) = t.apply(0.0, 1.0);
         assert!(
-            (u + 0.5).abs() < 1e-15 && (v - 1.0).abs() < 1e-15,
+            (u - 0.5).abs() < 1e-15 && (v - 1.0).abs() < 1e-15,
+            "({u}, {v})"
+        );
+        let (u, v) = t.apply(1.0, 1.0);
+        assert!(
+            (u - 0.5).abs() < 1e-15 && (v - 0.5).abs() < 1e-15,
             "({u}, {v})"
         );
         assert_eq!(UvTransform::default().apply(0.3, 0.7), (0.3, 0.7));
@@ -482,6 +626,24 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// An image beyond the decoder's memory limit gets a message naming the limit and the
+    /// variable that raises it; KTX2 bytes are named as such, not as undecodable PNG.
+    #[test]
+    fn limit_and_undecoded_formats_are_named() {
+        let limit = image::ImageError::Limits(image::error::LimitError::from_kind(
+            image::error::LimitErrorKind::InsufficientMemory,
+        ));
+        let msg = format!("{:#}", decode_error(Some("big.png"), limit));
+        assert!(
+            msg.contains("big.png") && msg.contains("GiB") && msg.contains(IMAGE_LIMIT_VAR),
+            "{msg}"
+        );
+        assert!(image_memory_limit() >= 1 << 32 || std::env::var(IMAGE_LIMIT_VAR).is_ok());
+        let ktx2 = b"\xABKTX 20\xBB\r\n\x1A\n\0\0\0\0";
+        let e = Texture::from_bytes(ktx2, "t", Encoding::Colour).unwrap_err();
+        assert!(format!("{e}").contains("KTX2"), "{e}");
     }
 
     #[test]

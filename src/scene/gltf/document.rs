@@ -43,16 +43,20 @@ pub(super) fn malformed(path: &Path, what: String) -> LoadError {
 
 /// The extensions this reader implements: a file that requires one of them loads, one that
 /// requires any other is refused, naming it. Extensions a file only uses and this list lacks are
-/// ignored with one warning.
+/// ignored with one warning. The image-format extensions (KTX2, WebP, AVIF) are accepted: the
+/// textures name such an image in a warning and its materials keep their factors.
 pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "EXT_texture_avif",
+    "EXT_texture_webp",
     "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_mesh_quantization",
+    "KHR_texture_basisu",
     "KHR_texture_transform",
 ];
 

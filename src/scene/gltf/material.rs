@@ -2,7 +2,7 @@
 //! metallic-roughness parameters, alpha modes, and the textures each material asks for.
 
 use crate::math::Rgb;
-use crate::scene::gltf::document::{Warnings, named};
+use crate::scene::gltf::document::{IMAGE_EXTENSIONS, Warnings, named};
 use crate::scene::material::{Alpha, AlphaMode, Bsdf, Material};
 use crate::scene::pbr::{MAX_PHONG_EXPONENT, is_lambertian, pbr_lobes};
 use crate::scene::texture::{Encoding, UvTransform, Wrap};
@@ -76,8 +76,14 @@ pub(super) fn convert_materials(doc: &::gltf::Document, warnings: &mut Warnings)
                     "{label}: {what} texture on TEXCOORD_{}; only TEXCOORD_0 is read",
                     info.tex_coord()
                 ));
+            } else if let Some(r) = texture_request(materials.len(), info, slot, doc.images().len())
+            {
+                requests.push(r);
             } else {
-                requests.push(texture_request(materials.len(), info, slot));
+                warnings.warn(format!(
+                    "{label}: {what} texture #{} names no image; its factor is used",
+                    info.texture().index()
+                ));
             }
         }
         // Normal, occlusion and transmission textures are not read.
@@ -103,7 +109,12 @@ pub(super) fn convert_materials(doc: &::gltf::Document, warnings: &mut Warnings)
 
 /// The request of material `material` for the texture `info` names, with its sampler's wrap modes
 /// and `KHR_texture_transform`.
-fn texture_request(material: usize, info: &::gltf::texture::Info, slot: Slot) -> TextureRequest {
+fn texture_request(
+    material: usize,
+    info: &::gltf::texture::Info,
+    slot: Slot,
+    images: usize,
+) -> Option<TextureRequest> {
     let sampler = info.texture().sampler();
     let wrap = |w: ::gltf::texture::WrappingMode| match w {
         ::gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
@@ -119,11 +130,27 @@ fn texture_request(material: usize, info: &::gltf::texture::Info, slot: Slot) ->
         });
     (
         material,
-        info.texture().source().index(),
+        image_of(&info.texture(), images)?,
         (wrap(sampler.wrap_s()), wrap(sampler.wrap_t())),
         transform,
         slot,
     )
+        .into()
+}
+
+/// The image a texture shows: its `source`, else the image of an image-format extension
+/// (`KHR_texture_basisu`, `EXT_texture_webp`, `EXT_texture_avif`), whose `source` is then the
+/// fallback those extensions allow to be absent. The texture decoder says which formats it reads
+/// (KTX2 is not among them: a warning, and the material keeps its factors).
+fn image_of(texture: &::gltf::Texture, images: usize) -> Option<usize> {
+    if let Some(image) = texture.source() {
+        return Some(image.index());
+    }
+    let extensions = texture.extensions()?;
+    IMAGE_EXTENSIONS.iter().find_map(|name| {
+        let i = extensions.get(*name)?.get("source")?.as_u64()? as usize;
+        (i < images).then_some(i)
+    })
 }
 
 /// The numbers of a glTF material that the mapping uses (see the module table).

@@ -5,8 +5,11 @@
 //! node (and once per instance of EXT_mesh_gpu_instancing). TRIANGLES, TRIANGLE_STRIP and
 //! TRIANGLE_FAN primitives are read, indexed or not; points and lines are skipped with a warning.
 //! Vertex data may be quantized (KHR_mesh_quantization) or compressed (EXT_meshopt_compression,
-//! KHR_draco_mesh_compression); a file that requires any other extension is refused, naming it. Buffers are read by this module; images (base-colour, emissive
-//! and metallic-roughness textures) are decoded by `crate::scene::texture`.
+//! KHR_draco_mesh_compression); a file that requires any other extension is refused, naming it.
+//! Buffers are read by this module; images (base-colour, emissive and metallic-roughness
+//! textures) are decoded by `crate::scene::texture`: file URIs are percent-decoded, and an image
+//! that is missing, not a regular file or not decodable (KTX2 from `KHR_texture_basisu`, WebP,
+//! AVIF) is a warning naming it and its materials, which keep their factors in that slot.
 //!
 //! Metallic-roughness mapping (base = `baseColorFactor` RGB, m = `metallicFactor`, r =
 //! `roughnessFactor`, all clamped to [0, 1]; α = r², Phong exponent n = 2/α² − 2 clamped to
@@ -87,6 +90,12 @@ use std::path::Path;
 /// Loads a `.gltf` or `.glb` file (and the buffers and images it names) into a [`Scene`].
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
+    if let Some(kind) = crate::scene::files::not_regular(path) {
+        return Err(LoadError::NotRegular {
+            file: path.to_path_buf(),
+            kind,
+        });
+    }
     if !path.is_file() {
         return Err(LoadError::NotFound {
             file: path.to_path_buf(),
@@ -130,7 +139,14 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
         warnings: warnings.list,
         ..Default::default()
     };
-    let textures = textures::resolve(&doc, requests, &mut materials, &buffers, path)?;
+    let textures = textures::resolve(
+        &doc,
+        requests,
+        &mut materials,
+        &buffers,
+        path,
+        &mut report.warnings,
+    )?;
     report.texture_bytes = textures.bytes();
     let normals = if any_normals { normals } else { Vec::new() };
     let n_triangles = triangles.len();

@@ -3,6 +3,7 @@
 
 use crate::math::Rgb;
 use crate::scene::error::LoadError;
+use crate::scene::files::percent_decode;
 use crate::scene::gltf::accessor::view_bytes;
 use crate::scene::gltf::document::malformed;
 use crate::scene::gltf::document::{decode_data_uri, named};
@@ -13,13 +14,17 @@ use rayon::prelude::*;
 use std::path::Path;
 
 /// Decodes the images of `requests` and gives the materials (indexed as in `doc`) their texture
-/// references; `buffers` are the document's, `path` the glTF file's.
+/// references; `buffers` are the document's, `path` the glTF file's. An image that cannot be
+/// read or decoded (missing, not a regular file, a format not decoded here such as KTX2) is a
+/// warning in `warnings` naming it and the materials that use it, and those materials keep their
+/// factors in that slot.
 pub(super) fn resolve(
     doc: &::gltf::Document,
     requests: Vec<TextureRequest>,
     materials: &mut [Material],
     buffers: &[Vec<u8>],
     path: &Path,
+    warnings: &mut Vec<String>,
 ) -> Result<TextureSet, LoadError> {
     if requests.is_empty() {
         return Ok(TextureSet::default());
@@ -33,26 +38,94 @@ pub(super) fn resolve(
     let decoded = images
         .par_iter()
         .map(|&(i, e)| decode_image(doc, i, e, buffers, path))
-        .collect::<Result<Vec<_>, _>>()?;
+        .collect::<Vec<_>>();
+    // The images that decoded, renumbered; the others leave a warning (once per image, both
+    // encodings of one image fail alike).
+    let mut textures = Vec::new();
+    let mut index = Vec::with_capacity(images.len());
+    let mut warned = Vec::new();
+    for (k, d) in decoded.into_iter().enumerate() {
+        match d {
+            Ok(t) => {
+                if !warned.contains(&images[k].0) {
+                    warned.push(images[k].0);
+                    warnings.extend(t.notes.iter().cloned());
+                }
+                index.push(Some(textures.len() as u32));
+                textures.push(std::sync::Arc::new(t));
+            }
+            Err(e) if matches!(e, LoadError::Image { .. }) => {
+                let image = images[k].0;
+                if !warned.contains(&image) {
+                    warned.push(image);
+                    warnings.push(unread_warning(doc, image, &requests, &e));
+                }
+                index.push(None);
+            }
+            Err(e) => return Err(e),
+        }
+    }
     // Materials whose whole glossy model is rebuilt per hit: their base-colour texture
     // multiplies `baseColorFactor` (not the Lambertian albedo).
     let mut per_hit = vec![false; materials.len()];
     for r in &requests {
-        per_hit[r.0] |= r.4 == Slot::MetallicRoughness;
+        per_hit[r.0] |= r.4 == Slot::MetallicRoughness && found(&images, &index, r);
     }
-    for (m, image, wrap, transform, slot) in requests {
-        let key = (image, slot.encoding());
+    for r in requests {
+        let Some(texture) = images
+            .iter()
+            .position(|k| *k == (r.1, r.4.encoding()))
+            .and_then(|k| index[k])
+        else {
+            continue;
+        };
+        let (m, _, wrap, transform, slot) = r;
         let texture = TextureRef {
-            texture: images.iter().position(|k| *k == key).unwrap_or(0) as u32,
+            texture,
             factor: Rgb::ONE,
             wrap,
             transform,
         };
         attach(doc, m, &mut materials[m], texture, slot, per_hit[m]);
     }
-    Ok(TextureSet {
-        textures: decoded.into_iter().map(std::sync::Arc::new).collect(),
-    })
+    Ok(TextureSet { textures })
+}
+
+/// Whether the image of request `r` decoded.
+fn found(images: &[(usize, Encoding)], index: &[Option<u32>], r: &TextureRequest) -> bool {
+    images
+        .iter()
+        .position(|k| *k == (r.1, r.4.encoding()))
+        .is_some_and(|k| index[k].is_some())
+}
+
+/// The warning for image `image`, which could not be read (`error`): the image, why, and the
+/// materials that use it, which keep their factors.
+fn unread_warning(
+    doc: &::gltf::Document,
+    image: usize,
+    requests: &[TextureRequest],
+    error: &LoadError,
+) -> String {
+    let mut users: Vec<usize> = requests
+        .iter()
+        .filter(|r| r.1 == image)
+        .map(|r| r.0)
+        .collect();
+    users.dedup();
+    let label = |m: usize| {
+        let name = doc
+            .materials()
+            .nth(m)
+            .and_then(|gm| gm.name().map(str::to_string));
+        named("material", m, name.as_deref())
+    };
+    let first = users.first().map_or_else(String::new, |&m| label(m));
+    let whose = match users.len() {
+        0 | 1 => format!("{first} keeps its factors"),
+        n => format!("{first} and {} other material(s) keep their factors", n - 1),
+    };
+    format!("{error:#}; {whose} in place of this texture")
 }
 
 /// Gives material `m` (`material`) the texture of one request in `slot`; `per_hit`: its glossy
@@ -107,9 +180,10 @@ fn attach(
     material.maps.base_color = Some(TextureRef { factor, ..texture });
 }
 
-/// Decodes image `index` of the document: a data URI, a file next to the glTF, or a buffer view
-/// (PNG, JPEG, TGA, HDR). Colour textures (`encoding`) are sRGB-encoded (glTF's rule), decoded to
-/// linear; data textures are read as stored.
+/// Decodes image `index` of the document: a data URI, a file next to the glTF (its URI
+/// percent-decoded), or a buffer view (PNG, JPEG, TGA, HDR). Colour textures (`encoding`) are
+/// sRGB-encoded (glTF's rule), decoded to linear; data textures are read as stored. An image that
+/// cannot be used is a [`LoadError::Image`] (the caller makes it a warning).
 fn decode_image(
     doc: &::gltf::Document,
     index: usize,
@@ -136,8 +210,8 @@ fn decode_image(
             Texture::from_bytes(&bytes, &held, encoding).map_err(image_error)
         }
         ::gltf::image::Source::Uri { uri, .. } => {
-            Texture::load(&path.parent().unwrap_or(Path::new(".")).join(uri), encoding)
-                .map_err(image_error)
+            let dir = path.parent().unwrap_or(Path::new("."));
+            Texture::load(&dir.join(percent_decode(uri)), encoding).map_err(image_error)
         }
         ::gltf::image::Source::View { view, .. } => {
             let bytes =

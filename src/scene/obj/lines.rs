@@ -5,7 +5,7 @@
 
 use crate::scene::obj::data::{Base, Event, Lines, Statement};
 use crate::scene::obj::face::{face, fast_face};
-use crate::scene::obj::token::{fast_numbers, latin1, numbers};
+use crate::scene::obj::token::{continued, fast_numbers, latin1, numbers};
 use crate::scene::obj::tolerance::{LineFault, Oddity, Tally, shown};
 use glam::{Vec2, Vec3};
 
@@ -18,8 +18,16 @@ pub(super) fn parse_chunk(c: &mut Lines, bytes: &[u8], strict: bool, known: Opti
     parse_lines(c, bytes, strict, known, known.is_none());
 }
 
-/// [`parse_chunk`], with the byte-level path for the lines of real files when `fast`.
+/// [`parse_chunk`], with the byte-level path for the lines of real files when `fast`. Lines that
+/// end in a backslash are joined with the next (the OBJ format's line continuation) first.
 fn parse_lines(c: &mut Lines, bytes: &[u8], strict: bool, known: Option<Base>, fast: bool) {
+    let joined;
+    let bytes = if memchr::memchr(b'\\', bytes).is_some() {
+        joined = join_continued(bytes);
+        &joined[..]
+    } else {
+        bytes
+    };
     c.reset();
     let mut owned: String;
     let mut start = 0;
@@ -53,6 +61,34 @@ fn parse_lines(c: &mut Lines, bytes: &[u8], strict: bool, known: Option<Base>, f
         }
     }
     c.data.lines = line_no;
+}
+
+/// `bytes` with every line that ends in a backslash joined to the next by a space, and after each
+/// joined line as many empty lines as it took, so that the lines after it keep their numbers (a
+/// joined line is numbered by its first).
+fn join_continued(bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut pending = 0usize;
+    let mut start = 0;
+    while start < bytes.len() {
+        let end = memchr::memchr(b'\n', &bytes[start..]).map_or(bytes.len(), |i| start + i);
+        let line = &bytes[start..end];
+        if continued(line) && end < bytes.len() {
+            let body = line.strip_suffix(b"\r").unwrap_or(line);
+            out.extend_from_slice(&body[..body.len() - 1]);
+            out.push(b' ');
+            pending += 1;
+        } else {
+            out.extend_from_slice(line);
+            if end < bytes.len() {
+                out.push(b'\n');
+            }
+            out.extend(std::iter::repeat_n(b'\n', pending));
+            pending = 0;
+        }
+        start = end + 1;
+    }
+    out
 }
 
 /// The statements of real files on a fast path: `v x y z`, `vn x y z`, `vt u v` and faces with

@@ -2,20 +2,23 @@
 //! `Ks`), `map_Ke` (times `Ke`, or alone where there is none), `map_d` and `d` (coverage), read
 //! after the materials are converted ([`crate::scene::obj::mtl`]).
 //!
-//! - A map statement's file is its last word (the options before it, `-o`, `-s`, `-bm`, …, are
-//!   skipped, except `-clamp on`, which clamps instead of repeating, and `-imfchan` for `map_d`);
+//! - A map statement's file is what follows its options, spaces and all (`map_Kd -s 2 2 my
+//!   texture.png`); the options (`-o`, `-s`, `-t` with up to three numbers, `-bm`, `-mm`, ...) are
+//!   skipped, except `-clamp on`, which clamps instead of repeating, and `-imfchan` for `map_d`;
 //!   backslashes are read as path separators; the path is relative to the MTL file.
 //! - `map_Kd` and `map_Ks` replace the constant colour, as the mainstream importers do (the MTL
 //!   text says "multiplied"; exporters write a `Kd` beside the map that was never meant to darken
 //!   it). Colour maps are sRGB-decoded; `map_d` is read as stored.
-//! - Coverage α = `d` × the `map_d` texel: its alpha channel when the image has one (some texel
-//!   below 1), else its red channel (a grey map), or the channel `-imfchan` names. Cut-outs are
+//! - Coverage α = `d` × the `map_d` texel: its alpha channel when the image has one (even if every
+//!   texel is opaque), else its grey level (a grey map, or an RGB image whose channels are equal)
+//!   or, with a warning, the red channel of a coloured RGB image; or the channel `-imfchan` names. Cut-outs are
 //!   stochastic ([`AlphaMode::Stochastic`]): present with probability α, so binary leaf masks
 //!   are exact and fractional `d` is unbiased. Dielectrics (`illum` 4, 6, 7, 9) ignore `d`:
 //!   their transparency is the refraction itself. `Tr` is not read (its sense differs between
 //!   exporters).
-//! - A map whose file is missing or cannot be decoded leaves a warning (the count and the first
-//!   file), and its material keeps its constant values. Bump, normal and other maps are not read:
+//! - A map whose file is missing, not a regular file (a FIFO, a directory) or cannot be decoded
+//!   leaves a warning naming it and its materials, which keep their constant values. Texels that
+//!   are negative or not finite (a float EXR) are set to 0, with a warning that counts them. Bump, normal and other maps are not read:
 //!   one warning with their count.
 //! - An emitter with `map_Ke` is still chosen for light sampling, and its points drawn, by its
 //!   constant `Ke`; the radiance at the drawn point and at every hit is the texel's
@@ -48,29 +51,60 @@ struct MapSpec {
 }
 
 fn parse_map(value: &str) -> Option<MapSpec> {
-    let words: Vec<&str> = value.split_whitespace().collect();
-    let file = words.last()?;
-    if file.starts_with('-') {
+    // The options (MTL's `-name` followed by its arguments) and then the file name, which may
+    // hold spaces: everything after the options, as written.
+    let mut rest = value.trim();
+    let (mut clamp, mut channel) = (false, None);
+    while rest.starts_with('-') {
+        let (name, after) = split_word(rest);
+        // Options of up to three numbers (-o, -s, -t) take what parses as a number; the others
+        // take a fixed count.
+        let fixed = match name {
+            "-blendu" | "-blendv" | "-bm" | "-boost" | "-cc" | "-clamp" | "-imfchan"
+            | "-texres" | "-type" => Some(1),
+            "-mm" => Some(2),
+            "-o" | "-s" | "-t" => None,
+            // An option not known: its word alone.
+            _ => Some(0),
+        };
+        rest = after;
+        let mut args = Vec::new();
+        for _ in 0..fixed.unwrap_or(3) {
+            let (word, after) = split_word(rest);
+            if word.is_empty() || (fixed.is_none() && word.parse::<f64>().is_err()) {
+                break;
+            }
+            args.push(word);
+            rest = after;
+        }
+        match (name, args.first()) {
+            ("-clamp", Some(v)) => clamp = *v == "on",
+            ("-imfchan", Some(c)) => {
+                channel = match *c {
+                    "r" | "l" | "m" | "z" => Some(0),
+                    "g" => Some(1),
+                    "b" => Some(2),
+                    _ => None,
+                }
+            }
+            _ => {}
+        }
+    }
+    if rest.is_empty() {
         return None;
     }
-    let option = |name: &str| {
-        words[..words.len() - 1]
-            .iter()
-            .position(|w| *w == name)
-            .and_then(|i| words.get(i + 1))
-            .copied()
-    };
-    let channel = option("-imfchan").and_then(|c| match c {
-        "r" | "l" | "m" | "z" => Some(0),
-        "g" => Some(1),
-        "b" => Some(2),
-        _ => None,
-    });
     Some(MapSpec {
-        file: PathBuf::from(file.replace('\\', "/")),
-        clamp: option("-clamp") == Some("on"),
+        file: PathBuf::from(rest.replace('\\', "/")),
+        clamp,
         channel,
     })
+}
+
+/// The first whitespace-separated word of `s` and what follows it (trimmed at the start).
+fn split_word(s: &str) -> (&str, &str) {
+    let s = s.trim_start();
+    let end = s.find(char::is_whitespace).unwrap_or(s.len());
+    (&s[..end], s[end..].trim_start())
 }
 
 /// Reads the maps of `list` (tobj's materials, converted to `materials` in the same order;
@@ -95,9 +129,34 @@ pub(super) fn apply(
             unread.0, unread.1
         ));
     }
-    let (set, id) = decode(file, &files, report);
+    let users = |r: usize| {
+        let names: Vec<&str> = uses
+            .iter()
+            .filter(|u| u.2 == r)
+            .map(|u| list[u.0].name.as_str())
+            .collect();
+        match names.as_slice() {
+            [] => "no material uses it".to_string(),
+            [one] => format!("material '{one}' keeps its constant values"),
+            [first, rest @ ..] => format!(
+                "material '{first}' and {} other(s) keep their constant values",
+                rest.len()
+            ),
+        }
+    };
+    let (set, id) = decode(file, &files, users, report);
     for (k, slot, r, spec) in uses {
         if let Some(texture) = id[r] {
+            let t = &set.textures[texture as usize];
+            // map_d without -imfchan on a coloured RGB image: which channel is the coverage is a
+            // guess (a grey one has one value to read).
+            if slot == Slot::Alpha && spec.channel.is_none() && t.channels == 3 && !t.is_grey() {
+                report.warnings.push(format!(
+                    "{file}: map_d {} of material '{}' has no alpha channel; its red channel is \
+                     read as the coverage (-imfchan names another)",
+                    t.source, list[k].name
+                ));
+            }
             give_map(&mut materials[k], slot, texture, &spec, &set);
         }
     }
@@ -176,23 +235,24 @@ impl Requests {
 }
 
 /// Decodes `files` in parallel: the textures that could be read, and for each file its index
-/// among them (`None`: it failed, one warning for all with the first failure).
+/// among them (`None`: it failed, a warning naming it and, through `users`, its materials).
 fn decode(
     file: &str,
     files: &[(PathBuf, Encoding)],
+    users: impl Fn(usize) -> String,
     report: &mut LoadReport,
 ) -> (TextureSet, Vec<Option<u32>>) {
     let decoded: Vec<Result<Texture, String>> = files
         .par_iter()
         .map(|(p, e)| Texture::load(p, *e).map_err(|err| format!("{err:#}")))
         .collect();
-    let failed: Vec<&String> = decoded.iter().filter_map(|d| d.as_ref().err()).collect();
-    if let Some(first) = failed.first() {
-        report.warnings.push(format!(
-            "{file}: {} texture file(s) could not be read (the first: {first}); their materials use \
-             their constant values",
-            failed.len()
-        ));
+    for (k, d) in decoded.iter().enumerate() {
+        match d {
+            Err(e) => report
+                .warnings
+                .push(format!("{file}: {e}; {} in place of this map", users(k))),
+            Ok(t) => report.warnings.extend(t.notes.iter().cloned()),
+        }
     }
     // Keep the decoded textures only, renumbered.
     let mut set = TextureSet::default();
@@ -237,9 +297,10 @@ fn give_map(m: &mut Material, slot: Slot, texture: u32, spec: &MapSpec, set: &Te
         }
         Slot::Alpha => {
             let t = &set.textures[texture as usize];
-            let channel = spec
-                .channel
-                .unwrap_or(if t.has_partial_alpha() { 3 } else { 0 });
+            // The alpha channel where the image has one (even if every texel is opaque), else
+            // the grey or red channel.
+            let alpha = t.channels == 2 || t.channels == 4 || t.has_partial_alpha();
+            let channel = spec.channel.unwrap_or(if alpha { 3 } else { 0 });
             m.maps.alpha = Some(Alpha {
                 factor: 1.0,
                 map: Some(tref),
@@ -289,6 +350,10 @@ mod tests {
         assert_eq!(m.channel, Some(0));
         let m = parse_map("wood.jpg").unwrap();
         assert!(!m.clamp && m.channel.is_none());
+        let m = parse_map("-s 2 2 -bm 0.5 my wood  grain.jpg").unwrap();
+        assert_eq!(m.file, PathBuf::from("my wood  grain.jpg"));
+        let m = parse_map("-o 0.5 textures/a b.png").unwrap();
+        assert_eq!(m.file, PathBuf::from("textures/a b.png"));
         assert!(parse_map("").is_none());
         assert!(parse_map("-clamp").is_none());
     }

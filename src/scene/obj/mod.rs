@@ -50,11 +50,18 @@ use tolerance::LineFault;
 /// gives no `vt` index reads (0, 0), and so do faces of files without `vt`.
 pub fn load(path: &Path, strict: bool) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
+    if let Some(kind) = crate::scene::files::not_regular(path) {
+        return Err(LoadError::NotRegular {
+            file: path.to_path_buf(),
+            kind,
+        });
+    }
     if !path.is_file() {
         return Err(LoadError::NotFound {
             file: path.to_path_buf(),
         });
     }
+    refuse_utf16(path)?;
     let data = read(path, strict)?;
     let mut report = LoadReport {
         warnings: tolerance::warnings(&file, &data.oddities, &data.unused),
@@ -307,4 +314,32 @@ fn tri_materials(runs: &[(usize, Option<usize>)], n: usize, default_id: u32) -> 
         tri_material.extend(std::iter::repeat_n(id, end - start));
     }
     tri_material
+}
+
+/// Refuses an OBJ file saved as UTF-16 (a byte-order mark, or every other byte 0 at its start),
+/// which would otherwise read as lines of nothing the loader knows.
+fn refuse_utf16(path: &Path) -> Result<(), LoadError> {
+    let mut head = [0u8; 64];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+        .map_err(|source| LoadError::Unreadable {
+            file: path.to_path_buf(),
+            source,
+        })?;
+    let head = &head[..n];
+    let bom = head.starts_with(&[0xFF, 0xFE]) || head.starts_with(&[0xFE, 0xFF]);
+    let zeros_at = |k: usize| head.iter().skip(k).step_by(2).all(|&b| b == 0);
+    let no_zeros_at = |k: usize| head.iter().skip(k).step_by(2).all(|&b| b != 0);
+    let interleaved =
+        n >= 8 && ((zeros_at(1) && no_zeros_at(0)) || (zeros_at(0) && no_zeros_at(1)));
+    if bom || interleaved {
+        return Err(LoadError::Malformed {
+            file: path.to_path_buf(),
+            line: None,
+            what: "the file is UTF-16 text; OBJ files are read as UTF-8 (or ASCII): save it \
+                   as UTF-8"
+                .into(),
+        });
+    }
+    Ok(())
 }

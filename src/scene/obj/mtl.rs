@@ -234,10 +234,19 @@ fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
     let ks_given = rgb(m.specular);
     let mut warn = None;
     let illum = m.illumination_model.unwrap_or(2);
+    // An albedo above 1 would create light: clamped, and said.
+    let over = |kd: Rgb| kd.max_element() > 1.0;
+    // One text for all, so that the warning groups the materials it concerns.
+    let clamp_note = |_: Rgb| "Kd exceeds 1; clamped to 1 per channel".to_string();
     let bsdf = match illum {
-        0 | 1 => Bsdf::Diffuse {
-            kd: kd.min(Rgb::ONE),
-        },
+        0 | 1 => {
+            if over(kd) {
+                warn = Some(clamp_note(kd));
+            }
+            Bsdf::Diffuse {
+                kd: kd.min(Rgb::ONE),
+            }
+        }
         3 | 5 | 8 => {
             let mut ks = ks_given.unwrap_or(Rgb::ONE);
             if conserve_energy(&mut kd, &mut ks) {
@@ -262,6 +271,9 @@ fn convert_material(m: &tobj::Material) -> (Material, Option<String>) {
         _ => {
             let mut ks = ks_given.unwrap_or(Rgb::ZERO);
             if ks == Rgb::ZERO {
+                if over(kd) {
+                    warn = Some(clamp_note(kd));
+                }
                 Bsdf::Diffuse {
                     kd: kd.min(Rgb::ONE),
                 }

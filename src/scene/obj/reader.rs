@@ -102,6 +102,11 @@ impl Chunk {
             if i < self.have
                 && let Some(k) = memchr::memchr(b'\n', &self.buf[i..self.have])
             {
+                // A line that ends in `\` goes on on the next one: not a line end.
+                if crate::scene::obj::token::continued(&self.buf[..i + k]) {
+                    i += k + 1;
+                    continue;
+                }
                 return Ok(self.from + (i + k) as u64);
             }
             if self.from + self.have as u64 >= len {

@@ -97,6 +97,12 @@ pub(super) fn latin1(bytes: &[u8]) -> String {
     bytes.iter().map(|&b| b as char).collect()
 }
 
+/// Whether the line that ends where `before` ends (just before its `\n`) ends in a backslash, the
+/// OBJ format's line continuation (`\` or `\` CR).
+pub(super) fn continued(before: &[u8]) -> bool {
+    matches!(before, [.., b'\\'] | [.., b'\\', b'\r'])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
