@@ -60,6 +60,12 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
 ];
 
+/// The extensions that give a texture an image in a format of their own (the extension's
+/// `source`); the texture decoder says which it reads, and a material whose image it cannot read
+/// keeps its factors, with a warning.
+pub(super) const IMAGE_EXTENSIONS: &[&str] =
+    &["KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif"];
+
 /// Validation problems a message lists before it says how many more there are.
 const SHOWN_PROBLEMS: usize = 3;
 
