@@ -108,6 +108,7 @@ impl Estimator {
             angle_deg: self.angle,
             max_bounces: self.max_bounces,
             radiance_bounces: self.radiance_bounces,
+            design: None,
         }
     }
 }
