@@ -14,6 +14,8 @@ Sun = Union[Tuple[Vec3, Vec3], Tuple[Vec3, Vec3, float]]
 Env = Union[StrPath, Tuple[StrPath, float], Tuple[StrPath, float, float]]
 Weighting = Literal["radiance", "unweighted", "importance"]
 Progress = Union[None, bool, Callable[[int, Optional[int]], object]]
+# The deflection pairs of a sample, (kA, kB, J, M) or "kA,kB,J,M"; None: the weighting's.
+Pairs = Union[None, Tuple[int, int, int, int], str]
 
 class Field:
     """A field with its channels, as a run returns it or ``read`` gives it back.
@@ -104,6 +106,7 @@ class Scene:
         angle: float = 2.0,
         max_bounces: int = 32,
         radiance_bounces: Optional[int] = None,
+        pairs: Pairs = None,
         batches: int = 8,
         pass_spp: Optional[int] = None,
         adaptive: Optional[bool] = None,
@@ -123,8 +126,9 @@ class Scene:
         Sampling: ``spp`` samples per cell, ``time`` seconds, ``target_error`` (p95 relative
         error); none of them: stop at 0.05 or after 60 s. ``seed``: same seed, same field, on any
         number of ``threads`` (0: all cores). Run lengths ``t0``, ``t1`` default to 0.1 and 0.5
-        of the scene's diagonal. ``progress``: None (a tqdm bar if tqdm is installed), False,
-        True, or ``f(done, total)`` (total None without ``spp``). Ctrl-C raises
+        of the scene's diagonal. ``pairs`` (kA, kB, J, M): the deflection pairs of a sample
+        (None: the weighting's, 2,2,1,2). ``progress``: None (a tqdm bar if tqdm is installed),
+        False, True, or ``f(done, total)`` (total None without ``spp``). Ctrl-C raises
         ``KeyboardInterrupt`` after the cells in flight."""
     def flatland(
         self,
@@ -142,6 +146,7 @@ class Scene:
         angle: float = 2.0,
         max_bounces: int = 32,
         radiance_bounces: Optional[int] = None,
+        pairs: Pairs = None,
         batches: int = 8,
         pass_spp: Optional[int] = None,
         adaptive: Optional[bool] = None,
@@ -174,6 +179,7 @@ class Scene:
         angle: float = 2.0,
         max_bounces: int = 32,
         radiance_bounces: Optional[int] = None,
+        pairs: Pairs = None,
         batches: int = 8,
         pass_spp: Optional[int] = None,
         adaptive: Optional[bool] = None,
@@ -203,6 +209,7 @@ class Scene:
         angle: float = 2.0,
         max_bounces: int = 32,
         radiance_bounces: Optional[int] = None,
+        pairs: Pairs = None,
         batches: int = 8,
         pass_spp: Optional[int] = None,
         adaptive: Optional[bool] = None,

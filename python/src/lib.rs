@@ -4,6 +4,7 @@
 //! classes, type stubs and documentation.
 
 mod errors;
+mod keywords;
 mod options;
 mod result;
 mod run;

@@ -7,7 +7,7 @@ use ftpd3d::analysis::separatrix::SepParams;
 use ftpd3d::app::{self, Sampling};
 use ftpd3d::domain::Tile;
 use ftpd3d::domain::slice::{PlaneSpec, SliceArg};
-use ftpd3d::ftpd::Weighting;
+use ftpd3d::ftpd::{Design, Weighting};
 use ftpd3d::params::EstimatorArgs;
 use ftpd3d::scene::Light;
 use glam::DVec3;
@@ -97,6 +97,8 @@ pub struct Estimator {
     pub angle: f64,
     pub max_bounces: u32,
     pub radiance_bounces: Option<u32>,
+    /// The deflection pairs of a sample (`None`: the weighting's).
+    pub design: Option<Design>,
 }
 
 impl Estimator {
@@ -108,7 +110,7 @@ impl Estimator {
             angle_deg: self.angle,
             max_bounces: self.max_bounces,
             radiance_bounces: self.radiance_bounces,
-            design: None,
+            design: self.design,
         }
     }
 }

@@ -6,21 +6,22 @@
 //! [`run_domain`]: ftpd3d::app::run_domain
 
 use crate::errors::{param, to_py};
-use crate::options::{self, Estimator, LightArgs, SamplingArgs, Vec3};
+use crate::keywords::RunKeywords;
+use crate::options::{self, LightArgs, Vec3};
 use crate::result::{Extra, Field, Lattice};
 use crate::run::{self, Report, RunInput};
-use ftpd3d::analysis::separatrix::{self, SepParams};
+use ftpd3d::analysis::separatrix;
 use ftpd3d::app::{self, JobDomain};
 use ftpd3d::domain::slice::{SliceArg, resolve_plane};
 use ftpd3d::domain::volume::Volume;
 use ftpd3d::domain::{CameraView, MAX_RES, VolumeRes};
 use ftpd3d::ftpd::Weighting;
 use ftpd3d::params::EstimatorArgs;
-use ftpd3d::render::RenderOptions;
 use ftpd3d::scene::load::{LoadOptions, load_scene_with};
 use ftpd3d::scene::sidecar::{CameraSpec, camera_of};
 use ftpd3d::scene::{Light, Scene as LibScene};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
@@ -99,17 +100,19 @@ impl Scene {
     }
 
     /// Runs `spec` as the command line would, returning the field with its channels.
-    #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
         py: Python<'_>,
         spec: DomainSpec,
-        est: Estimator,
-        sampling: SamplingArgs,
+        kw: RunKeywords<'_>,
         flatland: bool,
-        sep: Option<SepParams>,
-        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Field> {
+        let RunKeywords {
+            est,
+            sampling,
+            sep,
+            progress,
+        } = kw;
         let camera_run = matches!(spec, DomainSpec::Camera { .. });
         if camera_run != (est.weighting == Weighting::Importance) {
             return Err(param(if camera_run {
@@ -135,7 +138,7 @@ impl Scene {
             .cap_spp
             .then(|| opts.active_cells(w, h, d).len() as u64 * opts.spp as u64);
         let name = domain.name();
-        let report = Report::new(py, progress, total, &name)?;
+        let report = Report::new(py, progress.as_ref(), total, &name)?;
         let input = RunInput {
             scene: &scene,
             domain: &domain,
@@ -273,20 +276,6 @@ fn camera_view(scene: &LibScene, which: Which, size: (usize, usize)) -> PyResult
     CameraView::new(camera, size.0, size.1).map_err(|e| to_py(e.into()))
 }
 
-/// The estimator's and sampling's keyword arguments, shared by every run.
-macro_rules! estimator {
-    ($weighting:expr, $t0:expr, $t1:expr, $angle:expr, $mb:expr, $rb:expr) => {
-        Estimator {
-            weighting: options::weighting($weighting)?,
-            t0: $t0,
-            t1: $t1,
-            angle: $angle,
-            max_bounces: options::count("max_bounces", $mb)?,
-            radiance_bounces: options::count_opt("radiance_bounces", $rb)?,
-        }
-    };
-}
-
 #[pymethods]
 impl Scene {
     /// Loads a scene file: `.obj` (with its `.mtl`), `.gltf`/`.glb`, or a sidecar `.toml` naming
@@ -382,145 +371,52 @@ impl Scene {
     /// [up=X,Y,Z] [size=W,H]"`; `window` (u0, v0, u1, v1) restricts an axis slice; `res` cells
     /// along the longer side. Sampling: `spp` (samples per cell), `time` (seconds), `target_error`
     /// (p95 relative error); none of them: stop at 0.05 or after 60 s, whichever comes first (a
-    /// reproducible run gives `spp`). `flatland` confines directions to the plane;
-    /// `separatrices` adds the separatrix channels (`sep_threshold`, `sep_scale`, `sep_tau`).
-    /// `progress`: None (a tqdm bar when tqdm is installed), False, True or f(done, total).
+    /// reproducible run gives `spp`). `pairs` (kA, kB, J, M): the deflection pairs of a sample
+    /// (None: the weighting's). `flatland` confines directions to the plane; `separatrices` adds
+    /// the separatrix channels (`sep_threshold`, `sep_scale`, `sep_tau`). `progress`: None (a
+    /// tqdm bar when tqdm is installed), False, True or f(done, total).
     #[pyo3(signature = (slice = "z=0".to_string(), *, res = app::DEFAULT_RES as i64, window = None,
-        spp = None, time = None, target_error = None, seed = RenderOptions::default().seed as i64, weighting = "radiance".to_string(),
-        t0 = None, t1 = None, angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
-        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None, adaptive_cap = None, threads = 0,
-        tile = None, flatland = false, separatrices = false, sep_threshold = SepParams::default().z,
-        sep_scale = None, sep_tau = None, progress = None))]
-    // What help() shows: the defaults above, as Python values (a test holds them equal).
+        flatland = false, **options))]
+    // What help() shows: the defaults keywords::RunKeywords reads, as Python values (a test holds
+    // them equal).
     #[pyo3(
-        text_signature = "(self, slice='z=0', *, res=256, window=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, flatland=False, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, slice='z=0', *, res=256, window=None, flatland=False, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
-    #[allow(clippy::too_many_arguments)]
-    fn slice(
+    fn slice<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         slice: String,
         res: i64,
         window: Option<(f64, f64, f64, f64)>,
-        spp: Option<i64>,
-        time: Option<f64>,
-        target_error: Option<f64>,
-        seed: i64,
-        weighting: String,
-        t0: Option<f64>,
-        t1: Option<f64>,
-        angle: f64,
-        max_bounces: i64,
-        radiance_bounces: Option<i64>,
-        batches: i64,
-        pass_spp: Option<i64>,
-        adaptive: Option<bool>,
-        adaptive_cap: Option<i64>,
-        threads: i64,
-        tile: Option<String>,
         flatland: bool,
-        separatrices: bool,
-        sep_threshold: f64,
-        sep_scale: Option<f64>,
-        sep_tau: Option<f64>,
-        progress: Option<Bound<'_, PyAny>>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Field> {
-        let est = estimator!(&weighting, t0, t1, angle, max_bounces, radiance_bounces);
-        let sampling = SamplingArgs {
-            spp,
-            time,
-            target_error,
-            batches,
-            pass_spp,
-            adaptive,
-            adaptive_cap,
-            seed,
-            threads,
-            tile,
-        };
-        let sep = separatrices
-            .then(|| options::sep_params(sep_threshold, sep_scale, sep_tau))
-            .transpose()?;
+        let method = if flatland { "flatland" } else { "slice" };
+        let kw = RunKeywords::new(py, method, options, "radiance")?;
         let spec = DomainSpec::Slice {
             arg: options::slice_arg(&slice)?,
             window: window.map(|(a, b, c, d)| [a, b, c, d]),
             res: options::count("res", res)?,
         };
-        self.run(py, spec, est, sampling, flatland, sep, progress.as_ref())
+        self.run(py, spec, kw, flatland)
     }
+
     /// A flatland slice: [`slice`](Scene::slice) with every direction confined to the plane (2D
     /// light transport in the scene extruded across it); the same keywords.
     #[pyo3(signature = (slice = "z=0".to_string(), *, res = app::DEFAULT_RES as i64, window = None,
-        spp = None, time = None, target_error = None, seed = RenderOptions::default().seed as i64,
-        weighting = "radiance".to_string(), t0 = None, t1 = None,
-        angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
-        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None,
-        adaptive_cap = None, threads = 0, tile = None, separatrices = false,
-        sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
-        progress = None))]
-    // What help() shows: the defaults above, as Python values (a test holds them equal).
+        **options))]
     #[pyo3(
-        text_signature = "(self, slice='z=0', *, res=256, window=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, slice='z=0', *, res=256, window=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
-    #[allow(clippy::too_many_arguments)]
-    fn flatland(
+    fn flatland<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         slice: String,
         res: i64,
         window: Option<(f64, f64, f64, f64)>,
-        spp: Option<i64>,
-        time: Option<f64>,
-        target_error: Option<f64>,
-        seed: i64,
-        weighting: String,
-        t0: Option<f64>,
-        t1: Option<f64>,
-        angle: f64,
-        max_bounces: i64,
-        radiance_bounces: Option<i64>,
-        batches: i64,
-        pass_spp: Option<i64>,
-        adaptive: Option<bool>,
-        adaptive_cap: Option<i64>,
-        threads: i64,
-        tile: Option<String>,
-        separatrices: bool,
-        sep_threshold: f64,
-        sep_scale: Option<f64>,
-        sep_tau: Option<f64>,
-        progress: Option<Bound<'_, PyAny>>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Field> {
-        self.slice(
-            py,
-            slice,
-            res,
-            window,
-            spp,
-            time,
-            target_error,
-            seed,
-            weighting,
-            t0,
-            t1,
-            angle,
-            max_bounces,
-            radiance_bounces,
-            batches,
-            pass_spp,
-            adaptive,
-            adaptive_cap,
-            threads,
-            tile,
-            true,
-            separatrices,
-            sep_threshold,
-            sep_scale,
-            sep_tau,
-            progress,
-        )
+        self.slice(py, slice, res, window, true, options)
     }
 
     /// A camera image of `size` (width, height) pixels, importance-weighted (pairs start along
@@ -528,51 +424,24 @@ impl Scene {
     /// scene file by `name` (or index; None: the first), or one placed by `eye`, `target`, `up`
     /// and `fov` (vertical, degrees). The sampling and estimator keywords of `slice`.
     #[pyo3(signature = (name = None, *, eye = None, target = None, up = None,
-        fov = app::DEFAULT_FOV_DEG, size = (app::DEFAULT_IMAGE_SIZE.0 as i64, app::DEFAULT_IMAGE_SIZE.1 as i64), spp = None, time = None,
-        target_error = None, seed = RenderOptions::default().seed as i64,
-        weighting = "importance".to_string(), t0 = None, t1 = None,
-        angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
-        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None,
-        adaptive_cap = None, threads = 0, tile = None, separatrices = false,
-        sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
-        progress = None))]
-    // What help() shows: the defaults above, as Python values (a test holds them equal).
+        fov = app::DEFAULT_FOV_DEG,
+        size = (app::DEFAULT_IMAGE_SIZE.0 as i64, app::DEFAULT_IMAGE_SIZE.1 as i64), **options))]
     #[pyo3(
-        text_signature = "(self, name=None, *, eye=None, target=None, up=None, fov=40.0, size=(512, 512), spp=None, time=None, target_error=None, seed=1, weighting='importance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, name=None, *, eye=None, target=None, up=None, fov=40.0, size=(512, 512), spp=None, time=None, target_error=None, seed=1, weighting='importance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
     #[allow(clippy::too_many_arguments)]
-    fn camera(
+    fn camera<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         name: Option<String>,
         eye: Option<Vec3>,
         target: Option<Vec3>,
         up: Option<Vec3>,
         fov: f64,
         size: (i64, i64),
-        spp: Option<i64>,
-        time: Option<f64>,
-        target_error: Option<f64>,
-        seed: i64,
-        weighting: String,
-        t0: Option<f64>,
-        t1: Option<f64>,
-        angle: f64,
-        max_bounces: i64,
-        radiance_bounces: Option<i64>,
-        batches: i64,
-        pass_spp: Option<i64>,
-        adaptive: Option<bool>,
-        adaptive_cap: Option<i64>,
-        threads: i64,
-        tile: Option<String>,
-        separatrices: bool,
-        sep_threshold: f64,
-        sep_scale: Option<f64>,
-        sep_tau: Option<f64>,
-        progress: Option<Bound<'_, PyAny>>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Field> {
+        let kw = RunKeywords::new(py, "camera", options, "importance")?;
         let which = match (eye, target) {
             (Some(eye), Some(target)) => {
                 if name.is_some() {
@@ -589,74 +458,30 @@ impl Scene {
             (None, None) if up.is_none() => Which::Scene(name),
             _ => return Err(param("eye and target go together (up and fov with them)")),
         };
-        let est = estimator!(&weighting, t0, t1, angle, max_bounces, radiance_bounces);
-        let sampling = SamplingArgs {
-            spp,
-            time,
-            target_error,
-            batches,
-            pass_spp,
-            adaptive,
-            adaptive_cap,
-            threads,
-            seed,
-            tile,
-        };
-        let sep = separatrices
-            .then(|| options::sep_params(sep_threshold, sep_scale, sep_tau))
-            .transpose()?;
         let size = (
             options::count("size", size.0)?,
             options::count("size", size.1)?,
         );
         let spec = DomainSpec::Camera { which, size };
-        self.run(py, spec, est, sampling, false, sep, progress.as_ref())
+        self.run(py, spec, kw, false)
     }
 
     /// A voxel grid: `res` voxels along the longest side of the box (the others by aspect) or
     /// (nx, ny, nz), over `box` (xmin, ymin, zmin, xmax, ymax, zmax; None: the scene's bounds,
     /// flat sides padded). Channels as the `.vti` holds them, shaped (nz, ny, nx). The sampling
     /// and estimator keywords of `slice`.
-    #[pyo3(signature = (res, *, r#box = None, spp = None, time = None, target_error = None,
-        seed = RenderOptions::default().seed as i64, weighting = "radiance".to_string(), t0 = None,
-        t1 = None, angle = EstimatorArgs::default().angle_deg,
-        max_bounces = EstimatorArgs::default().max_bounces as i64, radiance_bounces = None,
-        batches = RenderOptions::default().batches as i64, pass_spp = None, adaptive = None,
-        adaptive_cap = None, threads = 0, tile = None, separatrices = false,
-        sep_threshold = SepParams::default().z, sep_scale = None, sep_tau = None,
-        progress = None))]
-    // What help() shows: the defaults above, as Python values (a test holds them equal).
+    #[pyo3(signature = (res, *, r#box = None, **options))]
     #[pyo3(
-        text_signature = "(self, res, *, box=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, res, *, box=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
-    #[allow(clippy::too_many_arguments)]
-    fn volume(
+    fn volume<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         res: VolRes,
         r#box: Option<(f64, f64, f64, f64, f64, f64)>,
-        spp: Option<i64>,
-        time: Option<f64>,
-        target_error: Option<f64>,
-        seed: i64,
-        weighting: String,
-        t0: Option<f64>,
-        t1: Option<f64>,
-        angle: f64,
-        max_bounces: i64,
-        radiance_bounces: Option<i64>,
-        batches: i64,
-        pass_spp: Option<i64>,
-        adaptive: Option<bool>,
-        adaptive_cap: Option<i64>,
-        threads: i64,
-        tile: Option<String>,
-        separatrices: bool,
-        sep_threshold: f64,
-        sep_scale: Option<f64>,
-        sep_tau: Option<f64>,
-        progress: Option<Bound<'_, PyAny>>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Field> {
+        let kw = RunKeywords::new(py, "volume", options, "radiance")?;
         let res = match res {
             VolRes::Longest(n) if n > 0 => VolumeRes::Longest(options::count("res", n)?),
             VolRes::Dims(x, y, z) if x > 0 && y > 0 && z > 0 => VolumeRes::Dims([
@@ -666,24 +491,8 @@ impl Scene {
             ]),
             _ => return Err(param("res: every axis needs at least 1 voxel")),
         };
-        let est = estimator!(&weighting, t0, t1, angle, max_bounces, radiance_bounces);
-        let sampling = SamplingArgs {
-            spp,
-            time,
-            target_error,
-            batches,
-            pass_spp,
-            adaptive,
-            adaptive_cap,
-            threads,
-            seed,
-            tile,
-        };
-        let sep = separatrices
-            .then(|| options::sep_params(sep_threshold, sep_scale, sep_tau))
-            .transpose()?;
         let bbox = r#box.map(|(a, b, c, d, e, f)| [a, b, c, d, e, f]);
         let spec = DomainSpec::Volume { res, bbox };
-        self.run(py, spec, est, sampling, false, sep, progress.as_ref())
+        self.run(py, spec, kw, false)
     }
 }

@@ -75,6 +75,14 @@ def test_other_domains_and_options_match_the_command_line(scene, cli, tmp_path):
             lambda: scene.camera(eye=(0, 1, 3.5), target=(0, 1, 0), size=(16, 12), spp=4, **same),
         ),
         (
+            ["--slice", "z=0", "--res", 16, "--spp", 8, "--pairs", "1,1,2,8"],
+            lambda: scene.slice("z=0", res=16, spp=8, pairs=(1, 1, 2, 8), **same),
+        ),
+        (
+            ["--slice", "z=0", "--res", 16, "--spp", 8, "--pairs", "1,1,1,1", "--flatland"],
+            lambda: scene.flatland("z=0", res=16, spp=8, pairs="1,1,1,1", **same),
+        ),
+        (
             ["--slice", "z=0", "--res", 16, "--target-error", 0.3, "--time", 30],
             lambda: scene.slice("z=0", res=16, target_error=0.3, time=30, **same),
         ),
@@ -192,6 +200,9 @@ def test_strict_load_names_the_line(tmp_path):
         (dict(slice="z=0", res=-5), "res=-5"),
         (dict(slice="z=0", max_bounces=-1), "max_bounces=-1"),
         (dict(slice="z=0", seed=-2), "seed=-2"),
+        (dict(slice="z=0", pairs=(0, 1, 1, 1)), "kA"),
+        (dict(slice="z=0", pairs=(1, 1, 1, -1)), "pairs"),
+        (dict(slice="z=0", pairs="1,1,1"), "pairs"),
     ],
 )
 def test_bad_values_raise_value_errors(scene, kwargs, words):
@@ -200,6 +211,18 @@ def test_bad_values_raise_value_errors(scene, kwargs, words):
     assert isinstance(e.value, ftpd3d.Error)
     assert words in str(e.value), str(e.value)
     assert "--" not in str(e.value), "no flag names outside the command line"
+
+
+def test_unknown_or_mistyped_keywords_raise_type_errors(scene):
+    # As Python's own functions do: the method and the keyword are named.
+    with pytest.raises(TypeError, match=r"slice\(\) got an unexpected keyword argument 'sp'"):
+        scene.slice("z=0", sp=4)
+    with pytest.raises(TypeError, match="volume"):
+        scene.volume(4, spp=2, flatland=True)
+    with pytest.raises(TypeError, match="'spp'"):
+        scene.slice("z=0", spp="four")
+    with pytest.raises(TypeError, match="'pairs'"):
+        scene.camera(pairs=2.5)
 
 
 def test_bad_lights_and_cameras_raise(scene, tmp_path):
