@@ -2,7 +2,7 @@
 //! data URI, a file next to the glTF file or a buffer view, and the materials pointed at them.
 
 use crate::math::Rgb;
-use crate::scene::error::LoadError;
+use crate::scene::error::{ImageError, LoadError};
 use crate::scene::files::percent_decode;
 use crate::scene::gltf::accessor::view_bytes;
 use crate::scene::gltf::document::malformed;
@@ -54,6 +54,14 @@ pub(super) fn resolve(
                 index.push(Some(textures.len() as u32));
                 textures.push(std::sync::Arc::new(t));
             }
+            // A FIFO, device or directory named as an image is not an unreadable image but a
+            // mistake in the file: refused at once, like a scene file of that kind.
+            Err(
+                e @ LoadError::Image {
+                    source: ImageError::NotRegular { .. },
+                    ..
+                },
+            ) => return Err(e),
             Err(e) if matches!(e, LoadError::Image { .. }) => {
                 let image = images[k].0;
                 if !warned.contains(&image) {

@@ -16,8 +16,10 @@
 //!   are exact and fractional `d` is unbiased. Dielectrics (`illum` 4, 6, 7, 9) ignore `d`:
 //!   their transparency is the refraction itself. `Tr` is not read (its sense differs between
 //!   exporters).
-//! - A map whose file is missing, not a regular file (a FIFO, a directory) or cannot be decoded
-//!   leaves a warning naming it and its materials, which keep their constant values. Texels that
+//! - A map whose file is missing or cannot be decoded leaves a warning naming it and its
+//!   materials, which keep their constant values; one that is not a regular file (a FIFO, a
+//!   device, a directory) is refused at once, naming it and its material, like a scene file of
+//!   that kind (opening a FIFO would block the load). Texels that
 //!   are negative or not finite (a float EXR) are set to 0, with a warning that counts them. Bump, normal and other maps are not read:
 //!   one warning with their count.
 //! - An emitter with `map_Ke` is still chosen for light sampling, and its points drawn, by its
@@ -25,6 +27,7 @@
 //!   (`transport::light::texture_light_sample`).
 
 use crate::math::Rgb;
+use crate::scene::error::LoadError;
 use crate::scene::material::{Alpha, AlphaMode, Bsdf, Material, TextureRef};
 use crate::scene::model::LoadReport;
 use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
@@ -116,7 +119,7 @@ pub(super) fn apply(
     dirs: &[PathBuf],
     materials: &mut [Material],
     report: &mut LoadReport,
-) -> TextureSet {
+) -> Result<TextureSet, LoadError> {
     let Requests {
         files,
         uses,
@@ -144,6 +147,19 @@ pub(super) fn apply(
             ),
         }
     };
+    for (r, (path, _)) in files.iter().enumerate() {
+        if let Err(source) = crate::scene::texture::regular(path) {
+            let material = uses.iter().find(|u| u.2 == r).map(|u| &list[u.0].name);
+            return Err(LoadError::Image {
+                file: PathBuf::from(file),
+                image: format!(
+                    "the texture of material '{}'",
+                    material.map_or("", String::as_str)
+                ),
+                source,
+            });
+        }
+    }
     let (set, id) = decode(file, &files, users, report);
     for (k, slot, r, spec) in uses {
         if let Some(texture) = id[r] {
@@ -162,7 +178,7 @@ pub(super) fn apply(
     }
     apply_dissolve(list, materials);
     report.texture_bytes += set.bytes();
-    set
+    Ok(set)
 }
 
 /// The maps materials name: each distinct (file, encoding) once, each use of one by a material,

@@ -69,7 +69,7 @@ pub fn load(path: &Path, strict: bool) -> Result<Scene, LoadError> {
     };
     let dir = path.parent().unwrap_or(Path::new(""));
     let (libraries, runs) = Libraries::read(&file, dir, &data);
-    let (materials, textures) = libraries.materials(&file, &mut report);
+    let (materials, textures) = libraries.materials(&file, &mut report)?;
     // Index of the default material for faces without one (the last).
     let default_id = materials.len() as u32 - 1;
     let tri_material = tri_materials(&runs, data.triangles.len(), default_id);
@@ -224,9 +224,13 @@ impl Libraries {
 
     /// The materials of the libraries converted, with their texture maps, and the default
     /// material (for faces without one) last; the textures they read. Warnings go to `report`.
-    fn materials(self, file: &str, report: &mut LoadReport) -> (Vec<Material>, TextureSet) {
+    fn materials(
+        self,
+        file: &str,
+        report: &mut LoadReport,
+    ) -> Result<(Vec<Material>, TextureSet), LoadError> {
         let mut materials = mtl::convert_materials(file, &self.list, report);
-        let textures = maps::apply(file, &self.list, &self.dirs, &mut materials, report);
+        let textures = maps::apply(file, &self.list, &self.dirs, &mut materials, report)?;
         if materials.is_empty()
             && let Some(e) = self.error
             && self.notes.is_empty()
@@ -238,7 +242,7 @@ impl Libraries {
         }
         report.warnings.extend(self.notes);
         materials.push(Material::default_grey());
-        (materials, textures)
+        Ok((materials, textures))
     }
 }
 
