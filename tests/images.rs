@@ -260,7 +260,7 @@ fn mtl_and_obj_details_are_read_or_named() {
         "newmtl Wood\nmap_Kd -s 1 1 1 my wood.png\n\
          newmtl Leaf\nKd 0.5 0.5 0.5\nmap_d opaque.png\n\
          newmtl Mask\nKd 0.5 0.5 0.5\nmap_d rgb.png\n\
-         newmtl Bright\nKd 1.5 0.2 0.2\n\
+         newmtl Bright\nKd 1.5 \\\n 0.2 0.2\n\
          newmtl GreyMask\nKd 0.5 0.5 0.5\nmap_d grey_rgb.png\n",
     )
     .unwrap();
@@ -293,6 +293,12 @@ fn mtl_and_obj_details_are_read_or_named() {
     );
     assert_eq!(by_name("GreyMask").maps.alpha.as_ref().unwrap().channel, 0);
     assert!(w.contains("'Bright'") && w.contains("Kd exceeds 1"), "{w}");
+    // The MTL's continued Kd line: its three numbers read across the backslash.
+    assert!(
+        format!("{:?}", by_name("Bright").bsdf).contains("0.2"),
+        "{:?}",
+        by_name("Bright").bsdf
+    );
 
     let utf16: Vec<u8> = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
         .encode_utf16()

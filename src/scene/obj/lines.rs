@@ -66,7 +66,7 @@ fn parse_lines(c: &mut Lines, bytes: &[u8], strict: bool, known: Option<Base>, f
 /// `bytes` with every line that ends in a backslash joined to the next by a space, and after each
 /// joined line as many empty lines as it took, so that the lines after it keep their numbers (a
 /// joined line is numbered by its first).
-fn join_continued(bytes: &[u8]) -> Vec<u8> {
+pub(super) fn join_continued(bytes: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(bytes.len());
     let mut pending = 0usize;
     let mut start = 0;

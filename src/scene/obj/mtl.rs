@@ -87,6 +87,12 @@ pub(super) fn load_mtl(
             text
         }
     };
+    // A line ending in a backslash goes on on the next, as in OBJ (line numbers are kept).
+    let text = if text.contains('\\') {
+        String::from_utf8_lossy(&super::lines::join_continued(text.as_bytes())).into_owned()
+    } else {
+        text
+    };
     match prescan_mtl(&shown, &text) {
         Ok(clean) => {
             // The checks above keep tobj away from the inputs it is known to panic on; should it
