@@ -3,6 +3,9 @@
 from os import PathLike
 from typing import Callable, Iterator, Literal, Optional, Sequence, Tuple, Union
 
+# Stubs are read by type checkers only: typing_extensions is theirs, not a runtime dependency.
+from typing_extensions import TypedDict, Unpack
+
 import numpy as np
 import numpy.typing as npt
 
@@ -16,6 +19,33 @@ Weighting = Literal["radiance", "unweighted", "importance"]
 Progress = Union[None, bool, Callable[[int, Optional[int]], object]]
 # The deflection pairs of a sample, (kA, kB, J, M) or "kA,kB,J,M"; None: the weighting's.
 Pairs = Union[None, Tuple[int, int, int, int], str]
+
+class RunOptions(TypedDict, total=False):
+    """The keywords every run takes (``slice``, ``flatland``, ``camera``, ``volume``), with the
+    defaults a run uses when one is left out (``help()`` of each method lists them too)."""
+
+    spp: Optional[int]  # None
+    time: Optional[float]  # None (seconds)
+    target_error: Optional[float]  # None (p95 relative error)
+    seed: int  # 1
+    weighting: Weighting  # "radiance"; "importance" for camera
+    t0: Optional[float]  # None: 0.1 of the scene's diagonal
+    t1: Optional[float]  # None: 0.5 of the scene's diagonal
+    angle: float  # 2.0 (degrees)
+    max_bounces: int  # 32
+    radiance_bounces: Optional[int]  # None: max_bounces
+    pairs: Pairs  # None: 2,2,1,2
+    batches: int  # 8
+    pass_spp: Optional[int]  # None
+    adaptive: Optional[bool]  # None: adaptive when the run stops at a target error
+    adaptive_cap: Optional[int]  # None
+    threads: int  # 0: all cores
+    tile: Optional[str]  # None, or "i/N"
+    separatrices: bool  # False
+    sep_threshold: float  # 3.0
+    sep_scale: Optional[float]  # None
+    sep_tau: Optional[float]  # None
+    progress: Progress  # None: a tqdm bar when tqdm is installed
 
 class Field:
     """A field with its channels, as a run returns it or ``read`` gives it back.
@@ -96,32 +126,12 @@ class Scene:
         *,
         res: int = 256,
         window: Optional[Tuple[float, float, float, float]] = None,
-        spp: Optional[int] = None,
-        time: Optional[float] = None,
-        target_error: Optional[float] = None,
-        seed: int = 1,
-        weighting: Weighting = "radiance",
-        t0: Optional[float] = None,
-        t1: Optional[float] = None,
-        angle: float = 2.0,
-        max_bounces: int = 32,
-        radiance_bounces: Optional[int] = None,
-        pairs: Pairs = None,
-        batches: int = 8,
-        pass_spp: Optional[int] = None,
-        adaptive: Optional[bool] = None,
-        adaptive_cap: Optional[int] = None,
-        threads: int = 0,
-        tile: Optional[str] = None,
         flatland: bool = False,
-        separatrices: bool = False,
-        sep_threshold: float = 3.0,
-        sep_scale: Optional[float] = None,
-        sep_tau: Optional[float] = None,
-        progress: Progress = None,
+        **options: Unpack[RunOptions],
     ) -> Field:
         """The field of a slice (``"z=0"``, a slice named in the scene file, or ``"origin=X,Y,Z
-        normal=X,Y,Z [up=X,Y,Z] [size=W,H]"``), ``res`` cells along the longer side.
+        normal=X,Y,Z [up=X,Y,Z] [size=W,H]"``), ``res`` cells along the longer side; the run's
+        keywords are ``RunOptions``'s.
 
         Sampling: ``spp`` samples per cell, ``time`` seconds, ``target_error`` (p95 relative
         error); none of them: stop at 0.05 or after 60 s. ``seed``: same seed, same field, on any
@@ -136,28 +146,7 @@ class Scene:
         *,
         res: int = 256,
         window: Optional[Tuple[float, float, float, float]] = None,
-        spp: Optional[int] = None,
-        time: Optional[float] = None,
-        target_error: Optional[float] = None,
-        seed: int = 1,
-        weighting: Weighting = "radiance",
-        t0: Optional[float] = None,
-        t1: Optional[float] = None,
-        angle: float = 2.0,
-        max_bounces: int = 32,
-        radiance_bounces: Optional[int] = None,
-        pairs: Pairs = None,
-        batches: int = 8,
-        pass_spp: Optional[int] = None,
-        adaptive: Optional[bool] = None,
-        adaptive_cap: Optional[int] = None,
-        threads: int = 0,
-        tile: Optional[str] = None,
-        separatrices: bool = False,
-        sep_threshold: float = 3.0,
-        sep_scale: Optional[float] = None,
-        sep_tau: Optional[float] = None,
-        progress: Progress = None,
+        **options: Unpack[RunOptions],
     ) -> Field:
         """``slice`` with every direction confined to the plane (2D light transport)."""
     def camera(
@@ -169,58 +158,17 @@ class Scene:
         up: Optional[Vec3] = None,
         fov: float = 40.0,
         size: Tuple[int, int] = (512, 512),
-        spp: Optional[int] = None,
-        time: Optional[float] = None,
-        target_error: Optional[float] = None,
-        seed: int = 1,
-        weighting: Weighting = "importance",
-        t0: Optional[float] = None,
-        t1: Optional[float] = None,
-        angle: float = 2.0,
-        max_bounces: int = 32,
-        radiance_bounces: Optional[int] = None,
-        pairs: Pairs = None,
-        batches: int = 8,
-        pass_spp: Optional[int] = None,
-        adaptive: Optional[bool] = None,
-        adaptive_cap: Optional[int] = None,
-        threads: int = 0,
-        tile: Optional[str] = None,
-        separatrices: bool = False,
-        sep_threshold: float = 3.0,
-        sep_scale: Optional[float] = None,
-        sep_tau: Optional[float] = None,
-        progress: Progress = None,
+        **options: Unpack[RunOptions],
     ) -> Field:
         """A camera image (``size`` = (width, height)) from a camera of the scene file (``name``
-        or index; None: the first) or one placed by ``eye``, ``target``, ``up``, ``fov``."""
+        or index; None: the first) or one placed by ``eye``, ``target``, ``up``, ``fov``;
+        importance-weighted (``weighting`` defaults to ``"importance"`` here)."""
     def volume(
         self,
         res: Union[int, Tuple[int, int, int]],
         *,
         box: Optional[Tuple[float, float, float, float, float, float]] = None,
-        spp: Optional[int] = None,
-        time: Optional[float] = None,
-        target_error: Optional[float] = None,
-        seed: int = 1,
-        weighting: Weighting = "radiance",
-        t0: Optional[float] = None,
-        t1: Optional[float] = None,
-        angle: float = 2.0,
-        max_bounces: int = 32,
-        radiance_bounces: Optional[int] = None,
-        pairs: Pairs = None,
-        batches: int = 8,
-        pass_spp: Optional[int] = None,
-        adaptive: Optional[bool] = None,
-        adaptive_cap: Optional[int] = None,
-        threads: int = 0,
-        tile: Optional[str] = None,
-        separatrices: bool = False,
-        sep_threshold: float = 3.0,
-        sep_scale: Optional[float] = None,
-        sep_tau: Optional[float] = None,
-        progress: Progress = None,
+        **options: Unpack[RunOptions],
     ) -> Field:
         """A voxel grid over ``box`` (None: the scene's bounds), ``res`` voxels along its longest
         side or (nx, ny, nz); channels as the ``.vti`` holds them, shaped (nz, ny, nx)."""
