@@ -291,16 +291,20 @@ pub fn series(m: &Measured, t: impl Fn(&Point) -> Option<f64> + Copy) -> Vec<Ser
         .enumerate()
         .map(|(j, label)| {
             let fit = slope(&pts, j, t);
+            // By CPU seconds a loaded machine can give a larger budget fewer seconds: the line
+            // joins the points in the order of their time.
+            let mut points: Vec<(f64, f64)> = pts
+                .iter()
+                .filter(|p| p.binary == j)
+                .filter_map(|p| Some((t(p)?, p.rmse()?)))
+                .collect();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
             Series {
                 label: match fit {
                     Some(f) => format!("{label}: slope {:.2}", f.slope),
                     None => label.clone(),
                 },
-                points: pts
-                    .iter()
-                    .filter(|p| p.binary == j)
-                    .filter_map(|p| Some((t(p)?, p.rmse()?)))
-                    .collect(),
+                points,
                 color: colour(j, m.labels.len()),
                 line: if j + 1 == m.labels.len() {
                     Line::Markers
