@@ -5,13 +5,16 @@
 #    references (target/equal-time/);
 # 2. `cargo xtask first-command`: the README's first command as written, its wall time and the 95th
 #    percentile of its relative error (reported, and actual against a cached reference in
-#    target/first-command/).
+#    target/first-command/);
+# 3. `ftpd3d bench --res 128 --spp 32` on the Cornell box and the stair wall: kernel rays/s over raw
+#    Embree rays/s on the same rays (issue 25 asks for at least 0.6), this tree's release build.
 # The baseline binary is $FTPD3D_BASELINE, or 8ae9f4f built once in a git worktree under the
 # target directory (as scripts/efficiency.sh does; a release build of 8ae9f4f takes about 8 min
 # on two idle cores).
 #
-#   scripts/steering.sh                         # both, about 12 min on two idle cores
+#   scripts/steering.sh                         # all three, about 13 min on two idle cores
 #   scripts/steering.sh --equal-time-only -- --scene scenes/cornell_mirror.obj --weight radiance
+#   scripts/steering.sh --bench-only
 #   FTPD3D_BASELINE=/path/to/ftpd3d-8ae9f4f scripts/steering.sh
 #
 # Flags after `--` go to `cargo xtask equal-time` (e.g. --rounds 6, --candidate LABEL=BIN).
@@ -21,11 +24,13 @@ cd "$root"
 base_rev=8ae9f4f
 equal=1
 first=1
+bench=1
 extra=()
 while [ $# -gt 0 ]; do
   case "$1" in
-    --equal-time-only) first=0 ;;
-    --first-command-only) equal=0 ;;
+    --equal-time-only) first=0; bench=0 ;;
+    --first-command-only) equal=0; bench=0 ;;
+    --bench-only) equal=0; first=0 ;;
     --) shift; extra=("$@"); break ;;
     *) echo "steering.sh: unknown argument $1 (use -- before the xtask's flags)" >&2; exit 2 ;;
   esac
@@ -47,4 +52,11 @@ if [ $equal -eq 1 ]; then
 fi
 if [ $first -eq 1 ]; then
   CARGO_TARGET_DIR=$target cargo xtask first-command
+fi
+if [ $bench -eq 1 ]; then
+  CARGO_TARGET_DIR=$target cargo build --release --quiet --bin ftpd3d
+  for s in cornell_mirror stair_wall; do
+    echo "ftpd3d bench --res 128 --spp 32 --scene scenes/$s.obj (load $(cut -d' ' -f1 /proc/loadavg))"
+    "$target/release/ftpd3d" bench --res 128 --spp 32 --scene "scenes/$s.obj"
+  done
 fi

@@ -6,6 +6,7 @@
 //! cargo xtask converge --baseline OLD/ftpd3d --scene scenes/cornell_mirror.obj --slice z=0 \
 //!     --out-dir out/conv [the flags of ftpd3d converge]
 //! cargo xtask equal-time --baseline OLD/ftpd3d [--candidate LABEL=BIN ...] [flags]
+//! cargo xtask error-time --binary OLD=OLD/ftpd3d --binary NEW=NEW/ftpd3d [--seconds 2.5,5,10]
 //! cargo xtask first-command [--tree DIR]
 //! ```
 //!
@@ -17,6 +18,7 @@ mod converge;
 mod cost;
 mod efficiency;
 mod equal_time;
+mod error_time;
 mod first_command;
 
 use anyhow::{Context, bail};
@@ -53,6 +55,12 @@ enum Command {
     /// Example: cargo xtask equal-time --baseline /path/to/old/ftpd3d --scene
     /// scenes/cornell_mirror.obj --weight radiance
     EqualTime(equal_time::EqualTimeArgs),
+    /// Error against time: RMSE² of σ of several builds at a ladder of time budgets, rounds
+    /// interleaved, against equal-time's cached reference; a table, a CSV and log-log plots.
+    ///
+    /// Example: cargo xtask error-time --binary old=/path/to/old/ftpd3d --binary
+    /// new=target/release/ftpd3d --plot docs/img/error_time_cornell.png
+    ErrorTime(error_time::ErrorTimeArgs),
     /// Runs the README's first command as written, timed, and measures its σ against a cached
     /// reference: the 95th percentile of the relative error, reported and actual.
     ///
@@ -67,6 +75,7 @@ fn main() -> ExitCode {
         Command::Efficiency(args) => efficiency::run(args),
         Command::Converge(args) => converge::run(args),
         Command::EqualTime(args) => equal_time::run(args),
+        Command::ErrorTime(args) => error_time::run(args),
         Command::First(args) => first_command::run(args),
     };
     match result {

@@ -136,3 +136,78 @@ fn first_command_compares_the_readme_command_output_with_a_reference() {
     assert!(counts[0] <= counts[1] && counts[1] > 0, "{out}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn error_time_runs_a_ladder_against_equal_times_reference_and_plots_it() {
+    let dir = temp_dir("equal_time", "error_time");
+    let scene = scene_path("cornell_mirror.obj");
+    let bin = ftpd3d_bin().to_str().unwrap();
+    let (a, b) = (format!("a={bin}"), format!("b={bin}"));
+    let args = [
+        "error-time",
+        "--binary",
+        &a,
+        "--binary",
+        &b,
+        "--scene",
+        scene.to_str().unwrap(),
+        "--res",
+        "8",
+        "--weight",
+        "unweighted",
+        "--seconds",
+        "0.25,0.5",
+        "--rounds",
+        "2",
+        "--ref-seconds",
+        "1",
+        "--threads",
+        "1",
+        "--work-dir",
+        "et",
+        "--plot",
+        "img/et.png",
+    ];
+    let (ok, out, err) = xtask_in(&dir, &args);
+    assert!(ok, "{err}");
+    // The reference is equal-time's: the same file name for the same slice and budget.
+    assert!(
+        dir.join("et/ref_cornell_mirror_z0_unweighted_r8_1s.exr")
+            .is_file()
+    );
+    assert!(dir.join("img/et.png").is_file() && dir.join("img/et-compute.png").is_file());
+    // Every binary at every budget in every round, the ladder walked down in the second round.
+    let (_, rows) = read_csv(&dir.join("et/error-time.csv"));
+    let order: Vec<(&str, f64)> = rows
+        .iter()
+        .map(|r| (r["binary"].as_str(), num(r, "budget_s")))
+        .collect();
+    assert_eq!(
+        order,
+        [
+            ("a", 0.25),
+            ("b", 0.25),
+            ("a", 0.5),
+            ("b", 0.5),
+            ("a", 0.5),
+            ("b", 0.5),
+            ("a", 0.25),
+            ("b", 0.25)
+        ]
+    );
+    assert!(out.contains("| b | 0.5 | 2 |"), "{out}");
+    // The same table again from the CSV, without running anything.
+    let replot = [
+        "error-time",
+        "--from-csv",
+        "et/error-time.csv",
+        "--plot",
+        "img/again.png",
+    ];
+    let (ok, again, err) = xtask_in(&dir, &replot);
+    assert!(ok, "{err}");
+    let table = |s: &str| s.split("\nplots:").next().unwrap().to_string();
+    assert_eq!(table(&again), table(&out));
+    assert!(dir.join("img/again.png").is_file());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -18,13 +18,13 @@
 
 mod report;
 
-pub use report::{csv, table};
+pub use report::{csv, ratio, table};
 
 use crate::binary::run_costed;
 use crate::cost::load_average;
 use anyhow::{Context, bail};
 use clap::Args;
-use ftpd3d::analysis::converge::compare;
+use ftpd3d::analysis::converge::{Comparison, compare};
 use ftpd3d::cli::args::WeightArg;
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::Weighting;
@@ -110,7 +110,7 @@ pub struct EqualTimeJob {
 pub const REFERENCE_SEED: u64 = 1_000_003;
 
 /// `LABEL=BIN` or `BIN` (labelled with its file name).
-fn parse_binary(s: &str) -> Binary {
+pub(crate) fn parse_binary(s: &str) -> Binary {
     match s.split_once('=') {
         Some((label, path)) if !label.is_empty() && !label.contains('/') => Binary {
             label: label.to_string(),
@@ -123,7 +123,7 @@ fn parse_binary(s: &str) -> Binary {
     }
 }
 
-fn label_of(path: &Path) -> String {
+pub(crate) fn label_of(path: &Path) -> String {
     path.file_name()
         .map_or("binary".into(), |n| n.to_string_lossy().into_owned())
 }
@@ -225,6 +225,17 @@ pub struct Reference {
     pub cached: bool,
 }
 
+/// Which run: a binary of the job, its round, seed and time budget.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slot {
+    /// Index into the job's binaries: 0 the baseline, 1.. the candidates.
+    pub binary: usize,
+    pub round: u32,
+    pub seed: u64,
+    /// `--time` of the run, seconds.
+    pub budget: f64,
+}
+
 /// One run of one binary in one round.
 #[derive(Clone, Debug)]
 pub struct RunResult {
@@ -232,6 +243,8 @@ pub struct RunResult {
     pub binary: usize,
     pub round: u32,
     pub seed: u64,
+    /// `--time` of the run, seconds.
+    pub budget: f64,
     /// Samples per cell.
     pub spp: f64,
     /// Compute seconds the run stored.
@@ -264,7 +277,7 @@ impl EqualTimeJob {
     }
 
     /// The flags every run of a scene and weighting shares (a budget and the output come after).
-    fn slice_args(&self, scene: &Path, w: Weighting, seed: u64) -> Vec<String> {
+    pub(crate) fn slice_args(&self, scene: &Path, w: Weighting, seed: u64) -> Vec<String> {
         let mut a: Vec<String> = vec!["--scene".into(), scene.display().to_string()];
         for (flag, value) in [
             ("--slice", self.slice.clone()),
@@ -295,7 +308,8 @@ pub fn run_equal_time(job: &EqualTimeJob, mut say: impl FnMut(&str)) -> anyhow::
             .file_stem()
             .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
         for &w in &job.weightings {
-            let reference = reference(job, scene, &stem, w, &mut say)?;
+            let ref_seconds = f64::from(job.seconds) * f64::from(job.ref_factor);
+            let reference = reference(job, scene, &stem, w, ref_seconds, &mut say)?;
             let load0 = load_average();
             let mut runs = Vec::new();
             let bins = job.binaries();
@@ -308,21 +322,13 @@ pub fn run_equal_time(job: &EqualTimeJob, mut say: impl FnMut(&str)) -> anyhow::
                         job.res,
                         bin.label
                     ));
-                    let mut args = job.slice_args(scene, w, seed);
-                    args.extend(["--time".into(), format!("{}s", job.seconds)]);
-                    let (field, cost) = run_costed(&bin.path, &args, &out)?;
-                    let c = compare(&field, &reference.field);
-                    let r = RunResult {
+                    let slot = Slot {
                         binary: j,
                         round,
                         seed,
-                        spp: samples_per_cell(&field),
-                        compute: crate::binary::seconds(&field, &out)?,
-                        wall: cost.wall,
-                        cpu: cost.cpu,
-                        mse: c.rmse * c.rmse,
-                        net_mse: c.rmse * c.rmse - c.ref_var,
+                        budget: f64::from(job.seconds),
                     };
+                    let r = measure_run(job, scene, w, &slot, &out, &reference)?;
                     say(&format!(
                         "{stem} {w} round {round} {:>12}: {:>7.0} spp, {:.2} s compute, {:.2} s wall, \
                          {} CPU s, RMSE² {:.4e} (net of the reference {:.4e})",
@@ -354,8 +360,56 @@ pub fn run_equal_time(job: &EqualTimeJob, mut say: impl FnMut(&str)) -> anyhow::
     Ok(cases)
 }
 
+/// `--time` of `seconds`: whole seconds as `10s` (what every build parses), else milliseconds.
+pub fn time_flag(seconds: f64) -> String {
+    if seconds.fract() == 0.0 {
+        format!("{seconds:.0}s")
+    } else {
+        format!("{:.0}ms", seconds * 1000.0)
+    }
+}
+
+/// The squared error of a run and the same net of the reference's noise: the mean of
+/// (σ − σ_ref)² over the cells valid in both, less the mean of the reference's squared standard
+/// errors over those cells (its expected share, as the two are independent). The net figure can
+/// fall below zero when the reference is the noisier; it is kept so, not clamped, so that means
+/// over runs stay unbiased.
+pub fn squared_errors(c: &Comparison) -> (f64, f64) {
+    let mse = c.rmse * c.rmse;
+    (mse, mse - c.ref_var)
+}
+
+/// Runs binary `slot.binary` of `job` on `scene` and `w` with the slot's seed and `--time`,
+/// writing its EXR to `out`, and measures it against `reference`.
+pub(crate) fn measure_run(
+    job: &EqualTimeJob,
+    scene: &Path,
+    w: Weighting,
+    slot: &Slot,
+    out: &Path,
+    reference: &Reference,
+) -> anyhow::Result<RunResult> {
+    let bin = job.binaries()[slot.binary];
+    let mut args = job.slice_args(scene, w, slot.seed);
+    args.extend(["--time".into(), time_flag(slot.budget)]);
+    let (field, cost) = run_costed(&bin.path, &args, out)?;
+    let (mse, net_mse) = squared_errors(&compare(&field, &reference.field));
+    Ok(RunResult {
+        binary: slot.binary,
+        round: slot.round,
+        seed: slot.seed,
+        budget: slot.budget,
+        spp: samples_per_cell(&field),
+        compute: crate::binary::seconds(&field, out)?,
+        wall: cost.wall,
+        cpu: cost.cpu,
+        mse,
+        net_mse,
+    })
+}
+
 /// `z=0` as a file-name part (`z0`).
-fn slice_tag(slice: &str) -> String {
+pub(crate) fn slice_tag(slice: &str) -> String {
     slice
         .chars()
         .filter(|c| c.is_ascii_alphanumeric() || *c == '.' || *c == '-')
@@ -379,15 +433,16 @@ fn mean_var(field: &Field) -> f64 {
     if n > 0 { s / n as f64 } else { 0.0 }
 }
 
-/// The cached or newly computed reference of one scene and weighting.
-fn reference(
+/// The cached or newly computed reference of one scene and weighting, of `ref_seconds` of
+/// `--time` (its file name carries them, so references of other budgets do not mix).
+pub(crate) fn reference(
     job: &EqualTimeJob,
     scene: &Path,
     stem: &str,
     w: Weighting,
+    ref_seconds: f64,
     say: &mut impl FnMut(&str),
 ) -> anyhow::Result<Reference> {
-    let ref_seconds = u64::from(job.seconds) * u64::from(job.ref_factor);
     let path = job.work_dir.join(format!(
         "ref_{stem}_{}_{w}_r{}_{ref_seconds}s.exr",
         slice_tag(&job.slice),
@@ -398,7 +453,7 @@ fn reference(
         (f, None, true)
     } else {
         let mut args = job.slice_args(scene, w, REFERENCE_SEED);
-        args.extend(["--time".into(), format!("{ref_seconds}s")]);
+        args.extend(["--time".into(), time_flag(ref_seconds)]);
         let (f, cost) = run_costed(&job.reference_bin, &args, &path)?;
         let note = format!(
             "{} {} --quiet --no-png -o {}\nCPU seconds {}\n",

@@ -181,18 +181,19 @@ pub fn table(job: &EqualTimeJob, cases: &[Case]) -> String {
 pub fn csv(job: &EqualTimeJob, cases: &[Case]) -> String {
     let bins = job.binaries();
     let mut s = String::from(
-        "scene,weighting,binary,round,seed,spp,compute_s,wall_s,cpu_s,mse,net_mse,ref_spp,ref_mean_var\n",
+        "scene,weighting,binary,round,seed,budget_s,spp,compute_s,wall_s,cpu_s,mse,net_mse,ref_spp,ref_mean_var\n",
     );
     for c in cases {
         for r in &c.runs {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 c.scene,
                 c.weighting,
                 bins[r.binary].label,
                 r.round,
                 r.seed,
+                r.budget,
                 r.spp,
                 r.compute,
                 r.wall,
@@ -216,6 +217,7 @@ mod tests {
             binary,
             round,
             seed: 0,
+            budget: 10.0,
             spp: 0.0,
             compute,
             wall: compute,
