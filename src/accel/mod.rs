@@ -102,13 +102,20 @@ impl Accel {
 
     /// The instance (or [`NO_INSTANCE`]) and the index into the triangles given at build time of
     /// what Embree reports as instance id `inst_id`, geometry `geom` and primitive `prim`.
-    #[inline]
+    #[inline(always)]
     fn resolve(&self, inst_id: u32, geom: u32, prim: u32) -> (u32, u32) {
         if inst_id == sys::RTC_INVALID_GEOMETRY_ID {
             (NO_INSTANCE, self.global(geom, prim))
         } else {
-            let k = inst_id - instances::FIRST_INSTANCE_GEOM;
-            (k, self.instance_first[k as usize] + prim)
+            self.resolve_instance(inst_id, prim)
         }
+    }
+
+    /// [`Accel::resolve`] for a hit on an instance; out of line, so that the ray queries of
+    /// scenes without instances stay as small as they were (and are inlined where they were).
+    #[inline(never)]
+    fn resolve_instance(&self, inst_id: u32, prim: u32) -> (u32, u32) {
+        let k = inst_id - instances::FIRST_INSTANCE_GEOM;
+        (k, self.instance_first[k as usize] + prim)
     }
 }

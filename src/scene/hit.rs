@@ -130,6 +130,7 @@ impl Scene {
 
     /// [`Scene::hit_from_raw`] for a hit on an instance: the triangle in world space (see
     /// [`crate::scene::instance`]).
+    #[cold]
     #[inline(never)]
     fn instance_hit<const FLAT: bool>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let p = self.world_vertices(raw.inst, raw.prim);
