@@ -2,6 +2,10 @@
 //! memory it takes.
 //!
 //!     cargo run --release --example load_bench -- SCENE.obj
+//!     cargo run --release --example load_bench -- FOREST.glb --flatten-instances
+//!
+//! `--flatten-instances` loads EXT_mesh_gpu_instancing as one copy of the mesh per instance
+//! instead of Embree instances of one prototype (`LoadOptions::flatten_instances`).
 //!
 //! Prints the parse and BVH seconds, the CPU seconds of the load split into serial work and work
 //! that could use both cores (with the wall time that gives on two free cores), the process's
@@ -100,12 +104,16 @@ impl Sampler {
 
 fn main() -> anyhow::Result<()> {
     let Some(path) = std::env::args().nth(1) else {
-        anyhow::bail!("usage: load_bench SCENE");
+        anyhow::bail!("usage: load_bench SCENE [--flatten-instances]");
+    };
+    let options = ftpd3d::scene::load::LoadOptions {
+        flatten_instances: std::env::args().any(|a| a == "--flatten-instances"),
+        ..Default::default()
     };
     let rss_before = status_bytes("VmRSS");
     let sampler = Sampler::start();
     let start = Instant::now();
-    let scene = ftpd3d::scene::load::load_scene(std::path::Path::new(&path))?;
+    let scene = ftpd3d::scene::load::load_scene_with(std::path::Path::new(&path), &[], &options)?;
     let seconds = start.elapsed().as_secs_f64();
     let (serial, parallel) = sampler.finish();
     let (embree, embree_peak) = ftpd3d::accel::embree_memory();
@@ -126,6 +134,15 @@ fn main() -> anyhow::Result<()> {
             ""
         }
     );
+    if scene.is_instanced() {
+        let inst = scene.instancing();
+        println!(
+            "instances        {} of {} prototype(s), placing {} triangles",
+            inst.instances.len(),
+            inst.prototypes.len(),
+            inst.instanced_triangles()
+        );
+    }
     println!(
         "load             {seconds:.2} s: parse {:.2} s, BVH {:.2} s",
         scene.report.parse_seconds, scene.report.bvh_seconds

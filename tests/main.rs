@@ -14,6 +14,7 @@ mod geometry;
 mod gltf;
 mod gltf_ext;
 mod images;
+mod instancing;
 mod layers;
 mod merge;
 mod mirror;

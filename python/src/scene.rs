@@ -317,7 +317,10 @@ impl Scene {
             }),
         };
         let lights = py.detach(|| lights.lights())?;
-        let load = LoadOptions { strict };
+        let load = LoadOptions {
+            strict,
+            ..Default::default()
+        };
         let scene = py
             .detach(|| load_scene_with(&path, &lights, &load))
             .map_err(|e| to_py(e.into()))?;

@@ -19,13 +19,15 @@
 //! The submodules follow that lifecycle: `device` (the process-wide device, its error and memory
 //! callbacks), `buffer` (the arrays Embree reads in place), `scene` (geometries, build and
 //! commit), `cutout` (the alpha filter callbacks), `query` (ray queries), `near` (the point query)
-//! and `huge_pages` (allocation advice for large per-triangle tables). Every
+//! `huge_pages` (allocation advice for large per-triangle tables) and `instances` (prototype
+//! scenes and their instances, for instanced glTF). Every
 //! `unsafe` block of the crate is in this module, each with its `// SAFETY:` note.
 
 mod buffer;
 mod cutout;
 mod device;
 mod huge_pages;
+mod instances;
 mod near;
 mod query;
 mod scene;
@@ -34,6 +36,7 @@ pub use buffer::SharedArray;
 pub use cutout::{CutRay, CutTest};
 pub use device::{AccelError, embree_memory};
 pub use huge_pages::vec_with_huge_pages;
+pub use instances::{InstanceXfm, NO_INSTANCE};
 pub use near::{MAX_NEAR, Near};
 pub use query::RawHit;
 
@@ -53,6 +56,12 @@ pub struct Accel {
     /// Boxed, so that the address Embree holds as the geometry's user data stays put; dropped after
     /// the scene (`Drop` releases the scene before the fields go).
     cutouts: Option<Box<Cutouts>>,
+    /// The prototype scenes that the instance geometries refer to (empty without instances);
+    /// released after the top-level scene.
+    prototypes: Vec<instances::ProtoScene>,
+    /// Per instance, the index of its prototype's first triangle in the buffer given at build
+    /// time: a hit's `primID` within the prototype plus this is its index there.
+    instance_first: Vec<u32>,
 }
 
 // SAFETY: a committed Embree scene is read-only; Embree documents rtcIntersect1/rtcOccluded1 as safe
@@ -89,5 +98,24 @@ impl Accel {
             None => prim,
             Some(c) => c.global(geom, prim),
         }
+    }
+
+    /// The instance (or [`NO_INSTANCE`]) and the index into the triangles given at build time of
+    /// what Embree reports as instance id `inst_id`, geometry `geom` and primitive `prim`.
+    #[inline(always)]
+    fn resolve(&self, inst_id: u32, geom: u32, prim: u32) -> (u32, u32) {
+        if inst_id == sys::RTC_INVALID_GEOMETRY_ID {
+            (NO_INSTANCE, self.global(geom, prim))
+        } else {
+            self.resolve_instance(inst_id, prim)
+        }
+    }
+
+    /// [`Accel::resolve`] for a hit on an instance; out of line, so that the ray queries of
+    /// scenes without instances stay as small as they were (and are inlined where they were).
+    #[inline(never)]
+    fn resolve_instance(&self, inst_id: u32, prim: u32) -> (u32, u32) {
+        let k = inst_id - instances::FIRST_INSTANCE_GEOM;
+        (k, self.instance_first[k as usize] + prim)
     }
 }

@@ -15,6 +15,9 @@ pub struct Near {
     prims: [u32; MAX_NEAR],
     /// The geometry of each (0, or 1 for cut-out triangles), until mapped to triangle indices.
     geoms: [u32; MAX_NEAR],
+    /// The instance of each: Embree's instance id until mapped, then the instance's index or
+    /// [`NO_INSTANCE`](super::NO_INSTANCE).
+    insts: [u32; MAX_NEAR],
     len: usize,
 }
 
@@ -22,23 +25,41 @@ impl Near {
     pub fn prims(&self) -> &[u32] {
         &self.prims[..self.len]
     }
+
+    /// The instance of each of [`Near::prims`] (for an instance's triangle, `prims` holds its
+    /// prototype's triangle).
+    pub fn insts(&self) -> &[u32] {
+        &self.insts[..self.len]
+    }
 }
 
 /// Point-query callback: records the primitive (up to [`MAX_NEAR`]) and never shrinks the query
 /// radius. Plain stores only, so it cannot unwind into Embree.
 unsafe extern "C" fn collect_near(args: *mut sys::RTCPointQueryFunctionArguments) -> bool {
     // SAFETY: Embree passes valid arguments for the duration of the call; their `userPtr` is the
-    // `Near` that `triangles_near` handed to rtcPointQuery, live and used by nobody else meanwhile.
-    let (prim, geom, near) = unsafe {
+    // `Near` that `triangles_near` handed to rtcPointQuery, live and used by nobody else meanwhile;
+    // their `context` is the context handed to rtcPointQuery (checked for null all the same).
+    // Within an instance, its id is `instID[0]`, outside one the invalid id `triangles_near`
+    // put there (the stack size is not read: it moves in libraries built with instance arrays,
+    // see `Spare`; `instID` does not).
+    let (prim, geom, inst, near) = unsafe {
+        let ctx = (*args).context;
+        let inst = if ctx.is_null() {
+            sys::RTC_INVALID_GEOMETRY_ID
+        } else {
+            (*ctx).instID[0]
+        };
         (
             (*args).primID,
             (*args).geomID,
+            inst,
             &mut *((*args).userPtr as *mut Near),
         )
     };
     if near.len < MAX_NEAR {
         near.prims[near.len] = prim;
         near.geoms[near.len] = geom;
+        near.insts[near.len] = inst;
         near.len += 1;
     }
     false
@@ -51,6 +72,7 @@ impl Accel {
         let mut near = Near {
             prims: [0; MAX_NEAR],
             geoms: [0; MAX_NEAR],
+            insts: [super::NO_INSTANCE; MAX_NEAR],
             len: 0,
         };
         if !(p.is_finite() && radius.is_finite() && radius >= 0.0) {
@@ -90,9 +112,10 @@ impl Accel {
                 &mut near as *mut Near as *mut c_void,
             )
         };
-        if self.cutouts.is_some() {
+        if self.cutouts.is_some() || !self.instance_first.is_empty() {
             for k in 0..near.len {
-                near.prims[k] = self.global(near.geoms[k], near.prims[k]);
+                (near.insts[k], near.prims[k]) =
+                    self.resolve(near.insts[k], near.geoms[k], near.prims[k]);
             }
         }
         near

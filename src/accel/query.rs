@@ -11,8 +11,11 @@ use glam::{Vec3, Vec3A};
 pub struct RawHit {
     /// Ray parameter of the hit (the ray direction need not be unit).
     pub t: f32,
-    /// Index of the triangle in the buffer given to [`Accel::new`].
+    /// Index of the triangle in the buffer given to [`Accel::new`] (for a hit on an instance, its
+    /// prototype's triangle, in prototype space).
     pub prim: u32,
+    /// The instance hit ([`NO_INSTANCE`](super::NO_INSTANCE) for world-space triangles).
+    pub inst: u32,
     /// Barycentric coordinates of the hit: p = (1-u-v) v0 + u v1 + v v2.
     pub u: f32,
     pub v: f32,
@@ -53,9 +56,14 @@ impl Accel {
             // SAFETY: as above; a null argument struct selects Embree 4's default query arguments.
             unsafe { sys::rtcIntersect1(self.scene, rh, std::ptr::null_mut()) };
         }
-        (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then(|| RawHit {
+        if rh.hit.geomID == sys::RTC_INVALID_GEOMETRY_ID {
+            return None;
+        }
+        let (inst, prim) = self.resolve(rh.hit.instID[0], rh.hit.geomID, rh.hit.primID);
+        Some(RawHit {
             t: rh.ray.tfar,
-            prim: self.global(rh.hit.geomID, rh.hit.primID),
+            prim,
+            inst,
             u: rh.hit.u,
             v: rh.hit.v,
         })

@@ -1,24 +1,29 @@
 //! Building the Embree scene: one triangle geometry over the shared arrays, or, with cut-outs, an
-//! opaque geometry and a filtered one over the same vertices; then the commit.
+//! opaque geometry and a filtered one over the same vertices; the instances of prototypes (see
+//! `instances`); then the commit.
 
 use super::cutout::{Cutouts, cutout_filter};
 use super::device::{AccelError, check, device};
+use super::instances::{InstanceXfm, attach_instances, prototype_scenes};
 use super::{Accel, SharedArray};
 use embree_sys as sys;
 use glam::Vec3;
 use std::ffi::c_void;
+use std::ops::Range;
 
-/// Gives `scene` a triangle geometry with id `id` that reads `triangles` over `positions` in
-/// place; with `filter_data`, the cut-out filters and that pointer as the geometry's user data (a
-/// live [`Cutouts`] the caller keeps alive).
-fn attach(
+/// Gives `scene` a triangle geometry with id `id` that reads the triangles `range` of `triangles`
+/// over `positions` in place; with `filter_data`, the cut-out filters and that pointer as the
+/// geometry's user data (a live [`Cutouts`] the caller keeps alive).
+pub(super) fn attach(
     dev: sys::RTCDevice,
     scene: sys::RTCScene,
     id: u32,
     positions: &SharedArray<Vec3>,
     triangles: &SharedArray<[u32; 3]>,
+    range: Range<u32>,
     filter_data: Option<*mut c_void>,
 ) -> Result<(), AccelError> {
+    debug_assert!(range.start <= range.end && range.end as usize <= triangles.len());
     // SAFETY: dev is live; the geometry is released after being attached (the scene keeps a
     // reference), or below on error.
     let geom = unsafe { sys::rtcNewGeometry(dev, sys::RTCGeometryType_RTC_GEOMETRY_TYPE_TRIANGLE) };
@@ -29,7 +34,8 @@ fn attach(
     // loads of the last vertex stay inside the allocation. They are never changed (`SharedArray`
     // has no mutable access) and outlive the Embree scene: the caller's `Accel` holds a reference
     // to each (the index arrays of cut-out scenes through its `Cutouts`) and releases the scene
-    // before dropping them (on error too, since the `Accel` is dropped then).
+    // before dropping them (on error too, since the `Accel` is dropped then). The range lies
+    // within the index array (a byte offset of 12 per triangle keeps the 4-byte alignment).
     unsafe {
         sys::rtcSetSharedGeometryBuffer(
             geom,
@@ -47,9 +53,9 @@ fn attach(
             0,
             sys::RTCFormat_RTC_FORMAT_UINT3,
             triangles.padded_ptr() as *const c_void,
-            0,
+            12 * range.start as usize,
             12,
-            triangles.len(),
+            range.len(),
         );
     }
     if let Err(e) = check(dev, "shared geometry buffers") {
@@ -97,9 +103,39 @@ impl Accel {
         triangles: &SharedArray<[u32; 3]>,
         cutout: &[u32],
     ) -> Result<Accel, AccelError> {
-        if triangles.len() >= u32::MAX as usize || positions.len() >= u32::MAX as usize {
+        Accel::with_instances(positions, triangles, triangles.len(), cutout, &[], &[])
+    }
+
+    /// As [`Accel::with_cutouts`] for the first `world` triangles (in world space; `cutout` among
+    /// them), and the instances `instances` of the prototypes whose triangles are the `prototypes`
+    /// ranges of `triangles` (in prototype space, after the first `world`). A hit on an instance
+    /// reports the instance's index and the triangle's index in `triangles`
+    /// ([`RawHit`](super::RawHit)).
+    pub fn with_instances(
+        positions: &SharedArray<Vec3>,
+        triangles: &SharedArray<[u32; 3]>,
+        world: usize,
+        cutout: &[u32],
+        prototypes: &[Range<u32>],
+        instances: &[InstanceXfm],
+    ) -> Result<Accel, AccelError> {
+        if triangles.len() >= u32::MAX as usize
+            || positions.len() >= u32::MAX as usize
+            || instances.len() >= (u32::MAX - super::instances::FIRST_INSTANCE_GEOM) as usize
+        {
             return Err(AccelError::TooLarge(triangles.len(), positions.len()));
         }
+        debug_assert!(world <= triangles.len());
+        debug_assert!(
+            prototypes
+                .iter()
+                .all(|r| r.start as usize >= world && r.end as usize <= triangles.len())
+        );
+        debug_assert!(
+            instances
+                .iter()
+                .all(|i| (i.prototype as usize) < prototypes.len())
+        );
         debug_assert!(
             triangles
                 .iter()
@@ -107,7 +143,7 @@ impl Accel {
                 .all(|&i| (i as usize) < positions.len())
         );
         debug_assert!(cutout.windows(2).all(|w| w[0] < w[1]));
-        debug_assert!(cutout.iter().all(|&i| (i as usize) < triangles.len()));
+        debug_assert!(cutout.iter().all(|&i| (i as usize) < world));
         let dev = device()?;
         // SAFETY: dev is a live device; the scene is released by Drop (or below on error).
         let scene = unsafe { sys::rtcNewScene(dev) };
@@ -117,6 +153,11 @@ impl Accel {
             shared_positions: positions.clone(),
             shared_triangles: triangles.clone(),
             cutouts: None,
+            prototypes: Vec::new(),
+            instance_first: instances
+                .iter()
+                .map(|i| prototypes[i.prototype as usize].start)
+                .collect(),
         };
         // SAFETY: scene is live. Robust mode avoids optimisations that can let rays slip through
         // shared edges and vertices, which the FTPD walks cross often.
@@ -125,24 +166,23 @@ impl Accel {
             sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality_RTC_BUILD_QUALITY_HIGH);
         }
         if cutout.is_empty() {
-            if !triangles.is_empty() {
+            if world > 0 {
                 attach(
                     dev,
                     scene,
                     0,
                     &accel.shared_positions,
                     &accel.shared_triangles,
+                    0..world as u32,
                     None,
                 )?;
             }
         } else {
-            let mut is_cut = vec![false; triangles.len()];
+            let mut is_cut = vec![false; world];
             for &i in cutout {
                 is_cut[i as usize] = true;
             }
-            let opaque: Vec<u32> = (0..triangles.len() as u32)
-                .filter(|&i| !is_cut[i as usize])
-                .collect();
+            let opaque: Vec<u32> = (0..world as u32).filter(|&i| !is_cut[i as usize]).collect();
             let pick = |ids: &[u32]| {
                 SharedArray::new(ids.iter().map(|&i| triangles[i as usize]).collect())
             };
@@ -156,16 +196,36 @@ impl Accel {
             let [opaque_tris, cut_tris] = cuts.indices.clone();
             accel.cutouts = Some(cuts);
             if !opaque_tris.is_empty() {
-                attach(dev, scene, 0, &accel.shared_positions, &opaque_tris, None)?;
+                let all = 0..opaque_tris.len() as u32;
+                attach(
+                    dev,
+                    scene,
+                    0,
+                    &accel.shared_positions,
+                    &opaque_tris,
+                    all,
+                    None,
+                )?;
             }
+            let all = 0..cut_tris.len() as u32;
             attach(
                 dev,
                 scene,
                 1,
                 &accel.shared_positions,
                 &cut_tris,
+                all,
                 Some(user),
             )?;
+        }
+        if !instances.is_empty() {
+            accel.prototypes = prototype_scenes(
+                dev,
+                &accel.shared_positions,
+                &accel.shared_triangles,
+                prototypes,
+            )?;
+            attach_instances(dev, scene, &accel.prototypes, instances)?;
         }
         // SAFETY: scene is live and fully described.
         unsafe { sys::rtcCommitScene(scene) };

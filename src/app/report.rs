@@ -129,16 +129,37 @@ pub fn scene_line(path: &std::path::Path, scene: &crate::scene::Scene, load: Dur
         ),
     };
     format!(
-        "scene {}: {} triangles ({} degenerate dropped), {} lights, features: {}{textures} (loaded \
-         in {:.2} s: parsing {:.2} s, BVH {:.2} s)",
+        "scene {}: {} triangles ({} degenerate dropped{}), {} lights, features: {}{textures} \
+         (loaded in {:.2} s: parsing {:.2} s, BVH {:.2} s)",
         path.display(),
         scene.triangles.len(),
         scene.report.degenerate_dropped,
+        instancing_text(scene),
         scene.lights.lights.len(),
         scene.features,
         load.as_secs_f64(),
         scene.report.parse_seconds,
         scene.report.bvh_seconds
+    )
+}
+
+/// For a scene with instances (glTF's EXT_mesh_gpu_instancing): how many of its triangles are
+/// prototypes' and how many the instances place in the world, after a `; `; empty otherwise.
+pub fn instancing_text(scene: &crate::scene::Scene) -> String {
+    let inst = scene.instancing();
+    if inst.is_empty() {
+        return String::new();
+    }
+    let stored: u64 = inst
+        .prototypes
+        .iter()
+        .map(|p| p.triangles.len() as u64)
+        .sum();
+    format!(
+        "; {stored} of them in {} prototype(s), placed by {} instances as {} triangles",
+        inst.prototypes.len(),
+        inst.instances.len(),
+        inst.instanced_triangles()
     )
 }
 

@@ -107,9 +107,10 @@ fn write_contents(out: &mut impl Write, path: &Path, scene: &Scene) -> anyhow::R
     writeln!(out, "scene      {}", path.display())?;
     writeln!(
         out,
-        "geometry   {} triangles ({} degenerate dropped), bounds {:?} .. {:?}, shading normals: {}",
+        "geometry   {} triangles ({} degenerate dropped{}), bounds {:?} .. {:?}, shading normals: {}",
         scene.triangles.len(),
         scene.report.degenerate_dropped,
+        crate::app::report::instancing_text(scene),
         scene.bounds.min.to_array(),
         scene.bounds.max.to_array(),
         if !scene.has_shading_normals() {

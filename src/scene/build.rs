@@ -3,11 +3,12 @@
 //! acceleration structure built. Then the scene is immutable but for its textures and the lights
 //! that do not come from triangles.
 
-use crate::accel::{Accel, AccelError, SharedArray};
+use crate::accel::{Accel, AccelError, InstanceXfm, SharedArray};
 use crate::math::Rgb;
 use crate::scene::cutout::{cut_materials, cut_triangles};
 use crate::scene::features::Features;
 use crate::scene::geometry::{Aabb, triangle_normal};
+use crate::scene::instance::Instancing;
 use crate::scene::light::{Light, LightSet};
 use crate::scene::material::Material;
 use crate::scene::mirror::Mirrors;
@@ -63,12 +64,42 @@ impl Scene {
     pub fn from_parts(
         source: &Path,
         positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        tri_material: Vec<u32>,
+        shading: Shading,
+        texcoords: TexCoords,
+        materials: Vec<Material>,
+        report: LoadReport,
+    ) -> Result<Scene, AccelError> {
+        Scene::from_instanced_parts(
+            source,
+            positions,
+            triangles,
+            tri_material,
+            shading,
+            texcoords,
+            materials,
+            report,
+            Instancing::default(),
+        )
+    }
+
+    /// As [`Scene::from_parts`], where the triangles of `instancing`'s prototypes (ranges of
+    /// `triangles`, all after the world-space ones, in prototype space) are placed by its
+    /// instances (see [`crate::scene::instance`]). Their materials must be
+    /// [`instanceable`](crate::scene::instance::instanceable): lights, cut-outs and mirrors are
+    /// found among the world-space triangles only.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_instanced_parts(
+        source: &Path,
+        positions: Vec<Vec3>,
         mut triangles: Vec<[u32; 3]>,
         mut tri_material: Vec<u32>,
         shading: Shading,
         texcoords: TexCoords,
         materials: Vec<Material>,
         mut report: LoadReport,
+        mut instancing: Instancing,
     ) -> Result<Scene, AccelError> {
         assert_eq!(triangles.len(), tri_material.len());
         let n = triangles.len();
@@ -79,6 +110,9 @@ impl Scene {
         let mut tri_hit = hit_records(&positions, &triangles, &tri_material, materials.len());
         let dropped = tri_hit.par_iter().filter(|h| h.ng.x.is_nan()).count();
         report.degenerate_dropped += dropped;
+        if dropped > 0 && !instancing.is_empty() {
+            renumber_prototypes(&mut instancing, &tri_hit);
+        }
         let kept = if dropped > 0 {
             drop_degenerate(&mut tri_hit, &mut triangles, &mut corners, &mut texcoords)
         } else {
@@ -87,7 +121,15 @@ impl Scene {
         tri_material.clear();
         tri_material.par_extend(tri_hit.par_iter().map(|h| h.material));
         tri_material.shrink_to_fit();
-        let bounds = bounds_of(&tri_hit);
+        let world = instancing.world_triangles(kept);
+        let mut bounds = bounds_of(&tri_hit[..world]);
+        if !instancing.is_empty() {
+            instance_bounds(&mut instancing, &positions, &triangles);
+            for i in &instancing.instances {
+                bounds.grow(i.bounds.min);
+                bounds.grow(i.bounds.max);
+            }
+        }
         let tri_shading = shading_records(corners, &normals, &triangles, kept);
         let extent = {
             let d = bounds.diagonal();
@@ -101,7 +143,7 @@ impl Scene {
         };
         let lights = LightSet::from_emitters(
             &positions,
-            &triangles,
+            &triangles[..world],
             |i| tri_hit[i].ng,
             &tri_material,
             &materials,
@@ -109,15 +151,38 @@ impl Scene {
             0.5 * extent,
         );
         let mut features = Features::of(&materials, &tri_material, &lights);
-        let mirrors = planar_mirrors(&tri_hit, &tri_shading, &materials, &tri_material, extent);
+        let mirrors = planar_mirrors(
+            &tri_hit[..world],
+            &tri_shading,
+            &materials,
+            &tri_material,
+            extent,
+        );
         features.planar_mirrors = !mirrors.is_empty();
         let cut_materials = cut_materials(&materials, &mut report);
-        let cutout = cut_triangles(&cut_materials, &tri_material);
+        let cutout = cut_triangles(&cut_materials, &tri_material[..world]);
         features.cutouts = !cutout.is_empty();
         // Embree reads these two in place: from here on they are immutable.
         let (positions, triangles) = (SharedArray::new(positions), SharedArray::new(triangles));
         let t_bvh = std::time::Instant::now();
-        let accel = Accel::with_cutouts(&positions, &triangles, &cutout)?;
+        let accel = if instancing.is_empty() {
+            Accel::with_cutouts(&positions, &triangles, &cutout)?
+        } else {
+            let ranges: Vec<_> = instancing
+                .prototypes
+                .iter()
+                .map(|p| p.triangles.clone())
+                .collect();
+            let xfms: Vec<_> = instancing
+                .instances
+                .iter()
+                .map(|i| InstanceXfm {
+                    prototype: i.prototype,
+                    columns: i.columns(),
+                })
+                .collect();
+            Accel::with_instances(&positions, &triangles, world, &cutout, &ranges, &xfms)?
+        };
         report.bvh_seconds = t_bvh.elapsed().as_secs_f64();
         let mut scene = Scene {
             source: source.to_path_buf(),
@@ -140,6 +205,7 @@ impl Scene {
             textures: Default::default(),
             flat: None,
             cut_materials,
+            instancing,
             accel,
         };
         // Installed once: here when the coverage reads no texture, else when the textures (and
@@ -322,6 +388,49 @@ fn shading_records(
         }
         None => Vec::new(),
     }
+}
+
+/// Moves the prototypes' triangle ranges to where they are once the degenerate triangles (NaN
+/// normals in `tri_hit`, not yet dropped) are.
+fn renumber_prototypes(instancing: &mut Instancing, tri_hit: &[TriHit]) {
+    let mut kept_before = Vec::with_capacity(tri_hit.len() + 1);
+    let mut kept = 0u32;
+    kept_before.push(0);
+    for h in tri_hit {
+        kept += u32::from(!h.ng.x.is_nan());
+        kept_before.push(kept);
+    }
+    for p in &mut instancing.prototypes {
+        let r = &p.triangles;
+        p.triangles = kept_before[r.start as usize]..kept_before[r.end as usize];
+    }
+}
+
+/// Each instance's world-space bounds: its prototype's vertices (those its triangles use),
+/// transformed and rounded as a flattened copy's, so that the scene's bounds are the flattened
+/// scene's.
+fn instance_bounds(instancing: &mut Instancing, positions: &[Vec3], triangles: &[[u32; 3]]) {
+    let used: Vec<Vec<u32>> = instancing
+        .prototypes
+        .iter()
+        .map(|p| {
+            let mut v: Vec<u32> = triangles[p.triangles.start as usize..p.triangles.end as usize]
+                .iter()
+                .flatten()
+                .copied()
+                .collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        })
+        .collect();
+    instancing.instances.par_iter_mut().for_each(|inst| {
+        let mut b = Aabb::EMPTY;
+        for &v in &used[inst.prototype as usize] {
+            b.grow(inst.point(positions[v as usize]));
+        }
+        inst.bounds = b;
+    });
 }
 
 /// The planar mirrors among the triangles: those of perfect-mirror materials whose shading normals

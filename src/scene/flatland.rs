@@ -129,7 +129,37 @@ impl Sections {
                 s.emitter(i, a, b, edge, normal, emission);
             }
         }
+        s.instanced(scene, plane);
         s
+    }
+
+    /// The instanced triangles that cross the plane with their normal out of it (instances hold
+    /// no lights or mirrors: see `crate::scene::instance`), in world space; bad ones are named
+    /// by their prototype triangle.
+    fn instanced(&mut self, scene: &Scene, plane: &Flatland) {
+        scene.for_instanced_triangles(
+            |b| {
+                let d = b.corners().map(|c| c.dot(plane.normal) - plane.offset);
+                let mag = b.min.abs().max(b.max.abs()).max_element();
+                let tol = 8.0 * f32::EPSILON as f64 * mag.max(plane.offset.abs());
+                d.iter().any(|&x| x >= -tol) && d.iter().any(|&x| x <= tol)
+            },
+            |inst, prim| {
+                let v = scene.world_vertices(inst, prim);
+                let mag = v
+                    .iter()
+                    .map(|p| p.abs().max_element())
+                    .fold(plane.offset.abs(), f64::max);
+                let tol = 8.0 * f32::EPSILON as f64 * mag;
+                if cross_section(plane, v, tol) != Section::None {
+                    let out = scene.world_normal(inst, prim).dot(plane.normal).abs();
+                    if out > MAX_NORMAL_OUT_OF_PLANE {
+                        self.bad.push((prim as usize, out));
+                    }
+                }
+                false
+            },
+        );
     }
 
     /// The light of emissive triangle `i`, whose cross-section is the segment `a`–`b` (`edge`: an

@@ -1,8 +1,9 @@
 //! How rays meet the scene: closest hits reconstructed in f64 with their float error bound, and
 //! shadow rays. Where a ray leaving a hit starts is [`crate::scene::offset`].
 
-use crate::accel::RawHit;
-use crate::scene::geometry::closest_point_on_triangle;
+use crate::accel::{NO_INSTANCE, RawHit};
+use crate::scene::geometry::{Aabb, closest_point_on_triangle};
+use crate::scene::instance::Instancing;
 use crate::scene::model::Scene;
 use glam::DVec3;
 
@@ -10,7 +11,11 @@ use glam::DVec3;
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {
     pub p: DVec3,
+    /// The triangle hit (for a hit on an instance, its prototype's triangle).
     pub prim: u32,
+    /// The instance hit ([`NO_INSTANCE`] for a world-space triangle; see
+    /// [`crate::scene::instance`]).
+    pub inst: u32,
     /// Unit geometric normal (front side from the winding).
     pub ng: DVec3,
     /// Unit shading normal on the same side as `ng`.
@@ -112,11 +117,44 @@ impl Scene {
 
     #[inline(always)]
     fn hit_from_raw<const FLAT: bool>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
+        if raw.inst != NO_INSTANCE {
+            return self.instance_hit::<FLAT>(o, d, raw);
+        }
         let i = raw.prim as usize;
         let th = &self.tri_hit[i];
-        let [pa, pb, pc] = th.p.map(|q| q.as_dvec3());
+        let shading =
+            (!self.tri_shading.is_empty()).then(|| self.tri_shading[i].map(|n| n.as_dvec3()));
+        let p = th.p.map(|q| q.as_dvec3());
+        self.hit_on::<FLAT>(o, d, raw, p, th.ng, shading, th.material)
+    }
+
+    /// [`Scene::hit_from_raw`] for a hit on an instance: the triangle in world space (see
+    /// [`crate::scene::instance`]).
+    #[cold]
+    #[inline(never)]
+    fn instance_hit<const FLAT: bool>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
+        let p = self.world_vertices(raw.inst, raw.prim);
+        let ng = self.world_normal(raw.inst, raw.prim);
+        let shading = self.instance_corner_normals(raw.inst, raw.prim);
+        let material = self.tri_hit[raw.prim as usize].material;
+        self.hit_on::<FLAT>(o, d, raw, p, ng, shading, material)
+    }
+
+    /// The hit of `raw` on the world-space triangle of vertices `[pa, pb, pc]`, unit geometric
+    /// normal `ng`, corner shading normals `shading` and material `material`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn hit_on<const FLAT: bool>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        raw: RawHit,
+        [pa, pb, pc]: [DVec3; 3],
+        ng: DVec3,
+        shading: Option<[DVec3; 3]>,
+        material: u32,
+    ) -> Hit {
         let (u, v) = (raw.u as f64, raw.v as f64);
-        let ng = th.ng;
         let mag = pa
             .abs()
             .max(pb.abs())
@@ -149,11 +187,8 @@ impl Scene {
                 (1.0 - u - v) * pa + u * pb + v * pc
             }
         };
-        let ns = if self.tri_shading.is_empty() {
-            ng
-        } else {
-            let [na, nb, nc] = self.tri_shading[i];
-            let n = (1.0 - u - v) * na.as_dvec3() + u * nb.as_dvec3() + v * nc.as_dvec3();
+        let ns = if let Some([na, nb, nc]) = shading {
+            let n = (1.0 - u - v) * na + u * nb + v * nc;
             let len = n.length();
             if len > 1e-12 && len.is_finite() {
                 let n = n / len;
@@ -161,6 +196,8 @@ impl Scene {
             } else {
                 ng
             }
+        } else {
+            ng
         };
         // Flatland: normals projected into the plane (the geometric one is in it up to the
         // validated 1e-4; shading normals may point anywhere), so scattered directions stay in it.
@@ -168,7 +205,7 @@ impl Scene {
             let pl = &self.flat().plane;
             let ngp = pl.in_plane(ng).unwrap_or(ng);
             // Without shading normals ns = ng, whose projection is ngp (the same bits).
-            let nsp = if self.tri_shading.is_empty() {
+            let nsp = if shading.is_none() {
                 ngp
             } else {
                 pl.in_plane(ns)
@@ -181,9 +218,10 @@ impl Scene {
         Hit {
             p,
             prim: raw.prim,
+            inst: raw.inst,
             ng,
             ns,
-            material: th.material,
+            material,
             eps: eps.max(1e-12),
             bary: [raw.u, raw.v],
             eps_edge: eps,
@@ -195,7 +233,7 @@ impl Scene {
     /// walk's last hit never needs it.
     #[inline(always)]
     pub fn near_edge(&self, hit: &Hit) -> bool {
-        let [pa, pb, pc] = self.tri_hit[hit.prim as usize].p.map(|q| q.as_dvec3());
+        let [pa, pb, pc] = self.world_vertices(hit.inst, hit.prim);
         let (u, v) = (hit.bary[0] as f64, hit.bary[1] as f64);
         let eps = hit.eps_edge;
         // Distance from p to each edge (barycentric × the opposite altitude), squared, against
@@ -207,5 +245,86 @@ impl Scene {
         w * w * c2 <= lim * e2.length_squared()
             || u * u * c2 <= lim * e1.length_squared()
             || v * v * c2 <= lim * e0.length_squared()
+    }
+}
+
+impl Scene {
+    /// The vertices of triangle `prim` seen through instance `inst` (as stored for
+    /// [`NO_INSTANCE`]), in world space.
+    #[inline]
+    pub fn world_vertices(&self, inst: u32, prim: u32) -> [DVec3; 3] {
+        let p = self.tri_hit[prim as usize].p;
+        if inst == NO_INSTANCE {
+            p.map(|q| q.as_dvec3())
+        } else {
+            let i = &self.instancing.instances[inst as usize];
+            p.map(|q| i.point(q))
+        }
+    }
+
+    /// The unit geometric normal (front side) of triangle `prim` seen through instance `inst`,
+    /// from its world-space vertices as a flattened copy's (whose winding a mirroring transform
+    /// reverses).
+    #[inline]
+    pub fn world_normal(&self, inst: u32, prim: u32) -> DVec3 {
+        if inst == NO_INSTANCE {
+            return self.tri_normal(prim as usize);
+        }
+        let i = &self.instancing.instances[inst as usize];
+        let [a, b, c] = self.world_vertices(inst, prim);
+        let n = (b - a).cross(c - a);
+        let len = n.length();
+        if len > 0.0 && len.is_finite() {
+            let n = n / len;
+            if i.mirrored { -n } else { n }
+        } else {
+            // Rounded to a sliver in world space: the exact image of the prototype's normal.
+            (i.normal_matrix * self.tri_normal(prim as usize)).normalize_or_zero()
+        }
+    }
+
+    /// The interpolated world-space shading normal at barycentric (u, v) of triangle `prim`
+    /// through instance `inst`: the corners' normals as [`Instance::normal`] gives them.
+    #[inline]
+    pub(super) fn instance_corner_normals(&self, inst: u32, prim: u32) -> Option<[DVec3; 3]> {
+        if self.tri_shading.is_empty() {
+            return None;
+        }
+        let i = &self.instancing.instances[inst as usize];
+        Some(self.tri_shading[prim as usize].map(|n| i.normal(n)))
+    }
+
+    /// True when the scene has instances.
+    pub fn is_instanced(&self) -> bool {
+        !self.instancing.is_empty()
+    }
+
+    /// The scene's instancing (prototypes and instances; empty without).
+    pub fn instancing(&self) -> &Instancing {
+        &self.instancing
+    }
+
+    /// Calls `f(inst, prim)` for every instanced triangle whose instance's bounds satisfy
+    /// `near(bounds)`: the walk over instances × prototype triangles that the code which needs
+    /// world-space triangles uses.
+    pub fn for_instanced_triangles(
+        &self,
+        near: impl Fn(&Aabb) -> bool,
+        mut f: impl FnMut(u32, u32) -> bool,
+    ) -> bool {
+        for (k, inst) in self.instancing.instances.iter().enumerate() {
+            if !near(&inst.bounds) {
+                continue;
+            }
+            let r = self.instancing.prototypes[inst.prototype as usize]
+                .triangles
+                .clone();
+            for prim in r {
+                if f(k as u32, prim) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 }

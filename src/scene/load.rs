@@ -16,6 +16,10 @@ pub struct LoadOptions {
     /// past with a warning (faces of fewer than 3 vertices, `usemtl` or `mtllib` without a name,
     /// statements it does not use, text that is not UTF-8).
     pub strict: bool,
+    /// Flatten instanced glTF (EXT_mesh_gpu_instancing) into one copy of the mesh per instance
+    /// instead of instances of one prototype ([`crate::scene::instance`]): the same field, at the
+    /// memory of every copy. For comparisons and tests.
+    pub flatten_instances: bool,
 }
 
 /// Loads a scene by its extension (see the module docs), tolerantly.
@@ -80,7 +84,7 @@ fn load_mesh(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
     let start = std::time::Instant::now();
     let mut scene = match extension(path).as_deref() {
         Some("obj") => obj::load(path, options.strict)?,
-        Some("gltf" | "glb") => gltf::load(path)?,
+        Some("gltf" | "glb") => gltf::load_with(path, !options.flatten_instances)?,
         other => {
             return Err(LoadError::UnsupportedFormat {
                 file: path.to_path_buf(),

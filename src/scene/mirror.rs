@@ -57,7 +57,7 @@ pub struct Mirrors {
 
 /// A perfect mirror whose reflection is the plane's: no diffuse part (also not from a texture), no
 /// cut-out, no emission.
-fn is_perfect_mirror(m: &Material) -> bool {
+pub(super) fn is_perfect_mirror(m: &Material) -> bool {
     matches!(&m.bsdf, Bsdf::Mirror { kd, ks } if *kd == crate::math::Rgb::ZERO
         && *ks != crate::math::Rgb::ZERO)
         && m.maps.base_color.is_none()

@@ -17,6 +17,7 @@
 //! - `material` — scattering models, texture references, cut-out coverage
 //! - `light` — lights and the power tables that choose among them
 //! - `mirror`, `features` — planar mirrors; which effects a scene has
+//! - `instance` — prototypes and their instances (instanced geometry)
 //! - `flat` — the flatland plane and the 2D forms of lights and materials
 //! - `model` — the [`Scene`] type and its per-triangle records
 //! - `hit` — rays against the scene, hits in f64 with their error bound
@@ -41,6 +42,7 @@ pub mod flatland;
 pub mod geometry;
 pub mod gltf;
 pub mod hit;
+pub mod instance;
 pub mod light;
 pub mod load;
 pub mod material;
@@ -57,6 +59,7 @@ pub use error::{CameraError, ImageError, LoadError};
 pub use features::Features;
 pub use geometry::{Aabb, barycentric, closest_point_on_triangle, interpolate_uv, triangle_normal};
 pub use hit::Hit;
+pub use instance::{Instance, Instancing, Prototype};
 pub use light::{DEFAULT_SUN_DIAMETER_DEG, Light, LightSet};
 pub use load::LoadOptions;
 pub use material::Material;

@@ -7,6 +7,7 @@ use crate::accel::{Accel, SharedArray};
 use crate::scene::features::Features;
 use crate::scene::flat::FlatScene;
 use crate::scene::geometry::{Aabb, interpolate_uv};
+use crate::scene::instance::Instancing;
 use crate::scene::light::LightSet;
 use crate::scene::material::Material;
 use crate::scene::mirror::Mirrors;
@@ -122,6 +123,8 @@ pub struct Scene {
     /// The slice plane of a flatland run with its light cross-sections and 2D materials, set by
     /// [`Scene::prepare_flatland`]; `None` for 3D runs.
     pub flat: Option<FlatScene>,
+    /// The prototypes and instances of instanced geometry (empty without).
+    pub(super) instancing: Instancing,
     pub(super) accel: Accel,
 }
 

@@ -38,7 +38,7 @@ impl Scene {
             // `o` is off the hit surface on `dir`'s side: it stays there.
             Some((hit.p, hit.ng)),
             // The hit triangle and those parallel to it (its own neighbours).
-            |i, n| i == hit.prim || n.dot(hit.ng).abs() > 1.0 - 1e-9,
+            |t, n| t == (hit.inst, hit.prim) || n.dot(hit.ng).abs() > 1.0 - 1e-9,
             // The side the path is on: where it came from, or the other for a path that went
             // through the hit surface.
             |a, n| {
@@ -52,16 +52,16 @@ impl Scene {
     /// `eps` on the side `side(a, n)` (±1 times the normal `n`; `a` a vertex) of it, without
     /// crossing `keep` (a plane: point and normal) or the other triangles within 3 `eps` of `at`
     /// (except those in the plane of a triangle it is moved off: a flat surface's other
-    /// triangles). Triangles for which `skip(index, normal)` holds are ignored.
+    /// triangles). Triangles for which `skip((instance, index), normal)` holds are ignored.
     #[allow(clippy::too_many_arguments)]
     fn move_off(
         &self,
         start: DVec3,
         at: DVec3,
         eps: f64,
-        prims: &[u32],
+        prims: &[(u32, u32)],
         keep: Option<(DVec3, DVec3)>,
-        skip: impl Fn(u32, DVec3) -> bool,
+        skip: impl Fn((u32, u32), DVec3) -> bool,
         side: impl Fn(DVec3, DVec3) -> f64,
     ) -> DVec3 {
         const N: usize = crate::accel::MAX_NEAR;
@@ -74,13 +74,12 @@ impl Scene {
             [(DVec3::ZERO, DVec3::ZERO); N],
         );
         let (mut n_on, mut n_near) = (0, 0);
-        for &i in prims {
-            let n = self.tri_normal(i as usize);
-            if skip(i, n) {
+        for &(inst, i) in prims {
+            let n = self.world_normal(inst, i);
+            if skip((inst, i), n) {
                 continue;
             }
-            let [a, b, c] =
-                self.triangles[i as usize].map(|v| self.positions[v as usize].as_dvec3());
+            let [a, b, c] = self.world_vertices(inst, i);
             let dist = (closest_point_on_triangle(at, a, b, c) - at).length();
             if dist <= eps {
                 on[n_on] = (a, n);
@@ -105,22 +104,27 @@ impl Scene {
         moves.p
     }
 
-    /// The triangles an Embree point query finds within `radius` of `p` (by bounding box), in
-    /// index order, so that what is done with them never depends on Embree's traversal order.
+    /// The triangles an Embree point query finds within `radius` of `p` (by bounding box), as
+    /// (instance, index) pairs in increasing order, so that what is done with them never depends
+    /// on Embree's traversal order.
     fn triangles_near_sorted(
         &self,
         p: DVec3,
         radius: f64,
-    ) -> ([u32; crate::accel::MAX_NEAR], usize) {
+    ) -> ([(u32, u32); crate::accel::MAX_NEAR], usize) {
         let near = self.accel.triangles_near(p.as_vec3(), radius as f32);
-        let mut prims = [0u32; crate::accel::MAX_NEAR];
+        let mut prims = [(0u32, 0u32); crate::accel::MAX_NEAR];
         let mut len = near.prims().len();
-        prims[..len].copy_from_slice(near.prims());
+        for (k, (&inst, &prim)) in near.insts().iter().zip(near.prims()).enumerate() {
+            prims[k] = (inst, prim);
+        }
         if self.features.cutouts {
-            // Triangles cut out where the point lies are not there for it either.
+            // Triangles cut out where the point lies are not there for it either (instances
+            // have no cut-outs: the loader keeps those in world space).
             let mut kept = 0;
             for k in 0..len {
-                if !self.cut_at(prims[k], p) {
+                let (inst, prim) = prims[k];
+                if inst != crate::accel::NO_INSTANCE || !self.cut_at(prim, p) {
                     prims[kept] = prims[k];
                     kept += 1;
                 }
@@ -158,13 +162,26 @@ impl Scene {
     /// points must start off the surface ([`Scene::off_surfaces`]).
     pub fn surface_in_plane(&self, origin: DVec3, normal: DVec3) -> bool {
         let normal = normal.normalize_or_zero();
-        normal != DVec3::ZERO
-            && self.triangles.iter().any(|t| {
-                t.iter().all(|&i| {
-                    let p = self.positions[i as usize].as_dvec3();
-                    (p - origin).dot(normal).abs() <= self.eps_at(p).max(self.eps_at(origin))
-                })
-            })
+        let in_plane =
+            |p: DVec3| (p - origin).dot(normal).abs() <= self.eps_at(p).max(self.eps_at(origin));
+        if normal == DVec3::ZERO {
+            return false;
+        }
+        let world = self.instancing.world_triangles(self.triangles.len());
+        self.triangles[..world].iter().any(|t| {
+            t.iter()
+                .all(|&i| in_plane(self.positions[i as usize].as_dvec3()))
+        }) || self.for_instanced_triangles(
+            |b| {
+                // Only instances whose bounds reach the plane (within the error bound).
+                let s = b.corners().map(|c| (c - origin).dot(normal));
+                let tol = self
+                    .eps_at(b.min.abs().max(b.max.abs()))
+                    .max(self.eps_at(origin));
+                s.iter().any(|&x| x >= -tol) && s.iter().any(|&x| x <= tol)
+            },
+            |inst, prim| self.world_vertices(inst, prim).into_iter().all(in_plane),
+        )
     }
 }
 

@@ -81,14 +81,22 @@ pub use crate::scene::pbr::{MAX_PHONG_EXPONENT, pbr_lobes, phong_exponent};
 pub use material::{PbrParams, map_pbr};
 
 use crate::scene::error::LoadError;
-use crate::scene::model::{LoadReport, Scene};
+use crate::scene::instance::{Instancing, instanceable};
+use crate::scene::model::{LoadReport, Scene, Shading, TexCoords};
 use document::Warnings;
 use material::Converted;
-use nodes::World;
+use nodes::{Geometry, World};
 use std::path::Path;
 
-/// Loads a `.gltf` or `.glb` file (and the buffers and images it names) into a [`Scene`].
+/// Loads a `.gltf` or `.glb` file (and the buffers and images it names) into a [`Scene`], with
+/// EXT_mesh_gpu_instancing as instances.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
+    load_with(path, true)
+}
+
+/// As [`load`]; with `instancing` false, EXT_mesh_gpu_instancing is flattened (one copy of the
+/// mesh per instance) instead.
+pub fn load_with(path: &Path, instancing: bool) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
     if let Some(kind) = crate::scene::files::not_regular(path) {
         return Err(LoadError::NotRegular {
@@ -121,20 +129,35 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
         requests,
     } = material::convert_materials(&doc, &mut warnings);
     let mut world = World::new(path, &buffers, default_material, warnings);
+    if instancing {
+        world.instancing = materials.iter().map(instanceable).collect();
+    }
     world.walk(&doc)?;
     let World {
         warnings,
+        mut geometry,
+        proto_geometry,
+        mut prototypes,
+        instances,
+        points,
+        others,
+        cameras,
+        ..
+    } = world;
+    // The prototypes' triangles go after the world-space ones.
+    let world_triangles = geometry.triangles.len() as u32;
+    for p in &mut prototypes {
+        p.triangles = p.triangles.start + world_triangles..p.triangles.end + world_triangles;
+    }
+    geometry.extend(proto_geometry);
+    let Geometry {
         positions,
         normals,
         any_normals,
         uvs,
         triangles,
         tri_material,
-        points,
-        others,
-        cameras,
-        ..
-    } = world;
+    } = geometry;
     let mut report = LoadReport {
         warnings: warnings.list,
         ..Default::default()
@@ -150,14 +173,24 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
     report.texture_bytes = textures.bytes();
     let normals = if any_normals { normals } else { Vec::new() };
     let n_triangles = triangles.len();
-    let mut scene = Scene::build(
+    let shading = if normals.len() == positions.len() && !normals.is_empty() {
+        Shading::PerVertex(normals)
+    } else {
+        Shading::None
+    };
+    let mut scene = Scene::from_instanced_parts(
         path,
         positions,
-        normals,
         triangles,
         tri_material,
+        shading,
+        TexCoords::None,
         materials,
         report,
+        Instancing {
+            prototypes,
+            instances,
+        },
     )
     .map_err(|source| LoadError::Build {
         file: path.to_path_buf(),

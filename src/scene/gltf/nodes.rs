@@ -1,9 +1,11 @@
 //! The node trees of the default scene, flattened: every node's world transform applied to its
 //! mesh's positions and normals (normals with the inverse transpose, renormalised; triangle winding
 //! flipped where the transform mirrors), a mesh used by several nodes copied once per node; lights
-//! and cameras placed by their nodes. EXT_mesh_gpu_instancing is flattened the same way: one copy
-//! of the mesh per instance, so memory grows with the instance count (docs/performance.md,
-//! "Instanced glTF").
+//! and cameras placed by their nodes. A mesh placed by EXT_mesh_gpu_instancing becomes a
+//! prototype, stored once in its own space, and each instance a transform of it
+//! ([`crate::scene::instance`]), unless one of its materials emits, has alpha or is a perfect
+//! mirror: then (or when instancing is turned off, [`World::instancing`]) it is flattened like
+//! the rest, one copy per instance.
 
 use crate::math::Rgb;
 use crate::scene::error::LoadError;
@@ -11,6 +13,7 @@ use crate::scene::gltf::accessor::{Quantized, read_components};
 use crate::scene::gltf::document::malformed;
 use crate::scene::gltf::document::{Warnings, named};
 use crate::scene::gltf::mesh::{LocalPrimitive, decode_mesh};
+use crate::scene::instance::{Instance, Prototype};
 use crate::scene::light::Light;
 use crate::scene::model::Camera;
 use ::gltf::khr_lights_punctual::Kind as LightKind;
@@ -27,13 +30,18 @@ pub(super) struct World<'a> {
     /// Each mesh's triangle primitives, decoded on first use.
     meshes: HashMap<usize, Vec<LocalPrimitive>>,
     pub(super) warnings: Warnings,
-    pub(super) positions: Vec<Vec3>,
-    pub(super) normals: Vec<Vec3>,
-    pub(super) any_normals: bool,
-    /// Texture coordinates per vertex (zero where a primitive has none).
-    pub(super) uvs: Vec<Vec2>,
-    pub(super) triangles: Vec<[u32; 3]>,
-    pub(super) tri_material: Vec<u32>,
+    /// The world-space triangles.
+    pub(super) geometry: Geometry,
+    /// The prototypes' triangles, in their own space (normals as the file gives them).
+    pub(super) proto_geometry: Geometry,
+    /// The prototypes: ranges of `proto_geometry`'s triangles.
+    pub(super) prototypes: Vec<Prototype>,
+    /// The prototype of each mesh that has one, by mesh index.
+    proto_of_mesh: HashMap<usize, u32>,
+    pub(super) instances: Vec<Instance>,
+    /// Per material: it may stay in a prototype; empty when instancing is off (every instance is
+    /// flattened).
+    pub(super) instancing: Vec<bool>,
     /// Point lights: world position and intensity.
     pub(super) points: Vec<(DVec3, Rgb)>,
     /// Spot and directional lights.
@@ -56,12 +64,12 @@ impl<'a> World<'a> {
             default_material,
             meshes: HashMap::new(),
             warnings,
-            positions: Vec::new(),
-            normals: Vec::new(),
-            any_normals: false,
-            uvs: Vec::new(),
-            triangles: Vec::new(),
-            tri_material: Vec::new(),
+            geometry: Geometry::default(),
+            proto_geometry: Geometry::default(),
+            prototypes: Vec::new(),
+            proto_of_mesh: HashMap::new(),
+            instances: Vec::new(),
+            instancing: Vec::new(),
             points: Vec::new(),
             others: Vec::new(),
             cameras: Vec::new(),
@@ -124,6 +132,9 @@ impl<'a> World<'a> {
                     ));
                 }
                 match self.gpu_instances(doc, &node, &label)? {
+                    Some(instances) if self.instanceable(doc, &mesh)? => {
+                        self.place_instances(&mesh, &label, world, &instances);
+                    }
                     Some(instances) => {
                         for m in instances {
                             self.instance(doc, &mesh, world * m)?;
@@ -216,13 +227,12 @@ impl<'a> World<'a> {
         ))
     }
 
-    /// Appends a copy of `mesh`'s triangle primitives transformed by `world`.
-    fn instance(
+    /// Decodes `mesh` once (cached).
+    fn decoded(
         &mut self,
         doc: &::gltf::Document,
         mesh: &::gltf::Mesh,
-        world: DMat4,
-    ) -> Result<(), LoadError> {
+    ) -> Result<&[LocalPrimitive], LoadError> {
         if !self.meshes.contains_key(&mesh.index()) {
             let decoded = decode_mesh(
                 mesh,
@@ -234,59 +244,89 @@ impl<'a> World<'a> {
             )?;
             self.meshes.insert(mesh.index(), decoded);
         }
-        let linear = DMat3::from_mat4(world);
-        let det = linear.determinant();
-        let normal_matrix = (det != 0.0 && det.is_finite()).then(|| linear.inverse().transpose());
-        let flip = det < 0.0;
+        Ok(&self.meshes[&mesh.index()])
+    }
+
+    /// True when instancing is on and every material of `mesh` may stay in a prototype.
+    fn instanceable(
+        &mut self,
+        doc: &::gltf::Document,
+        mesh: &::gltf::Mesh,
+    ) -> Result<bool, LoadError> {
+        if self.instancing.is_empty() {
+            return Ok(false);
+        }
+        let flags = std::mem::take(&mut self.instancing);
+        let ok = self.decoded(doc, mesh).map(|prims| {
+            prims
+                .iter()
+                .all(|p| flags.get(p.material as usize).copied().unwrap_or(false))
+        });
+        self.instancing = flags;
+        ok
+    }
+
+    /// Places `mesh` (decoded) at `world` × each of `instances`, as instances of its prototype
+    /// (made on first use). An instance whose transform is singular or not finite is dropped with
+    /// a warning naming the node (`label`).
+    fn place_instances(
+        &mut self,
+        mesh: &::gltf::Mesh,
+        label: &str,
+        world: DMat4,
+        instances: &[DMat4],
+    ) {
+        let proto = match self.proto_of_mesh.get(&mesh.index()) {
+            Some(&k) => k,
+            None => {
+                let first = self.proto_geometry.triangles.len() as u32;
+                let prims = &self.meshes[&mesh.index()];
+                for prim in prims {
+                    self.proto_geometry.append(prim, DMat4::IDENTITY, true);
+                }
+                let k = self.prototypes.len() as u32;
+                self.prototypes.push(Prototype {
+                    name: named("mesh", mesh.index(), mesh.name()),
+                    triangles: first..self.proto_geometry.triangles.len() as u32,
+                });
+                self.proto_of_mesh.insert(mesh.index(), k);
+                k
+            }
+        };
+        let mut dropped = Vec::new();
+        for (k, m) in instances.iter().enumerate() {
+            match Instance::new(proto, world * *m) {
+                Some(i) => self.instances.push(i),
+                None => dropped.push(k),
+            }
+        }
+        if let Some(first) = dropped.first() {
+            self.warnings.warn(format!(
+                "{label}: {INSTANCING}: {} instance(s) with a singular or non-finite transform \
+                 dropped (the first: instance {first})",
+                dropped.len()
+            ));
+        }
+    }
+
+    /// Appends a copy of `mesh`'s triangle primitives transformed by `world`.
+    fn instance(
+        &mut self,
+        doc: &::gltf::Document,
+        mesh: &::gltf::Mesh,
+        world: DMat4,
+    ) -> Result<(), LoadError> {
+        self.decoded(doc, mesh)?;
         let prims = &self.meshes[&mesh.index()];
         for prim in prims {
-            let base = self.positions.len();
+            let base = self.geometry.positions.len();
             if base as u64 + prim.positions.len() as u64 >= u32::MAX as u64 {
                 return Err(LoadError::TooLarge {
                     file: self.path.to_path_buf(),
                     what: "more than 2^32 vertices".into(),
                 });
             }
-            self.positions.extend(
-                prim.positions
-                    .iter()
-                    .map(|p| world.transform_point3(p.as_dvec3()).as_vec3()),
-            );
-            match (&prim.normals, normal_matrix) {
-                (Some(ns), Some(nm)) => {
-                    self.any_normals = true;
-                    self.normals.extend(ns.iter().map(|n| {
-                        let w = nm * n.as_dvec3();
-                        let len = w.length();
-                        if len > 0.0 && len.is_finite() {
-                            (w / len).as_vec3()
-                        } else {
-                            Vec3::ZERO
-                        }
-                    }));
-                }
-                // Zero normals fall back to the geometric normal.
-                _ => self
-                    .normals
-                    .extend(std::iter::repeat_n(Vec3::ZERO, prim.positions.len())),
-            }
-            match &prim.uvs {
-                Some(uv) => self.uvs.extend_from_slice(uv),
-                None => self
-                    .uvs
-                    .extend(std::iter::repeat_n(Vec2::ZERO, prim.positions.len())),
-            }
-            let base = base as u32;
-            self.triangles
-                .extend(prim.triangles.iter().map(|&[a, b, c]| {
-                    if flip {
-                        [a + base, c + base, b + base]
-                    } else {
-                        [a + base, b + base, c + base]
-                    }
-                }));
-            self.tri_material
-                .extend(std::iter::repeat_n(prim.material, prim.triangles.len()));
+            self.geometry.append(prim, world, false);
         }
         Ok(())
     }
@@ -433,3 +473,85 @@ fn unit_or_identity(q: DQuat) -> DQuat {
 
 /// The name of the instancing extension.
 const INSTANCING: &str = "EXT_mesh_gpu_instancing";
+
+/// Triangles with per-vertex normals (zero where none) and texture coordinates (zero where
+/// none), as the scene builder takes them.
+#[derive(Default)]
+pub(super) struct Geometry {
+    pub(super) positions: Vec<Vec3>,
+    pub(super) normals: Vec<Vec3>,
+    pub(super) any_normals: bool,
+    pub(super) uvs: Vec<Vec2>,
+    pub(super) triangles: Vec<[u32; 3]>,
+    pub(super) tri_material: Vec<u32>,
+}
+
+impl Geometry {
+    /// Appends `prim` transformed by `world`: positions, normals with the inverse transpose
+    /// (renormalised unless `raw_normals`: a prototype keeps the file's, which each instance
+    /// transforms and renormalises as a flattened copy does), the winding flipped where `world`
+    /// mirrors. The caller checks the vertex count.
+    fn append(&mut self, prim: &LocalPrimitive, world: DMat4, raw_normals: bool) {
+        let linear = DMat3::from_mat4(world);
+        let det = linear.determinant();
+        let normal_matrix = (det != 0.0 && det.is_finite()).then(|| linear.inverse().transpose());
+        let flip = det < 0.0;
+        let base = self.positions.len();
+        self.positions.extend(
+            prim.positions
+                .iter()
+                .map(|p| world.transform_point3(p.as_dvec3()).as_vec3()),
+        );
+        match (&prim.normals, normal_matrix) {
+            (Some(ns), _) if raw_normals => {
+                self.any_normals = true;
+                self.normals.extend_from_slice(ns);
+            }
+            (Some(ns), Some(nm)) => {
+                self.any_normals = true;
+                self.normals.extend(ns.iter().map(|n| {
+                    let w = nm * n.as_dvec3();
+                    let len = w.length();
+                    if len > 0.0 && len.is_finite() {
+                        (w / len).as_vec3()
+                    } else {
+                        Vec3::ZERO
+                    }
+                }));
+            }
+            // Zero normals fall back to the geometric normal.
+            _ => self
+                .normals
+                .extend(std::iter::repeat_n(Vec3::ZERO, prim.positions.len())),
+        }
+        match &prim.uvs {
+            Some(uv) => self.uvs.extend_from_slice(uv),
+            None => self
+                .uvs
+                .extend(std::iter::repeat_n(Vec2::ZERO, prim.positions.len())),
+        }
+        let base = base as u32;
+        self.triangles
+            .extend(prim.triangles.iter().map(|&[a, b, c]| {
+                if flip {
+                    [a + base, c + base, b + base]
+                } else {
+                    [a + base, b + base, c + base]
+                }
+            }));
+        self.tri_material
+            .extend(std::iter::repeat_n(prim.material, prim.triangles.len()));
+    }
+
+    /// Appends `other` (its indices shifted past this one's vertices).
+    pub(super) fn extend(&mut self, other: Geometry) {
+        let base = self.positions.len() as u32;
+        self.positions.extend(other.positions);
+        self.normals.extend(other.normals);
+        self.any_normals |= other.any_normals;
+        self.uvs.extend(other.uvs);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|v| v + base)));
+        self.tri_material.extend(other.tri_material);
+    }
+}
