@@ -101,7 +101,10 @@ pub fn walk_ends<K: Kernel>(
     let mut travelled = 0.0;
     let mut beta = Rgb::ONE;
     let mut bounces = 0;
-    let mut hit = first.hit;
+    // The current segment's hit, borrowed (from `first`, then from `traced`) rather than copied:
+    // a hit is about 120 bytes and every walk starts from the shared first segment.
+    let mut traced: Option<Hit>;
+    let mut hit = first.hit.as_ref();
     let mut next = 0;
     loop {
         // The segment ends at the hit (or never); every run length it covers ends on it.
@@ -138,7 +141,7 @@ pub fn walk_ends<K: Kernel>(
         let u = s.next_2d();
         let (bsdf, lobe) = K::Space::scatter(scene, h.material);
         let textured;
-        let (bsdf, lobe) = match scene.textured_bsdf(&h) {
+        let (bsdf, lobe) = match scene.textured_bsdf(h) {
             Some(b) => {
                 textured = (K::Space::textured_lobe(&b, lobe), b);
                 (&textured.1, &textured.0)
@@ -161,17 +164,18 @@ pub fn walk_ends<K: Kernel>(
             return stats;
         }
         bounces += 1;
-        origin = scene.spawn_origin_from(&h, bs.wi, origin);
+        origin = scene.spawn_origin_from(h, bs.wi, origin);
         d = bs.wi;
         base = h.p;
         travelled = seg_end;
         stats.rays += 1;
-        hit = trace::intersect::<K>(
+        traced = trace::intersect::<K>(
             scene,
             origin,
             d,
             (t_max - travelled) + (origin - base).length(),
         );
+        hit = traced.as_ref();
     }
 }
 
