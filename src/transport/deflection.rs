@@ -80,7 +80,10 @@ pub struct WalkStats {
 /// scene). A walk that reaches `max_bounces` scattering events ends at the hit where it would
 /// scatter once more, for every longer run length; a walk absorbed at a hit has zero throughput
 /// from there on. Draws three numbers from `s` per scattering event.
-#[inline]
+///
+/// Always inlined: a sample calls it from one place per kernel, and the call's set-up was a
+/// measurable part of a walk's own work.
+#[inline(always)]
 pub fn walk_ends<K: Kernel>(
     scene: &Scene,
     first: &FirstSegment,
