@@ -125,6 +125,44 @@ impl Deviation {
     }
 }
 
+/// What the walks of one sample share.
+struct Walks<'a> {
+    scene: &'a Scene,
+    lengths: &'a [f64],
+    max_bounces: u32,
+    /// The key of the sample's walk streams ([`Sampler::child`]).
+    key: u64,
+}
+
+impl Walks<'_> {
+    /// The walks from `first` into `ends` (walk-major, as many run lengths each as `lengths`), walk
+    /// i drawing from stream `index + i`. Always inlined (it was a closure called twice per
+    /// sample, whose call was a measurable part of the sample's own work).
+    #[inline(always)]
+    fn trace<K: Kernel>(
+        &self,
+        first: &FirstSegment,
+        index: u64,
+        ends: &mut [End],
+        out: &mut Sample,
+    ) {
+        out.rays += 1;
+        for (i, e) in ends.chunks_exact_mut(self.lengths.len()).enumerate() {
+            let mut ws = Sampler::child(self.key, index + i as u64);
+            let st = walk_ends::<K>(
+                self.scene,
+                first,
+                self.lengths,
+                self.max_bounces,
+                &mut ws,
+                e,
+            );
+            out.rays += st.rays;
+            out.capped += u32::from(st.capped);
+        }
+    }
+}
+
 /// Buffers of a sample's walk ends, kept per thread so that samples allocate nothing.
 #[derive(Default)]
 struct Scratch {
@@ -196,17 +234,14 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
     sc.a.resize(along as usize * m, End::default());
     sc.b.resize(across as usize * m, End::default());
     // Walk i of the sample draws from stream i: the walks along ω first, then those of each ω'_j.
-    let trace_walks = |first: &FirstSegment, index: u64, ends: &mut [End], out: &mut Sample| {
-        out.rays += 1;
-        for (i, e) in ends.chunks_exact_mut(m).enumerate() {
-            let mut ws = Sampler::child(key, index + i as u64);
-            let st = walk_ends::<K>(scene, first, &sc.lengths, p.max_bounces, &mut ws, e);
-            out.rays += st.rays;
-            out.capped += u32::from(st.capped);
-        }
+    let walks = Walks {
+        scene,
+        lengths: &sc.lengths,
+        max_bounces: p.max_bounces,
+        key,
     };
     let first = FirstSegment::trace::<K>(scene, x, omega, t_max);
-    trace_walks(&first, 0, &mut sc.a, out);
+    walks.trace::<K>(&first, 0, &mut sc.a, out);
     let (one_minus_cos_max, tan_half_max) = cone_constants(p);
     let sp = K::Space::of(scene);
     let mut sums = [0.0f64; 3];
@@ -214,7 +249,7 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
         let u = cone_numbers(off.u_cone, j, cones);
         let (omega2, chord, r) = sp.perturb(omega, p.theta_max, one_minus_cos_max, tan_half_max, u);
         let first = FirstSegment::trace::<K>(scene, x, omega2, t_max);
-        trace_walks(&first, u64::from(along + j * across), &mut sc.b, out);
+        walks.trace::<K>(&first, u64::from(along + j * across), &mut sc.b, out);
         for (mi, &t) in sc.lengths.iter().enumerate() {
             // Δ's factors that depend on the cone direction and the run length only, computed
             // once for the pairs they share (the same operations as `pairwise_deviation`).
