@@ -92,6 +92,62 @@ impl Accel {
     }
 }
 
+impl Accel {
+    /// Up to four closest-hit queries traced together by Embree's packet traversal
+    /// (`rtcIntersect4`): lane i is `rays[i]` (origin, direction, tfar; tnear 0) when it is `Some`
+    /// and valid. For measuring whether packets pay over [`Accel::intersect`]; the kernel does not
+    /// use it.
+    pub fn intersect4(&self, rays: &[Option<(Vec3, Vec3, f32)>; 4]) -> [Option<RawHit>; 4] {
+        #[repr(C, align(16))]
+        struct Valid([i32; 4]);
+        let mut valid = Valid([0; 4]);
+        let mut buf = Spare {
+            value: sys::RTCRayHit4::default(),
+            spare: [0; SPARE_WORDS],
+        };
+        let rh = &mut buf.value;
+        for (i, r) in rays.iter().enumerate() {
+            rh.hit.geomID[i] = sys::RTC_INVALID_GEOMETRY_ID;
+            rh.hit.primID[i] = sys::RTC_INVALID_GEOMETRY_ID;
+            for id in rh.hit.instID.iter_mut() {
+                id[i] = sys::RTC_INVALID_GEOMETRY_ID;
+            }
+            let Some((o, d, tfar)) = *r else { continue };
+            if !ray_ok(o, d, 0.0, tfar) {
+                continue;
+            }
+            let ray = make_ray(o, d, 0.0, tfar);
+            let q = &mut rh.ray;
+            (q.org_x[i], q.org_y[i], q.org_z[i]) = (ray.org_x, ray.org_y, ray.org_z);
+            (q.dir_x[i], q.dir_y[i], q.dir_z[i]) = (ray.dir_x, ray.dir_y, ray.dir_z);
+            (q.tnear[i], q.tfar[i], q.time[i]) = (ray.tnear, ray.tfar, ray.time);
+            (q.mask[i], q.id[i], q.flags[i]) = (ray.mask, ray.id, ray.flags);
+            valid.0[i] = -1;
+        }
+        #[cfg(embree3)]
+        {
+            let mut ctx = context();
+            // SAFETY: the scene is committed and immutable; `valid` (16-byte aligned, four lanes),
+            // ctx and rh (RTCRayHit4, 16-byte aligned, with zeroed spare room after it for the
+            // instance-array words, see `Spare`) are valid and live for the call.
+            unsafe { sys::rtcIntersect4(valid.0.as_ptr(), self.scene, &mut ctx, rh) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: as above; a null argument struct selects Embree 4's default query arguments.
+            unsafe { sys::rtcIntersect4(valid.0.as_ptr(), self.scene, rh, std::ptr::null_mut()) };
+        }
+        std::array::from_fn(|i| {
+            (valid.0[i] != 0 && rh.hit.geomID[i] != sys::RTC_INVALID_GEOMETRY_ID).then(|| RawHit {
+                t: rh.ray.tfar[i],
+                prim: self.global(rh.hit.geomID[i], rh.hit.primID[i]),
+                u: rh.hit.u[i],
+                v: rh.hit.v[i],
+            })
+        })
+    }
+}
+
 /// Zeroed words after a struct handed to Embree.
 pub(super) const SPARE_WORDS: usize = 8;
 

@@ -201,3 +201,79 @@ pub fn command(args: &RunArgs) -> anyhow::Result<()> {
         &job.load,
     )
 }
+
+/// What [`packet_replay`] measured.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PacketReplay {
+    /// Closest-hit rays of the run, replayed.
+    pub rays: u64,
+    /// Fastest time to trace them one by one (`rtcIntersect1`) and in packets of four consecutive
+    /// rays (`rtcIntersect4`), on the calling thread.
+    pub single_seconds: f64,
+    pub packet_seconds: f64,
+    /// Rays whose packet hit differs from the single-ray hit in any bit (t, triangle,
+    /// barycentrics).
+    pub differing: u64,
+}
+
+/// Replays the closest-hit rays a run of the kernel over `plane` traces, one by one and in
+/// packets of four consecutive rays (those of one sample's walks and radiance path lie next to
+/// each other in the log), `repeats` times interleaved: whether packet traversal would pay for
+/// these rays, and whether it finds the same hits to the bit.
+pub fn packet_replay(
+    scene: &Scene,
+    plane: &Plane,
+    params: &Params,
+    opts: &RenderOptions,
+    repeats: u32,
+) -> anyhow::Result<PacketReplay> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let rays: Vec<_> = record_rays(scene, plane, params, opts, &pool)?
+        .into_iter()
+        .filter(|r| !r.shadow)
+        .collect();
+    let accel = scene.accel();
+    let single = |rays: &[crate::transport::trace::LoggedRay]| {
+        rays.iter()
+            .map(|r| accel.intersect(r.o, r.d, 0.0, r.tfar))
+            .collect::<Vec<_>>()
+    };
+    let packets = |rays: &[crate::transport::trace::LoggedRay]| {
+        let mut out = Vec::with_capacity(rays.len());
+        for chunk in rays.chunks(4) {
+            let lanes = std::array::from_fn(|i| chunk.get(i).map(|r| (r.o, r.d, r.tfar)));
+            out.extend_from_slice(&accel.intersect4(&lanes)[..chunk.len()]);
+        }
+        out
+    };
+    let mut report = PacketReplay {
+        rays: rays.len() as u64,
+        single_seconds: f64::INFINITY,
+        packet_seconds: f64::INFINITY,
+        differing: 0,
+    };
+    for _ in 0..repeats.max(1) {
+        let start = Instant::now();
+        let a = std::hint::black_box(single(&rays));
+        report.single_seconds = report.single_seconds.min(start.elapsed().as_secs_f64());
+        let start = Instant::now();
+        let b = std::hint::black_box(packets(&rays));
+        report.packet_seconds = report.packet_seconds.min(start.elapsed().as_secs_f64());
+        report.differing = a.iter().zip(&b).filter(|(x, y)| !same_hit(x, y)).count() as u64;
+    }
+    Ok(report)
+}
+
+/// The same hit to the bit (or both none).
+fn same_hit(a: &Option<crate::accel::RawHit>, b: &Option<crate::accel::RawHit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            a.prim == b.prim
+                && a.t.to_bits() == b.t.to_bits()
+                && a.u.to_bits() == b.u.to_bits()
+                && a.v.to_bits() == b.v.to_bits()
+        }
+        _ => false,
+    }
+}

@@ -20,7 +20,7 @@
 //! ([`crate::rng::QMC_DIMS`]) does not depend on it.
 
 use super::design::Design;
-use super::{Params, Sample, cone_constants, pairwise_deviation};
+use super::{Params, Sample, cone_constants, regulariser};
 use crate::kernel::{Kernel, Space};
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
@@ -89,6 +89,77 @@ fn run_lengths(p: &Params, m: u32, u: f64, out: &mut Vec<f64>) {
     let span = p.t1 - p.t0;
     for k in 0..m {
         out.push(p.t0 + span * (f64::from(k) + u) / f64::from(m));
+    }
+}
+
+/// [`super::pairwise_deviation`] for one run length `t` and cone direction (`chord`, `r`), its
+/// regulariser and guards evaluated once for all the pairs that share them; [`Deviation::of`]
+/// gives the same bits as `pairwise_deviation(dist, t, chord, r)`.
+#[derive(Clone, Copy, Debug)]
+struct Deviation {
+    s: f64,
+    denom: f64,
+    /// Δ is 0 for every distance (no regularised weight, or no usable denominator).
+    zero: bool,
+}
+
+impl Deviation {
+    #[inline(always)]
+    fn new(t: f64, chord: f64, r: f64) -> Self {
+        let s = regulariser(r);
+        let denom = t * chord;
+        Deviation {
+            s,
+            denom,
+            zero: s == 0.0 || !(denom > 0.0) || !denom.is_finite(),
+        }
+    }
+
+    #[inline(always)]
+    fn of(&self, dist_ab: f64) -> f64 {
+        if self.zero {
+            return 0.0;
+        }
+        let d = self.s * (dist_ab / self.denom - 1.0);
+        if d.is_finite() { d } else { 0.0 }
+    }
+}
+
+/// What the walks of one sample share.
+struct Walks<'a> {
+    scene: &'a Scene,
+    lengths: &'a [f64],
+    max_bounces: u32,
+    /// The key of the sample's walk streams ([`Sampler::child`]).
+    key: u64,
+}
+
+impl Walks<'_> {
+    /// The walks from `first` into `ends` (walk-major, as many run lengths each as `lengths`), walk
+    /// i drawing from stream `index + i`. Always inlined (it was a closure called twice per
+    /// sample, whose call was a measurable part of the sample's own work).
+    #[inline(always)]
+    fn trace<K: Kernel>(
+        &self,
+        first: &FirstSegment,
+        index: u64,
+        ends: &mut [End],
+        out: &mut Sample,
+    ) {
+        out.rays += 1;
+        for (i, e) in ends.chunks_exact_mut(self.lengths.len()).enumerate() {
+            let mut ws = Sampler::child(self.key, index + i as u64);
+            let st = walk_ends::<K>(
+                self.scene,
+                first,
+                self.lengths,
+                self.max_bounces,
+                &mut ws,
+                e,
+            );
+            out.rays += st.rays;
+            out.capped += u32::from(st.capped);
+        }
     }
 }
 
@@ -163,17 +234,14 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
     sc.a.resize(along as usize * m, End::default());
     sc.b.resize(across as usize * m, End::default());
     // Walk i of the sample draws from stream i: the walks along ω first, then those of each ω'_j.
-    let trace_walks = |first: &FirstSegment, index: u64, ends: &mut [End], out: &mut Sample| {
-        out.rays += 1;
-        for (i, e) in ends.chunks_exact_mut(m).enumerate() {
-            let mut ws = Sampler::child(key, index + i as u64);
-            let st = walk_ends::<K>(scene, first, &sc.lengths, p.max_bounces, &mut ws, e);
-            out.rays += st.rays;
-            out.capped += u32::from(st.capped);
-        }
+    let walks = Walks {
+        scene,
+        lengths: &sc.lengths,
+        max_bounces: p.max_bounces,
+        key,
     };
     let first = FirstSegment::trace::<K>(scene, x, omega, t_max);
-    trace_walks(&first, 0, &mut sc.a, out);
+    walks.trace::<K>(&first, 0, &mut sc.a, out);
     let (one_minus_cos_max, tan_half_max) = cone_constants(p);
     let sp = K::Space::of(scene);
     let mut sums = [0.0f64; 3];
@@ -181,11 +249,16 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
         let u = cone_numbers(off.u_cone, j, cones);
         let (omega2, chord, r) = sp.perturb(omega, p.theta_max, one_minus_cos_max, tan_half_max, u);
         let first = FirstSegment::trace::<K>(scene, x, omega2, t_max);
-        trace_walks(&first, u64::from(along + j * across), &mut sc.b, out);
+        walks.trace::<K>(&first, u64::from(along + j * across), &mut sc.b, out);
         for (mi, &t) in sc.lengths.iter().enumerate() {
-            for a in sc.a[mi..].iter().step_by(m) {
+            // Δ's factors that depend on the cone direction and the run length only, computed
+            // once for the pairs they share (the same operations as `pairwise_deviation`).
+            let scale = Deviation::new(t, chord, r);
+            for ia in 0..along as usize {
+                let a = &sc.a[ia * m + mi];
                 let wa = weight * a.beta;
-                for b in sc.b[mi..].iter().step_by(m) {
+                for ib in 0..across as usize {
+                    let b = &sc.b[ib * m + mi];
                     let c = luminance(wa * b.beta);
                     let c = if c.is_finite() {
                         c.max(0.0)
@@ -197,7 +270,7 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
                     let delta = if a.bounces == 0 && b.bounces == 0 {
                         0.0
                     } else {
-                        pairwise_deviation((a.p - b.p).length(), t, chord, r)
+                        scale.of((a.p - b.p).length())
                     };
                     let cd = c * delta;
                     sums[0] += c;
@@ -217,4 +290,30 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
     out.c = sums[0] / n;
     out.cd = sums[1] / n;
     out.cd2 = sums[2] / n;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ftpd::pairwise_deviation;
+
+    /// The factored Δ is `pairwise_deviation` to the bit, guards included.
+    #[test]
+    fn deviation_matches_pairwise_deviation_bit_for_bit() {
+        let mut s = Sampler::new(17, 0, 0);
+        let specials = [0.0, -0.0, 1e-300, f64::INFINITY, f64::NAN, -1.0];
+        for k in 0..20_000 {
+            let mut v = [0.0; 4];
+            for x in v.iter_mut() {
+                *x = (s.next_f64() * 4.0 - 0.5) * 10f64.powi((s.next_f64() * 8.0) as i32 - 4);
+            }
+            if k % 7 == 0 {
+                v[(k / 7) % 4] = specials[(k / 28) % specials.len()];
+            }
+            let [dist, t, chord, r] = v;
+            let want = pairwise_deviation(dist, t, chord, r);
+            let got = Deviation::new(t, chord, r).of(dist);
+            assert_eq!(want.to_bits(), got.to_bits(), "{v:?}");
+        }
+    }
 }

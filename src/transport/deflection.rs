@@ -80,7 +80,10 @@ pub struct WalkStats {
 /// scene). A walk that reaches `max_bounces` scattering events ends at the hit where it would
 /// scatter once more, for every longer run length; a walk absorbed at a hit has zero throughput
 /// from there on. Draws three numbers from `s` per scattering event.
-#[inline]
+///
+/// Always inlined: a sample calls it from one place per kernel, and the call's set-up was a
+/// measurable part of a walk's own work.
+#[inline(always)]
 pub fn walk_ends<K: Kernel>(
     scene: &Scene,
     first: &FirstSegment,
@@ -101,7 +104,10 @@ pub fn walk_ends<K: Kernel>(
     let mut travelled = 0.0;
     let mut beta = Rgb::ONE;
     let mut bounces = 0;
-    let mut hit = first.hit;
+    // The current segment's hit, borrowed (from `first`, then from `traced`) rather than copied:
+    // a hit is about 120 bytes and every walk starts from the shared first segment.
+    let mut traced: Option<Hit>;
+    let mut hit = first.hit.as_ref();
     let mut next = 0;
     loop {
         // The segment ends at the hit (or never); every run length it covers ends on it.
@@ -138,7 +144,7 @@ pub fn walk_ends<K: Kernel>(
         let u = s.next_2d();
         let (bsdf, lobe) = K::Space::scatter(scene, h.material);
         let textured;
-        let (bsdf, lobe) = match scene.textured_bsdf(&h) {
+        let (bsdf, lobe) = match scene.textured_bsdf(h) {
             Some(b) => {
                 textured = (K::Space::textured_lobe(&b, lobe), b);
                 (&textured.1, &textured.0)
@@ -161,17 +167,18 @@ pub fn walk_ends<K: Kernel>(
             return stats;
         }
         bounces += 1;
-        origin = scene.spawn_origin_from(&h, bs.wi, origin);
+        origin = scene.spawn_origin_from(h, bs.wi, origin);
         d = bs.wi;
         base = h.p;
         travelled = seg_end;
         stats.rays += 1;
-        hit = trace::intersect::<K>(
+        traced = trace::intersect::<K>(
             scene,
             origin,
             d,
             (t_max - travelled) + (origin - base).length(),
         );
+        hit = traced.as_ref();
     }
 }
 
