@@ -10,7 +10,7 @@
 
 use super::buffer::SharedArray;
 use super::device::{AccelError, check};
-use super::scene::attach;
+use super::triangles::attach;
 use embree_sys as sys;
 use glam::Vec3;
 use std::ops::Range;

@@ -19,8 +19,9 @@
 //! The submodules follow that lifecycle: `device` (the process-wide device, its error and memory
 //! callbacks), `buffer` (the arrays Embree reads in place), `scene` (geometries, build and
 //! commit), `cutout` (the alpha filter callbacks), `query` (ray queries), `near` (the point query)
-//! `huge_pages` (allocation advice for large per-triangle tables) and `instances` (prototype
-//! scenes and their instances, for instanced glTF). Every
+//! `huge_pages` (allocation advice for large per-triangle tables), `triangles` (a triangle
+//! geometry over ranges of the shared arrays) and `instances` (prototype scenes and their
+//! instances, for instanced glTF). Every
 //! `unsafe` block of the crate is in this module, each with its `// SAFETY:` note.
 
 mod buffer;
@@ -31,6 +32,7 @@ mod instances;
 mod near;
 mod query;
 mod scene;
+mod triangles;
 
 pub use buffer::SharedArray;
 pub use cutout::{CutRay, CutTest};

@@ -283,8 +283,9 @@ impl Scene {
         }
     }
 
-    /// The interpolated world-space shading normal at barycentric (u, v) of triangle `prim`
-    /// through instance `inst`: the corners' normals as [`Instance::normal`] gives them.
+    /// The world-space shading normals of triangle `prim`'s corners through instance `inst`, as
+    /// [`Instance::normal`](crate::scene::Instance::normal) gives them; `None` without shading
+    /// normals.
     #[inline]
     pub(super) fn instance_corner_normals(&self, inst: u32, prim: u32) -> Option<[DVec3; 3]> {
         if self.tri_shading.is_empty() {
