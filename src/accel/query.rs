@@ -138,11 +138,16 @@ impl Accel {
             unsafe { sys::rtcIntersect4(valid.0.as_ptr(), self.scene, rh, std::ptr::null_mut()) };
         }
         std::array::from_fn(|i| {
-            (valid.0[i] != 0 && rh.hit.geomID[i] != sys::RTC_INVALID_GEOMETRY_ID).then(|| RawHit {
-                t: rh.ray.tfar[i],
-                prim: self.global(rh.hit.geomID[i], rh.hit.primID[i]),
-                u: rh.hit.u[i],
-                v: rh.hit.v[i],
+            (valid.0[i] != 0 && rh.hit.geomID[i] != sys::RTC_INVALID_GEOMETRY_ID).then(|| {
+                let (inst, prim) =
+                    self.resolve(rh.hit.instID[0][i], rh.hit.geomID[i], rh.hit.primID[i]);
+                RawHit {
+                    t: rh.ray.tfar[i],
+                    prim,
+                    inst,
+                    u: rh.hit.u[i],
+                    v: rh.hit.v[i],
+                }
             })
         })
     }
