@@ -6,7 +6,7 @@
 # 2. `cargo xtask first-command`: the README's first command as written, its wall time and the 95th
 #    percentile of its relative error (reported, and actual against a cached reference in
 #    target/first-command/);
-# 3. `ftpd3d bench --res 128 --spp 32` on the Cornell box and the stair wall: kernel rays/s over raw
+# 3. `ftpd3d bench --slice z=0 --res 128 --spp 32` on the Cornell box and the stair wall: kernel rays/s over raw
 #    Embree rays/s on the same rays (issue 25 asks for at least 0.6), this tree's release build.
 # The baseline binary is $FTPD3D_BASELINE, or 8ae9f4f built once in a git worktree under the
 # target directory (as scripts/efficiency.sh does; a release build of 8ae9f4f takes about 8 min
@@ -56,7 +56,7 @@ fi
 if [ $bench -eq 1 ]; then
   CARGO_TARGET_DIR=$target cargo build --release --quiet --bin ftpd3d
   for s in cornell_mirror stair_wall; do
-    echo "ftpd3d bench --res 128 --spp 32 --scene scenes/$s.obj (load $(cut -d' ' -f1 /proc/loadavg))"
-    "$target/release/ftpd3d" bench --res 128 --spp 32 --scene "scenes/$s.obj"
+    echo "ftpd3d bench --res 128 --spp 32 --slice z=0 --scene scenes/$s.obj (load $(cut -d' ' -f1 /proc/loadavg))"
+    "$target/release/ftpd3d" bench --res 128 --spp 32 --slice z=0 --scene "scenes/$s.obj"
   done
 fi
