@@ -87,16 +87,18 @@ pub fn tool_args(command: &str) -> anyhow::Result<(Vec<String>, PathBuf)> {
     Ok((args, out))
 }
 
-/// `args` without the output flag and its value.
+/// `args` without the output flag and the budget flags (`--time`, `--target-error`) and their
+/// values: the reference and the `--spp` runs set their own sample counts.
 fn without_output(args: &[String]) -> Vec<String> {
+    const DROP: [&str; 4] = ["-o", "--output", "--time", "--target-error"];
     let mut v = Vec::new();
     let mut skip = false;
     for a in args {
         if skip {
             skip = false;
-        } else if a == "-o" || a == "--output" {
+        } else if DROP.contains(&a.as_str()) {
             skip = true;
-        } else {
+        } else if !DROP.iter().any(|f| a.starts_with(&format!("{f}="))) {
             v.push(a.clone());
         }
     }
@@ -326,6 +328,18 @@ mod tests {
         );
         assert_eq!(out, Path::new("out/cornell_z0.exr"));
         assert_eq!(without_output(&args).len(), 4);
+        let budget: Vec<String> = [
+            "--slice",
+            "z=0",
+            "--time",
+            "85",
+            "--target-error=0.05",
+            "-o",
+            "x",
+        ]
+        .map(String::from)
+        .into();
+        assert_eq!(without_output(&budget), ["--slice", "z=0"]);
         assert!(tool_args("cargo test").is_err());
         assert_eq!(first_command("no code"), None);
     }
