@@ -109,6 +109,7 @@ impl Estimator {
             max_bounces: self.max_bounces,
             radiance_bounces: self.radiance_bounces,
             design: None,
+            guide: false,
         }
     }
 }

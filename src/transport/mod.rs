@@ -1,6 +1,7 @@
 //! Light transport: sampling warps, scattering models, and the random walks built from them.
 pub mod bsdf;
 pub mod deflection;
+pub mod guide;
 pub mod light;
 pub mod mirror;
 pub mod sampling;
