@@ -37,7 +37,7 @@ pub const BINS_PHI: usize = 16;
 const BINS: usize = BINS_Z * BINS_PHI;
 
 /// Grid cells along the longest side of the scene's bounds.
-pub const GRID_CELLS: f64 = 12.0;
+pub const GRID_CELLS: f64 = 8.0;
 
 /// Probability of drawing a direction from the guide where a vertex has one (the paper's 1 − the
 /// BSDF sampling fraction, 0.5).
@@ -51,7 +51,7 @@ const UNIFORM_SHARE: f64 = 0.1;
 const MIN_RECORDS: u32 = 64;
 
 /// Training paths per iteration, each iteration drawing with the guide of the ones before.
-pub const TRAIN_PATHS: [u32; 2] = [1 << 15, 1 << 16];
+pub const TRAIN_PATHS: [u32; 2] = [1 << 16, 1 << 17];
 
 /// Training paths per parallel chunk (each chunk its own stream).
 const TRAIN_CHUNK: u32 = 1024;
@@ -276,10 +276,12 @@ fn train_chunk<K: Kernel>(
                 continue;
             };
             // What the path gathered through the vertex's direction per unit throughput reaching
-            // it: f |cos| L / p, L the radiance arriving along it and p its density. The guide
-            // follows the reflected light, cosine and albedo included, so that a cell of one
-            // surface puts no density below it.
-            let value = (total - luminance(v.gathered)) / v.throughput;
+            // it, f |cos| L / p (L the radiance arriving along it, p its density), without the
+            // emission it found at the next vertex, which light sampling reaches better: the
+            // guide follows the light that next-event estimation misses, cosine and albedo
+            // included, so that a cell of one surface puts no density below it.
+            let later = total - luminance(v.gathered) - luminance(v.found);
+            let value = later / v.throughput;
             if value.is_finite() && value >= 0.0 {
                 out.push((cell as u32, bin_of(v.wi) as u32, value));
             }

@@ -288,6 +288,9 @@ pub struct Visit {
     /// What the path had gathered up to leaving the vertex ([`Radiance::rest`] so far): all it
     /// gathers after comes along `wi`.
     pub gathered: Rgb,
+    /// Of that later light, the emission the path found at its next vertex (or the sky it
+    /// escaped to), which light sampling at this vertex also reaches.
+    pub found: Rgb,
 }
 
 /// How a radiance path is guided ([`crate::transport::guide`]), and where it logs its vertices for
@@ -303,6 +306,14 @@ impl Guiding<'_> {
         guide: None,
         visits: None,
     };
+
+    /// The path found light `l` by its last sampled direction: the last vertex's `found`.
+    #[inline(always)]
+    fn found_light(&mut self, l: Rgb) {
+        if let Some(v) = self.visits.as_deref_mut().and_then(|log| log.last_mut()) {
+            v.found += l;
+        }
+    }
 }
 
 /// [`radiance_mis`] drawing directions at its vertices from the one-sample MIS mixture of the
@@ -327,11 +338,14 @@ pub fn radiance_guided<K: Kernel>(
     let mut d = look;
     loop {
         st.rays += 1;
+        let before = path.l;
         let Some(hit) = trace::intersect::<K>(scene, origin, d, f64::INFINITY) else {
             path.escaped::<K>(&view, d, &mut out);
+            guiding.found_light(path.l - before);
             break;
         };
         path.emission::<K>(&view, x, &hit, d, &mut out);
+        guiding.found_light(path.l - before);
         if path.depth >= max_bounces {
             break;
         }
@@ -386,6 +400,7 @@ pub fn radiance_guided<K: Kernel>(
                 pdf: bs.pdf,
                 throughput: luminance(path.beta),
                 gathered: path.l,
+                found: Rgb::ZERO,
             });
         }
         if view.has_mirrors {
