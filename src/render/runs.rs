@@ -9,7 +9,8 @@ use crate::ftpd::{self, Params};
 use crate::rng::Sampler;
 use crate::run_info::{DomainKind, RunInfo};
 use crate::scene::Scene;
-use crate::transport::guide::{self, Guide};
+use crate::transport::guide::Guide;
+use crate::transport::training;
 
 /// Runs FTPD over a plane (the whole grid, or the stripe `opts.tile`); the field comes back with
 /// its metadata filled in. A plane with a surface lying in it (a slice through a wall) starts its
@@ -145,7 +146,7 @@ fn train_guide<K: crate::kernel::Kernel>(
         return None;
     }
     let t = std::time::Instant::now();
-    let g = guide::train::<K>(scene, params.radiance_cap(), opts.seed, pool);
+    let g = training::train::<K>(scene, params.radiance_cap(), opts.seed, pool);
     progress.elapsed += t.elapsed().as_secs_f64();
     Some(g)
 }

@@ -16,25 +16,20 @@
 //! estimation weighs its light samples against the same mixture density.
 //!
 //! Determinism: the guide is a function of the scene, the radiance-path cap and the run's seed
-//! alone ([`train`]): its training paths start from points of the scene's bounds on streams of
+//! alone ([`crate::transport::training::train`]): its training paths start from points of the scene's bounds on streams of
 //! their own, in chunks whose records are folded in chunk order, so it is the same on any thread
 //! count, for every tile of a grid and for a resumed run, which trains it again.
 
-use crate::kernel::{Kernel, Space};
-use crate::math::luminance;
-use crate::rng::{Sampler, mix64};
 use crate::scene::Scene;
 use crate::scene::material::Bsdf;
 use crate::transport::sampling::sin_cos_turns;
-use crate::transport::walk::{Guiding, RadianceStats, StartMis, Visit, radiance_guided};
 use glam::DVec3;
-use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Bins of cos θ (world z) and of φ per direction histogram.
 pub const BINS_Z: usize = 8;
 pub const BINS_PHI: usize = 16;
-const BINS: usize = BINS_Z * BINS_PHI;
+pub(crate) const BINS: usize = BINS_Z * BINS_PHI;
 
 /// Grid cells along the longest side of the scene's bounds.
 pub const GRID_CELLS: f64 = 8.0;
@@ -49,15 +44,6 @@ const UNIFORM_SHARE: f64 = 0.1;
 
 /// Records a grid cell needs before it guides.
 const MIN_RECORDS: u32 = 64;
-
-/// Training paths per iteration, each iteration drawing with the guide of the ones before.
-pub const TRAIN_PATHS: [u32; 2] = [1 << 16, 1 << 17];
-
-/// Training paths per parallel chunk (each chunk its own stream).
-const TRAIN_CHUNK: u32 = 1024;
-
-/// Distinguishes the training streams from the run's (seed, pass, cell) streams.
-const TRAIN_STREAM: u64 = 0x6775_6964_6520_7472;
 
 /// A trained guide: a grid over the scene's bounds and, per grid cell with enough records, the
 /// cumulative distribution over its direction bins.
@@ -80,7 +66,7 @@ pub struct GuideAt<'a> {
 
 /// The bin of direction `d` (unit).
 #[inline]
-fn bin_of(d: DVec3) -> usize {
+pub(crate) fn bin_of(d: DVec3) -> usize {
     let iz = (((d.z + 1.0) * 0.5 * BINS_Z as f64) as usize).min(BINS_Z - 1);
     let turns = d.y.atan2(d.x) * (0.5 / PI) + 0.5;
     let ip = ((turns * BINS_PHI as f64) as usize).min(BINS_PHI - 1);
@@ -104,13 +90,18 @@ impl Guide {
         })
     }
 
+    /// Grid cells, guiding or not.
+    pub(crate) fn cells(&self) -> usize {
+        self.slot.len()
+    }
+
     /// Grid cells that guide.
     pub fn guided_cells(&self) -> usize {
         self.cdf.len() / BINS
     }
 
     /// The grid over `scene`'s bounds, with no cell guiding yet.
-    fn grid(scene: &Scene) -> Guide {
+    pub(crate) fn grid(scene: &Scene) -> Guide {
         let b = &scene.bounds;
         let size = b.max - b.min;
         let side = size.max_element().max(f64::MIN_POSITIVE);
@@ -128,7 +119,7 @@ impl Guide {
     }
 
     /// The grid cell of `p`, if it lies in the grid.
-    fn cell_of(&self, p: DVec3) -> Option<usize> {
+    pub(crate) fn cell_of(&self, p: DVec3) -> Option<usize> {
         let q = (p - self.min) * self.inv_cell;
         if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
             return None;
@@ -139,7 +130,7 @@ impl Guide {
     }
 
     /// The guide of the grid `self` from per-cell bin sums and record counts.
-    fn with_sums(mut self, sums: &[f64], counts: &[u32]) -> Guide {
+    pub(crate) fn with_sums(mut self, sums: &[f64], counts: &[u32]) -> Guide {
         self.cdf.clear();
         for (c, slot) in self.slot.iter_mut().enumerate() {
             *slot = u32::MAX;
@@ -201,93 +192,6 @@ impl GuideAt<'_> {
     pub fn mixture(&self, p_guide: f64, p_bsdf: f64) -> f64 {
         GUIDE_FRACTION * p_guide + (1.0 - GUIDE_FRACTION) * p_bsdf
     }
-}
-
-/// Trains the guide for radiance paths of at most `cap` scattering events in `scene` (3D kernels
-/// only), on `pool`, from the training streams of `seed` ([`TRAIN_PATHS`]). The same guide on any
-/// thread count.
-pub fn train<K: Kernel>(scene: &Scene, cap: u32, seed: u64, pool: &rayon::ThreadPool) -> Guide {
-    debug_assert_eq!(K::Space::DIMS, 3);
-    let grid = Guide::grid(scene);
-    let n = grid.slot.len();
-    let mut sums = vec![0.0; n * BINS];
-    let mut counts = vec![0u32; n];
-    let mut guide: Option<Guide> = None;
-    for (iteration, &paths) in TRAIN_PATHS.iter().enumerate() {
-        let chunks = paths.div_ceil(TRAIN_CHUNK);
-        let prev = guide.as_ref();
-        let records: Vec<Vec<(u32, u32, f64)>> = pool.install(|| {
-            (0..chunks)
-                .into_par_iter()
-                .map(|chunk| {
-                    let mut s =
-                        Sampler::new(mix64(seed ^ TRAIN_STREAM), iteration as u64, chunk as u64);
-                    train_chunk::<K>(scene, &grid, prev, cap, TRAIN_CHUNK, &mut s)
-                })
-                .collect()
-        });
-        // Folded in chunk order: the sums do not depend on which thread ran which chunk.
-        for (cell, bin, v) in records.into_iter().flatten() {
-            sums[cell as usize * BINS + bin as usize] += v;
-            counts[cell as usize] += 1;
-        }
-        guide = Some(grid.clone().with_sums(&sums, &counts));
-    }
-    guide.unwrap_or(grid)
-}
-
-/// `paths` training paths from points uniform in the scene's bounds along uniform directions,
-/// drawing with `prev` where it guides; their records (grid cell, bin, L / p).
-fn train_chunk<K: Kernel>(
-    scene: &Scene,
-    grid: &Guide,
-    prev: Option<&Guide>,
-    cap: u32,
-    paths: u32,
-    s: &mut Sampler,
-) -> Vec<(u32, u32, f64)> {
-    let b = &scene.bounds;
-    let sp = K::Space::of(scene);
-    let mut out = Vec::new();
-    let mut visits: Vec<Visit> = Vec::new();
-    for _ in 0..paths {
-        let u = DVec3::new(s.next_f64(), s.next_f64(), s.next_f64());
-        let x = scene.off_surfaces(b.min + (b.max - b.min) * u);
-        let look = sp.uniform(s.next_2d());
-        visits.clear();
-        let mut st = RadianceStats::default();
-        let guiding = Guiding {
-            guide: prev,
-            visits: Some(&mut visits),
-        };
-        let r = radiance_guided::<K>(
-            scene,
-            x,
-            look,
-            cap,
-            StartMis::default(),
-            guiding,
-            s,
-            &mut st,
-        );
-        let total = luminance(r.rest);
-        for v in &visits {
-            let Some(cell) = grid.cell_of(v.p) else {
-                continue;
-            };
-            // What the path gathered through the vertex's direction per unit throughput reaching
-            // it, f |cos| L / p (L the radiance arriving along it, p its density), without the
-            // emission it found at the next vertex, which light sampling reaches better: the
-            // guide follows the light that next-event estimation misses, cosine and albedo
-            // included, so that a cell of one surface puts no density below it.
-            let later = total - luminance(v.gathered) - luminance(v.found);
-            let value = later / v.throughput;
-            if value.is_finite() && value >= 0.0 {
-                out.push((cell as u32, bin_of(v.wi) as u32, value));
-            }
-        }
-    }
-    out
 }
 
 #[cfg(test)]

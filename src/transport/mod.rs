@@ -7,4 +7,5 @@ pub mod mirror;
 pub mod sampling;
 pub mod space;
 pub mod trace;
+pub mod training;
 pub mod walk;
