@@ -107,6 +107,7 @@ fn main() -> anyhow::Result<()> {
                     let params = EstimatorArgs {
                         weighting,
                         design: Some(designs[i]),
+                        guide: false,
                         ..EstimatorArgs::default()
                     }
                     .resolve(&scene)?;

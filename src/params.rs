@@ -24,6 +24,8 @@ pub struct EstimatorArgs {
     pub radiance_bounces: Option<u32>,
     /// The deflection pairs of a sample (`None`: the weighting's, [`Design::default_for`]).
     pub design: Option<Design>,
+    /// Guide the radiance paths ([`crate::transport::guide`]; radiance weighting in 3D only).
+    pub guide: bool,
 }
 
 impl Default for EstimatorArgs {
@@ -38,6 +40,7 @@ impl Default for EstimatorArgs {
             max_bounces: 32,
             radiance_bounces: None,
             design: None,
+            guide: false,
         }
     }
 }
@@ -69,6 +72,9 @@ pub enum ParamError {
     /// A design of deflection pairs out of range.
     #[error("deflection pairs per sample: {0}")]
     Design(#[from] DesignError),
+    /// Guided radiance paths for a run that traces none, or in flatland.
+    #[error("guided radiance paths need radiance weighting in 3D; this run is {what}")]
+    GuideUnused { what: String },
     /// Flatland radiance weighting, and no light meets the plane.
     #[error("flatland radiance weighting: no light of {scene} meets the slice plane {plane}")]
     NoLightInPlane { scene: String, plane: String },
@@ -143,6 +149,11 @@ impl EstimatorArgs {
                 weighting: self.weighting,
             });
         }
+        if self.guide && self.weighting != Weighting::Radiance {
+            return Err(ParamError::GuideUnused {
+                what: format!("{} weighted", self.weighting),
+            });
+        }
         let design = self
             .design
             .unwrap_or_else(|| Design::default_for(self.weighting));
@@ -162,6 +173,7 @@ impl EstimatorArgs {
             radiance_bounces: self.radiance_bounces,
             flat: None,
             design,
+            guide: self.guide,
         })
     }
 }
@@ -193,6 +205,12 @@ pub fn prepare_flatland(
     plane: &Plane,
     args: &EstimatorArgs,
 ) -> anyhow::Result<Params> {
+    if args.guide {
+        return Err(ParamError::GuideUnused {
+            what: "flatland".into(),
+        }
+        .into());
+    }
     let fl = plane.flatland();
     scene.prepare_flatland(fl, &plane.label)?;
     let mut params = args.resolve_from(

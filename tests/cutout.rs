@@ -175,6 +175,7 @@ fn z_scores(mode: AlphaMode) -> Vec<(String, f64)> {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(weighting),
+        guide: false,
     };
     crate::support::z_scores_of_two_scenes([&cut, &squares], &points, params, 11, 3000)
 }

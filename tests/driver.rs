@@ -37,6 +37,7 @@ fn cornell(res: usize) -> Setup {
         max_bounces: 32,
         radiance_bounces: None,
         design: Default::default(),
+        guide: false,
     }
     .resolve(&scene)
     .unwrap();

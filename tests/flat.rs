@@ -112,6 +112,7 @@ fn params(weighting: Weighting, flat: Flatland) -> Params {
         radiance_bounces: None,
         flat: Some(flat),
         design: ftpd3d::ftpd::Design::default_for(weighting),
+        guide: false,
     }
 }
 
@@ -926,6 +927,7 @@ fn flatland_mirror_is_an_isometry() {
         radiance_bounces: None,
         flat: Some(z0()),
         design: ftpd3d::ftpd::Design::default_for(Weighting::Unweighted),
+        guide: false,
     };
     let mut s = Sampler::new(11, 0, 0);
     let (mut both, mut worst) = (0, 0.0f64);

@@ -23,6 +23,7 @@ fn unweighted(t0: f64, t1: f64, angle_deg: f64) -> Params {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Unweighted),
+        guide: false,
     }
 }
 
@@ -222,6 +223,7 @@ fn small_run(seed: u64, threads: usize) -> Field {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+        guide: false,
     };
     run_plane(&scene, &plane, &p, &opts(16, seed, threads))
         .unwrap()
@@ -293,6 +295,7 @@ fn camera_image_of_an_empty_scene_is_zero_and_beauty_sees_the_light() {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Importance),
+        guide: false,
     };
     // Empty: the only geometry is 10 km behind the camera.
     let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();

@@ -1143,6 +1143,7 @@ fn mr_z_scores(flatland: bool) -> Vec<(String, f64)> {
         radiance_bounces: None,
         flat: flatland.then_some(plane),
         design: ftpd3d::ftpd::Design::default_for(weighting),
+        guide: false,
     };
     crate::support::z_scores_of_two_scenes([&scenes[0], &scenes[1]], &points, params, 21, 3000)
 }

@@ -357,6 +357,7 @@ fn instanced_field_is_the_flattened_field() {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(weighting),
+        guide: false,
     };
     let zs = crate::support::z_scores_of_two_scenes([&inst, &flat], &points, params, 31, 3000);
     crate::support::assert_consistent("instanced vs flattened", &zs);

@@ -13,6 +13,7 @@ mod gallery;
 mod geometry;
 mod gltf;
 mod gltf_ext;
+mod guide;
 mod images;
 mod instancing;
 mod layers;

@@ -118,6 +118,7 @@ fn params() -> Params {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+        guide: false,
     }
 }
 
@@ -230,6 +231,7 @@ fn flatland_mirror_images_agree_with_the_estimator_without_them() {
         radiance_bounces: None,
         flat: Some(plane),
         design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+        guide: false,
     };
     let lo = with.bounds.min;
     let hi = with.bounds.max;

@@ -25,6 +25,7 @@ fn mis_radiance_weighting_matches_the_reference() {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+        guide: false,
     };
     let points = [
         DVec3::new(0.2, 1.0, 0.0),
@@ -75,6 +76,7 @@ fn mis_radiance_weighting_matches_the_reference_under_sky_sun_and_spot() {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+        guide: false,
     };
     let points = [at(0.3, 0.5, 0.5), at(0.6, 0.8, 0.3)].map(|x| scene.off_surfaces(x));
     agrees_with_reference(&scene, &points, &p, 24000, (500, 600), "outdoor point");
@@ -119,6 +121,7 @@ fn mis_emission_texture_agrees_with_the_reference() {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+        guide: false,
     };
     let points = [
         DVec3::new(0.25, 0.5, 0.5),

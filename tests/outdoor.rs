@@ -343,6 +343,7 @@ fn fluence_under_sky_and_sun_matches_the_closed_form() {
             radiance_bounces: None,
             flat: flat.then_some(pl),
             design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+            guide: false,
         };
         let mut s = Sampler::new(19, 0, 0);
         let n = 200_000;

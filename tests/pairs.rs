@@ -27,6 +27,7 @@ fn params(weighting: Weighting, design: Design) -> Params {
         radiance_bounces: None,
         flat: None,
         design,
+        guide: false,
     }
 }
 

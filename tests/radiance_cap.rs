@@ -36,6 +36,7 @@ fn params(weighting: Weighting, cap: Option<u32>, flat: bool) -> Params {
         radiance_bounces: cap,
         flat: flat.then(z0),
         design: ftpd3d::ftpd::Design::default_for(weighting),
+        guide: false,
     }
 }
 

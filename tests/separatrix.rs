@@ -415,6 +415,7 @@ fn params(flat: Option<Flatland>) -> Params {
         radiance_bounces: None,
         flat,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
+        guide: false,
     }
 }
 

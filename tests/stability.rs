@@ -129,6 +129,7 @@ fn params(weighting: Weighting, t0: f64, t1: f64, angle_deg: f64, max_bounces: u
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(weighting),
+        guide: false,
     }
 }
 

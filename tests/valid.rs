@@ -756,6 +756,7 @@ fn plane_ftpd_matches_quadrature(design: Design, seed: u64, batches: u64, per_ba
         radiance_bounces: None,
         flat: None,
         design,
+        guide: false,
     };
     let started = std::time::Instant::now();
     let run = run_ftpd(&scene, setup.x(), &p, seed, batches, per_batch);
@@ -844,6 +845,7 @@ fn valid_glossy_sigma_falls_with_the_exponent_towards_its_mirror_limit() {
         radiance_bounces: None,
         flat: None,
         design: ftpd3d::ftpd::Design::default_for(Weighting::Unweighted),
+        guide: false,
     };
     let run = |bsdf: Bsdf, seed: u64, per_batch: usize| {
         let scene = big_plane(crate::support::material("plane", bsdf));

@@ -30,6 +30,7 @@ fn volume_job(res: VolumeRes, bbox: Option<[f64; 6]>, spp: u32, out: &Path) -> J
             max_bounces: 32,
             radiance_bounces: None,
             design: Default::default(),
+            guide: false,
         },
         render: RenderOptions {
             spp,

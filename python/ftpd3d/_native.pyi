@@ -35,6 +35,7 @@ class RunOptions(TypedDict, total=False):
     max_bounces: int  # 32
     radiance_bounces: Optional[int]  # None: max_bounces
     pairs: Pairs  # None: 2,2,1,2
+    guide: bool  # False: guided radiance paths (radiance weighting)
     batches: int  # 8
     pass_spp: Optional[int]  # None
     adaptive: Optional[bool]  # None: adaptive when the run stops at a target error

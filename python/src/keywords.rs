@@ -112,6 +112,7 @@ impl<'py> RunKeywords<'py> {
                 .get::<Option<Pairs>>("pairs", None)?
                 .map(Pairs::design)
                 .transpose()?,
+            guide: k.get("guide", est_default.guide)?,
         };
         let sampling = SamplingArgs {
             spp: k.get("spp", None)?,

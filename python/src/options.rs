@@ -99,6 +99,8 @@ pub struct Estimator {
     pub radiance_bounces: Option<u32>,
     /// The deflection pairs of a sample (`None`: the weighting's).
     pub design: Option<Design>,
+    /// Guided radiance paths.
+    pub guide: bool,
 }
 
 impl Estimator {
@@ -111,6 +113,7 @@ impl Estimator {
             max_bounces: self.max_bounces,
             radiance_bounces: self.radiance_bounces,
             design: self.design,
+            guide: self.guide,
         }
     }
 }

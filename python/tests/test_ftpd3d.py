@@ -79,6 +79,10 @@ def test_other_domains_and_options_match_the_command_line(scene, cli, tmp_path):
             lambda: scene.slice("z=0", res=16, spp=8, pairs=(1, 1, 2, 8), **same),
         ),
         (
+            ["--slice", "z=0", "--res", 12, "--spp", 4, "--guide", "on"],
+            lambda: scene.slice("z=0", res=12, spp=4, guide=True, **same),
+        ),
+        (
             ["--slice", "z=0", "--res", 16, "--spp", 8, "--pairs", "1,1,1,1", "--flatland"],
             lambda: scene.flatland("z=0", res=16, spp=8, pairs="1,1,1,1", **same),
         ),
@@ -203,6 +207,7 @@ def test_strict_load_names_the_line(tmp_path):
         (dict(slice="z=0", pairs=(0, 1, 1, 1)), "kA"),
         (dict(slice="z=0", pairs=(1, 1, 1, -1)), "pairs"),
         (dict(slice="z=0", pairs="1,1,1"), "pairs"),
+        (dict(slice="z=0", weighting="unweighted", guide=True), "guided"),
     ],
 )
 def test_bad_values_raise_value_errors(scene, kwargs, words):

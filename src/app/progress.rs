@@ -55,6 +55,7 @@ pub fn check_resume(
             ("adaptive", Some("off")) => " (this file's passes were uniform: add --uniform)".into(),
             ("adaptive", Some(_)) => " (this file's passes were adaptive: add --adaptive)".into(),
             ("pairs", Some(p)) => format!(" (add --pairs {p})"),
+            ("guide", g) => format!(" (add --guide {})", g.unwrap_or("off")),
             _ => String::new(),
         };
         bail!(

@@ -82,6 +82,18 @@ pub struct EstimatorFlags {
     /// [default: 2,2,1,2].
     #[arg(long, value_name = "KA,KB,J,M")]
     pub pairs: Option<crate::ftpd::Design>,
+    /// Guided radiance paths (radiance weighting, 3D): learn where light arrives from by training
+    /// paths before the run and mix that guide with BSDF sampling (one-sample MIS); the
+    /// expectation is unchanged.
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub guide: OnOff,
+}
+
+/// A setting that is on or off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
 }
 
 impl EstimatorFlags {
@@ -111,6 +123,7 @@ impl EstimatorFlags {
             max_bounces: self.max_bounces,
             radiance_bounces: self.radiance_bounces,
             design: self.pairs,
+            guide: self.guide == OnOff::On,
         }
     }
 }

@@ -122,6 +122,9 @@ pub fn param(e: &ParamError) -> String {
             "--pairs: {} = {} must lie between 1 and {} (--pairs kA,kB,J,M)",
             d.what, d.value, d.max
         ),
+        ParamError::GuideUnused { what } => format!(
+            "--guide on: guided radiance paths need --weight radiance in 3D; this run is {what}"
+        ),
         ParamError::NoLightInPlane { scene, plane } => format!(
             "--flatland --weight radiance: no light of {scene} meets the slice plane {plane} \
              (emissive triangles must cross it, point lights lie in it); use --weight unweighted \

@@ -31,8 +31,11 @@ use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::scene::flat::Flatland;
+use crate::transport::guide::Guide;
 use crate::transport::trace;
-use crate::transport::walk::{RadianceStats, StartMis, radiance, radiance_mis, walk_counted};
+use crate::transport::walk::{
+    Guiding, RadianceStats, StartMis, radiance, radiance_guided, walk_counted,
+};
 use glam::DVec3;
 use std::fmt;
 
@@ -77,6 +80,8 @@ pub struct Params {
     pub flat: Option<Flatland>,
     /// The deflection pairs of one sample ([`Design`]), checked ([`Design::check`]).
     pub design: Design,
+    /// Radiance paths are guided ([`crate::transport::guide`]): radiance weighting in 3D only.
+    pub guide: bool,
 }
 
 impl Params {
@@ -207,7 +212,7 @@ pub fn radiance_direction<K: Kernel>(
     rays: &mut u32,
 ) -> (DVec3, Rgb) {
     let nums = DirectionNumbers::draw(s);
-    radiance_direction_from::<K>(scene, x, max_bounces, nums, s, rays)
+    radiance_direction_from::<K>(scene, x, max_bounces, nums, None, s, rays)
 }
 
 /// The numbers that choose a radiance-weighted start direction: the strategy (and, rescaled, the
@@ -233,13 +238,15 @@ impl DirectionNumbers {
 }
 
 /// [`radiance_direction`] from numbers drawn before (the sample's first ones, [`visit_at`]); the
-/// radiance path draws from `s`.
+/// radiance path draws from `s`, guided by `guide` when given
+/// ([`crate::transport::guide`]).
 #[inline]
 pub fn radiance_direction_from<K: Kernel>(
     scene: &Scene,
     x: DVec3,
     max_bounces: u32,
     nums: DirectionNumbers,
+    guide: Option<&Guide>,
     s: &mut Sampler,
     rays: &mut u32,
 ) -> (DVec3, Rgb) {
@@ -266,7 +273,11 @@ pub fn radiance_direction_from<K: Kernel>(
             pdf: p_uniform,
             virtual_fraction: alpha_v,
         };
-        let r = radiance_mis::<K>(scene, x, -omega, max_bounces, start, s, &mut st);
+        let guiding = Guiding {
+            guide,
+            visits: None,
+        };
+        let r = radiance_guided::<K>(scene, x, -omega, max_bounces, start, guiding, s, &mut st);
         *rays += st.rays;
         let direct = if r.escaped {
             // One balance-heuristic weight per distant light seen along −ω.
@@ -328,20 +339,34 @@ pub enum Start {
 /// One sample from `start` with kernel `K` ([`sample_at`] or [`sample_camera`]).
 #[inline]
 pub fn sample<K: Kernel>(scene: &Scene, start: Start, p: &Params, s: &mut Sampler) -> Sample {
-    visit::<K, _>(scene, start, p, s, &mut |_| {})
+    visit::<K, _>(scene, start, p, None, s, &mut |_| {})
 }
 
-/// [`sample`], showing each of the sample's pairs to `visit` (tests look at single pairs).
+/// [`sample`] whose radiance paths are guided by `guide` ([`crate::transport::guide`]; 3D
+/// kernels).
+#[inline]
+pub fn sample_guided<K: Kernel>(
+    scene: &Scene,
+    start: Start,
+    p: &Params,
+    guide: Option<&Guide>,
+    s: &mut Sampler,
+) -> Sample {
+    visit::<K, _>(scene, start, p, guide, s, &mut |_| {})
+}
+
+/// [`sample_guided`], showing each of the sample's pairs to `visit` (tests look at single pairs).
 #[inline]
 pub fn visit<K: Kernel, V: FnMut(&Pair) + ?Sized>(
     scene: &Scene,
     start: Start,
     p: &Params,
+    guide: Option<&Guide>,
     s: &mut Sampler,
     visit: &mut V,
 ) -> Sample {
     match start {
-        Start::Point(x) => visit_at::<K, V>(scene, x, p, s, visit),
+        Start::Point(x) => visit_at::<K, V>(scene, x, p, guide, s, visit),
         Start::Eye { eye, dir } => visit_camera::<K, V>(scene, eye, dir, p, s, visit),
     }
 }
@@ -393,10 +418,10 @@ pub fn visit_point(
     let x = Start::Point(scene.off_surfaces(x));
     let k = kernel_for(p);
     match (k.radiance, k.flatland) {
-        (true, false) => self::visit::<Radiance3D, _>(scene, x, p, s, visit),
-        (false, false) => self::visit::<Plain3D, _>(scene, x, p, s, visit),
-        (true, true) => self::visit::<RadianceFlat, _>(scene, x, p, s, visit),
-        (false, true) => self::visit::<PlainFlat, _>(scene, x, p, s, visit),
+        (true, false) => self::visit::<Radiance3D, _>(scene, x, p, None, s, visit),
+        (false, false) => self::visit::<Plain3D, _>(scene, x, p, None, s, visit),
+        (true, true) => self::visit::<RadianceFlat, _>(scene, x, p, None, s, visit),
+        (false, true) => self::visit::<PlainFlat, _>(scene, x, p, None, s, visit),
     }
 }
 
@@ -407,10 +432,10 @@ pub fn visit_point(
 /// them first with [`Scene::off_surfaces`].
 #[inline]
 pub fn sample_at<K: Kernel>(scene: &Scene, x: DVec3, p: &Params, s: &mut Sampler) -> Sample {
-    visit_at::<K, _>(scene, x, p, s, &mut |_| {})
+    visit_at::<K, _>(scene, x, p, None, s, &mut |_| {})
 }
 
-/// [`sample_at`], showing each pair to `visit`.
+/// [`sample_at`] with radiance paths guided by `guide`, showing each pair to `visit`.
 ///
 /// The sample's numbers in the order of their importance, so that the first ones, which are the
 /// dimensions of a scrambled Sobol' point ([`Sampler::begin_sample`]), go where stratifying pays
@@ -422,6 +447,7 @@ pub fn visit_at<K: Kernel, V: FnMut(&Pair) + ?Sized>(
     scene: &Scene,
     x: DVec3,
     p: &Params,
+    guide: Option<&Guide>,
     s: &mut Sampler,
     visit: &mut V,
 ) -> Sample {
@@ -442,7 +468,7 @@ pub fn visit_at<K: Kernel, V: FnMut(&Pair) + ?Sized>(
     let key = s.fork_key();
     let mut rays = 0;
     let (omega, weight) = if radiance {
-        radiance_direction_from::<K>(scene, x, p.radiance_cap(), nums, s, &mut rays)
+        radiance_direction_from::<K>(scene, x, p.radiance_cap(), nums, guide, s, &mut rays)
     } else {
         (K::Space::of(scene).uniform(nums.u), Rgb::ONE)
     };

@@ -280,6 +280,9 @@ fn join_differing(info: &mut RunInfo, infos: &[RunInfo]) -> Option<String> {
     info.embree = join_text(infos.iter().map(|i| i.embree.as_ref()));
     info.kernel = join_text(infos.iter().map(|i| i.kernel.as_ref()));
     info.pairs = join_text(infos.iter().map(|i| i.pairs.as_ref()));
+    let off = "off".to_string();
+    info.guide =
+        join_text(infos.iter().map(|i| i.guide.as_ref().or(Some(&off)))).filter(|g| g != "off");
     info.schedule = join_text(infos.iter().map(|i| i.schedule.as_ref()));
     info.adaptive = join_text(infos.iter().map(|i| i.adaptive.as_ref()));
     info.budget_time = join_text(infos.iter().map(|i| i.budget_time.as_ref()));

@@ -52,6 +52,7 @@ pub fn describe_run(
         flatland: params.flat.is_some(),
         kernel: Some(ftpd::kernel_for(params).to_string()),
         pairs: Some(params.design.to_string()),
+        guide: params.guide.then(|| "on".into()),
         tiles: opts.tile.into_iter().collect(),
         ..RunInfo::default()
     }

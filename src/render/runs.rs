@@ -9,6 +9,8 @@ use crate::ftpd::{self, Params};
 use crate::rng::Sampler;
 use crate::run_info::{DomainKind, RunInfo};
 use crate::scene::Scene;
+use crate::transport::guide::Guide;
+use crate::transport::training;
 
 /// Runs FTPD over a plane (the whole grid, or the stripe `opts.tile`); the field comes back with
 /// its metadata filled in. A plane with a surface lying in it (a slice through a wall) starts its
@@ -111,14 +113,42 @@ fn drive<K: crate::kernel::Kernel>(
     progress: &mut Progress,
     hooks: Hooks,
 ) -> Result<RunStats, RunError> {
+    let guide = train_guide::<K>(pool, scene, params, opts, progress);
     run_progressive(
         pool,
         field,
         opts,
         progress,
         hooks,
-        |cell, s: &mut Sampler| ftpd::sample::<K>(scene, domain.start(scene, cell, s), params, s),
+        |cell, s: &mut Sampler| {
+            let start = domain.start(scene, cell, s);
+            ftpd::sample_guided::<K>(scene, start, params, guide.as_ref(), s)
+        },
     )
+}
+
+/// The guide of a guided run ([`crate::transport::guide`]; radiance weighting in 3D), trained
+/// before its first pass (and again when it resumes: the guide is a function of the scene, the
+/// parameters and the seed, so the same). Its compute time counts as the run's.
+fn train_guide<K: crate::kernel::Kernel>(
+    pool: &rayon::ThreadPool,
+    scene: &Scene,
+    params: &Params,
+    opts: &RenderOptions,
+    progress: &mut Progress,
+) -> Option<Guide> {
+    use crate::kernel::Space;
+    let wanted = params.guide
+        && K::RADIANCE
+        && K::Space::DIMS == 3
+        && params.weighting == ftpd::Weighting::Radiance;
+    if !wanted {
+        return None;
+    }
+    let t = std::time::Instant::now();
+    let g = training::train::<K>(scene, params.radiance_cap(), opts.seed, pool);
+    progress.elapsed += t.elapsed().as_secs_f64();
+    Some(g)
 }
 
 /// A flatland run needs a flatland kernel, a scene prepared for its plane, and a domain in it.

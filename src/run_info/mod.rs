@@ -24,6 +24,7 @@
 //! | `radiance_bounces` | bounce cap of radiance paths (absent: `max_bounces`, as before it was written) | decimal |
 //! | `features`, `kernel` | feature set, kernel | text |
 //! | `pairs` | deflection pairs per sample, kA,kB,J,M ([`crate::ftpd::Design`]; absent: written before designs, one pair per sample with another sample layout) | `2,2,1,2`; a merge of several: `1,1,1,1; 2,2,1,2` |
+//! | `guide` | guided radiance paths ([`crate::transport::guide`]; absent: off) | `on` |
 //! | `point_lights` | point lights added to the scene file's | `x,y,z:r,g,b;…` |
 //! | `sun` | suns added to the scene file's | `x,y,z:r,g,b:diameter;…` |
 //! | `sky` | sky or environment map added to the scene file's | `r,g,b` or `file:scale:rotation` |
@@ -114,6 +115,9 @@ pub struct RunInfo {
     /// The deflection pairs of a sample ([`crate::ftpd::Design`] as text); a merge of fields of
     /// different designs lists them.
     pub pairs: Option<String>,
+    /// Guided radiance paths: `on` (absent: off); a merge of guided and unguided fields lists
+    /// both.
+    pub guide: Option<String>,
     pub seed: Option<u64>,
     /// The distinct seeds of a merged field.
     pub seeds: Vec<u64>,
@@ -175,6 +179,7 @@ const KNOWN: &[&str] = &[
     "flatland",
     "kernel",
     "pairs",
+    "guide",
     "seed",
     "seeds",
     "tile",
@@ -229,7 +234,9 @@ pub const ESTIMATE_KEYS: &[&str] = &[
 /// What a resumed run must share with its file beyond [`ESTIMATE_KEYS`]: which random streams,
 /// pass sizes, kernel and tile produced the samples (a tile resumed as a whole grid would give
 /// its other cells only the later passes). Budgets may change between invocations.
-pub const RESUME_KEYS: &[&str] = &["seed", "schedule", "adaptive", "kernel", "pairs", "tile"];
+pub const RESUME_KEYS: &[&str] = &[
+    "seed", "schedule", "adaptive", "kernel", "pairs", "guide", "tile",
+];
 
 impl RunInfo {
     /// The radiance paths' cap: `radiance_bounces`, or for files written before it was recorded
@@ -285,6 +292,11 @@ impl RunInfo {
                 // expectations, so such a file resumes with any design (as it resumed with the
                 // estimators that came after it).
                 "pairs" => a.pairs.is_none() || b.pairs.is_none() || a.pairs == b.pairs,
+                // A resumed guided run trains the same guide again (a function of the scene,
+                // the parameters and the seed): it resumes only guided, and unguided only unguided.
+                "guide" => {
+                    a.guide.as_deref().unwrap_or("off") == b.guide.as_deref().unwrap_or("off")
+                }
                 "tile" => a.tiles == b.tiles,
                 other => panic!("RunInfo::first_difference: '{other}' is not a compared attribute"),
             }

@@ -205,6 +205,7 @@ impl Reader<'_> {
             .unwrap_or(false);
         info.kernel = self.text("kernel");
         info.pairs = self.text("pairs");
+        info.guide = self.text("guide");
         Ok(())
     }
 

@@ -92,6 +92,7 @@ impl RunInfo {
         put("flatland", Some(self.flatland.to_string()));
         put("kernel", text(&self.kernel));
         put("pairs", text(&self.pairs));
+        put("guide", text(&self.guide));
         put("seed", shown(&self.seed));
         if !self.seeds.is_empty() {
             put("seeds", Some(join(&self.seeds, ",")));

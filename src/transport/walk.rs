@@ -17,6 +17,7 @@ use crate::scene::material::Bsdf;
 use crate::scene::mirror::Mirrors;
 use crate::scene::{Hit, Scene};
 use crate::transport::bsdf::{BsdfSample, Mode};
+use crate::transport::guide::{Guide, GuideAt, guidable};
 use crate::transport::{light, mirror, trace};
 use glam::DVec3;
 
@@ -272,6 +273,64 @@ pub fn radiance_mis<K: Kernel>(
     s: &mut Sampler,
     st: &mut RadianceStats,
 ) -> Radiance {
+    radiance_guided::<K>(scene, x, look, max_bounces, start, Guiding::NONE, s, st)
+}
+
+/// A scattering vertex of a radiance path as guide training reads it ([`Guiding::visits`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Visit {
+    pub p: DVec3,
+    /// The direction the path left along, and its (mixture) density.
+    pub wi: DVec3,
+    pub pdf: f64,
+    /// Luminance of the throughput that reached the vertex (before its weight f |cos| / pdf).
+    pub throughput: f64,
+    /// What the path had gathered up to leaving the vertex ([`Radiance::rest`] so far): all it
+    /// gathers after comes along `wi`.
+    pub gathered: Rgb,
+    /// Of that later light, the emission the path found at its next vertex (or the sky it
+    /// escaped to), which light sampling at this vertex also reaches.
+    pub found: Rgb,
+}
+
+/// How a radiance path is guided ([`crate::transport::guide`]), and where it logs its vertices for
+/// training.
+pub struct Guiding<'a> {
+    pub guide: Option<&'a Guide>,
+    pub visits: Option<&'a mut Vec<Visit>>,
+}
+
+impl Guiding<'_> {
+    /// Plain BSDF sampling, nothing logged.
+    pub const NONE: Guiding<'static> = Guiding {
+        guide: None,
+        visits: None,
+    };
+
+    /// The path found light `l` by its last sampled direction: the last vertex's `found`.
+    #[inline(always)]
+    fn found_light(&mut self, l: Rgb) {
+        if let Some(v) = self.visits.as_deref_mut().and_then(|log| log.last_mut()) {
+            v.found += l;
+        }
+    }
+}
+
+/// [`radiance_mis`] drawing directions at its vertices from the one-sample MIS mixture of the
+/// BSDF and `guiding.guide` where that has a guide (no other number is drawn where it has none),
+/// and logging its vertices to `guiding.visits`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn radiance_guided<K: Kernel>(
+    scene: &Scene,
+    x: DVec3,
+    look: DVec3,
+    max_bounces: u32,
+    start: StartMis,
+    mut guiding: Guiding<'_>,
+    s: &mut Sampler,
+    st: &mut RadianceStats,
+) -> Radiance {
     let view = SceneView::<K>::of(scene);
     let mut out = Radiance::default();
     let mut path = PathState::start(x, view.has_mirrors, start);
@@ -279,11 +338,14 @@ pub fn radiance_mis<K: Kernel>(
     let mut d = look;
     loop {
         st.rays += 1;
+        let before = path.l;
         let Some(hit) = trace::intersect::<K>(scene, origin, d, f64::INFINITY) else {
             path.escaped::<K>(&view, d, &mut out);
+            guiding.found_light(path.l - before);
             break;
         };
         path.emission::<K>(&view, x, &hit, d, &mut out);
+        guiding.found_light(path.l - before);
         if path.depth >= max_bounces {
             break;
         }
@@ -296,6 +358,10 @@ pub fn radiance_mis<K: Kernel>(
             lobe,
             wo,
             origin,
+            guide: guiding
+                .guide
+                .filter(|_| guidable(bsdf))
+                .and_then(|g| g.at(hit.p)),
         };
         // Next-event estimation on surfaces with a non-delta lobe.
         if !bsdf.is_delta() && !view.lights.is_empty() {
@@ -306,22 +372,37 @@ pub fn radiance_mis<K: Kernel>(
         if view.has_mirrors && !bsdf.is_delta() && path.depth + 1 < max_bounces {
             path.mirror_images::<K>(&view, &v, s, st);
         }
-        let u_lobe = s.next_f64();
-        let u = s.next_2d();
-        let sampled = bsdf.sample_in(
-            view.sp,
-            lobe,
-            wo,
-            hit.ng,
-            hit.ns,
-            u_lobe,
-            u,
-            s,
-            Mode::Radiance,
-        );
+        let sampled = match v.guide {
+            None => {
+                let u_lobe = s.next_f64();
+                let u = s.next_2d();
+                bsdf.sample_in(
+                    view.sp,
+                    lobe,
+                    wo,
+                    hit.ng,
+                    hit.ns,
+                    u_lobe,
+                    u,
+                    s,
+                    Mode::Radiance,
+                )
+            }
+            Some(g) => sample_guided::<K>(view.sp, &v, g, s),
+        };
         let Some(bs) = sampled else {
             break;
         };
+        if let Some(log) = guiding.visits.as_deref_mut() {
+            log.push(Visit {
+                p: hit.p,
+                wi: bs.wi,
+                pdf: bs.pdf,
+                throughput: luminance(path.beta),
+                gathered: path.l,
+                found: Rgb::ZERO,
+            });
+        }
         if view.has_mirrors {
             path.note_mirror(view.mirrors, &hit, &bs);
         }
@@ -369,6 +450,56 @@ struct Vertex<'a, L> {
     lobe: &'a L,
     wo: DVec3,
     origin: DVec3,
+    /// The guide at the hit, where the path mixes it with BSDF sampling.
+    guide: Option<GuideAt<'a>>,
+}
+
+/// A direction at `v` from the one-sample MIS mixture of its BSDF (a model without a Dirac lobe,
+/// [`guidable`]) and the guide `g`: the first number picks the strategy, and the sample's density
+/// and weight are the mixture's (`pdf` = α p_guide + (1 − α) p_bsdf, `weight` = f |cos| / pdf).
+#[inline(always)]
+fn sample_guided<K: Kernel>(
+    sp: &K::Space,
+    v: &Vertex<'_, <K::Space as Space>::Lobe>,
+    g: GuideAt<'_>,
+    s: &mut Sampler,
+) -> Option<BsdfSample> {
+    let hit = v.hit;
+    let pick = s.next_f64();
+    let u_lobe = s.next_f64();
+    let u = s.next_2d();
+    let (wi, f, p_bsdf) = if pick < crate::transport::guide::GUIDE_FRACTION {
+        let wi = g.sample(u);
+        let f = v
+            .bsdf
+            .eval_in::<K::Space>(v.lobe, v.wo, wi, hit.ng, hit.ns, Mode::Radiance);
+        let p_bsdf = v.bsdf.pdf_in::<K::Space>(v.lobe, v.wo, wi, hit.ng, hit.ns);
+        (wi, f, p_bsdf)
+    } else {
+        let bs = v.bsdf.sample_in(
+            sp,
+            v.lobe,
+            v.wo,
+            hit.ng,
+            hit.ns,
+            u_lobe,
+            u,
+            s,
+            Mode::Radiance,
+        )?;
+        (bs.wi, bs.weight * bs.pdf, bs.pdf)
+    };
+    let pdf = g.mixture(g.pdf(wi), p_bsdf);
+    if f == Rgb::ZERO || !(pdf > 0.0) {
+        return None;
+    }
+    Some(BsdfSample {
+        wi,
+        weight: f / pdf,
+        pdf,
+        delta: false,
+        etap: 1.0,
+    })
 }
 
 /// A radiance path between two of its vertices: what it has gathered and carries, and what the
@@ -548,7 +679,12 @@ impl PathState {
             let p_bsdf = v
                 .bsdf
                 .pdf_in::<K::Space>(v.lobe, v.wo, wi, v.hit.ng, v.hit.ns);
-            power_heuristic(pdf, p_bsdf)
+            // Where the path mixes in its guide, what it draws has the mixture's density.
+            let p_path = match v.guide {
+                Some(g) => g.mixture(g.pdf(wi), p_bsdf),
+                None => p_bsdf,
+            };
+            power_heuristic(pdf, p_path)
         };
         self.l += self.beta * f * li * (w / pdf);
     }
