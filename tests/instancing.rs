@@ -374,3 +374,39 @@ fn singular_instance_is_dropped_with_a_warning_naming_the_node() {
     let w = inst.report.warnings.join("\n");
     assert!(w.contains("'trees'") && w.contains("singular"), "{w}");
 }
+
+/// Points on an instance's face are moved off it to its front side as on the flattened copy
+/// (the point query reports instanced triangles), and a plane through the face is a slice
+/// through a wall in both scenes.
+#[test]
+fn points_on_instances_move_off_them_as_on_the_flattened_copies() {
+    let dir = temp_dir("instancing", "off");
+    let placements = placements();
+    let path = write_scene(&dir, "trees.gltf", &placements);
+    let [inst, flat] = both(&path);
+    let node = DMat3::from_quat(DQuat::from_xyzw(0.0, 0.0998, 0.0, 0.995).normalize());
+    let node_t = DVec3::new(0.1, 0.0, -0.2);
+    for (i, (t, r, s)) in placements.iter().enumerate() {
+        let q = DQuat::from_xyzw(r[0] as f64, r[1] as f64, r[2] as f64, r[3] as f64).normalize();
+        let m = node * DMat3::from_quat(q) * DMat3::from_diagonal(DVec3::from(s.map(f64::from)));
+        let at = |local: DVec3| node * DVec3::from(t.map(f64::from)) + node_t + m * local;
+        let x = at(DVec3::new(0.1, 1.0 / 3.0, -1.0 / 3.0));
+        let n = (m.inverse().transpose() * DVec3::new(0.0, 0.5, -1.0)).normalize();
+        let (a, b) = (inst.off_surfaces(x), flat.off_surfaces(x));
+        assert!((a - x).dot(n) > 0.0, "instance {i}: not moved to the front");
+        assert!(
+            (a - b).length() <= 4.0 * inst.eps_at(x),
+            "instance {i}: {a} vs {b}"
+        );
+        assert!(
+            inst.surface_in_plane(x, n) && flat.surface_in_plane(x, n),
+            "instance {i}"
+        );
+        let shifted = x + n * 0.01;
+        assert_eq!(
+            inst.surface_in_plane(shifted, n),
+            flat.surface_in_plane(shifted, n),
+            "instance {i}"
+        );
+    }
+}

@@ -1,6 +1,6 @@
 //! Instanced geometry (glTF's EXT_mesh_gpu_instancing) in the scene model: prototypes, whose
 //! triangles (with their materials, shading normals and texture coordinates) are stored once, in
-//! prototype space, after the world-space triangles of [`Scene::triangles`]; and instances, each
+//! prototype space, after the world-space triangles of [`Scene::triangles`](crate::scene::Scene::triangles); and instances, each
 //! a prototype and its prototype-to-world affine transform. Embree traverses the instances
 //! (`crate::accel`'s instances); a hit on one carries the instance and its prototype's triangle
 //! ([`crate::scene::Hit`]), and is reconstructed in world space here: the triangle's
@@ -24,7 +24,7 @@ use crate::scene::material::Material;
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use std::ops::Range;
 
-/// A mesh stored once: its triangles are the range `triangles` of [`Scene::triangles`].
+/// A mesh stored once: its triangles are the range `triangles` of [`Scene::triangles`](crate::scene::Scene::triangles).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Prototype {
     /// What the file calls it (e.g. `mesh 0 'tree'`), for messages.

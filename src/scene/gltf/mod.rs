@@ -2,7 +2,9 @@
 //! `.glb`. The default scene (or the first one) is flattened: every node's world transform is applied
 //! to its mesh's positions and normals (normals with the inverse transpose, renormalised; triangle
 //! winding flipped where the transform mirrors), and a mesh used by several nodes is copied once per
-//! node (and once per instance of EXT_mesh_gpu_instancing). TRIANGLES, TRIANGLE_STRIP and
+//! node. A mesh placed by EXT_mesh_gpu_instancing is stored once, as a prototype, and placed by
+//! Embree instances ([`crate::scene::instance`]; copied per instance when it emits, has alpha or
+//! is a perfect mirror, or when [`load_with`] is told not to instance). TRIANGLES, TRIANGLE_STRIP and
 //! TRIANGLE_FAN primitives are read, indexed or not; points and lines are skipped with a warning.
 //! Vertex data may be quantized (KHR_mesh_quantization) or compressed (EXT_meshopt_compression,
 //! KHR_draco_mesh_compression); a file that requires any other extension is refused, naming it.
