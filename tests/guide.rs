@@ -4,8 +4,8 @@
 //! cannot act.
 
 use crate::support::{
-    Mean, Run, chi2_test, cuboid, ftpd3d, gauss_legendre, material, scene_of, scene_path, temp_dir,
-    z_limit,
+    Mean, Run, chi2_test, cuboid, gauss_legendre, material, scene_of, scene_path, small_slice,
+    temp_dir, z_limit,
 };
 use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::Rgb;
@@ -293,24 +293,7 @@ fn guide_flag_runs_resumes_and_refuses() {
     let dir = temp_dir("guide", "flag");
     let scene = scene_path("cornell_mirror.obj");
     let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
-    let run = |extra: &[&str]| -> Run {
-        let mut a = vec![
-            "--scene",
-            scene.to_str().unwrap(),
-            "--slice",
-            "z=0",
-            "--res",
-            "8",
-            "--pass-spp",
-            "4",
-            "--seed",
-            "3",
-            "--quiet",
-            "--no-png",
-        ];
-        a.extend_from_slice(extra);
-        ftpd3d(&a)
-    };
+    let run = |extra: &[&str]| -> Run { small_slice(&scene, extra) };
     let cells = |name: &str| read_exr(&dir.join(name)).unwrap();
     for (name, threads) in [("t1.exr", "1"), ("t2.exr", "2")] {
         let r = run(&[

@@ -5,7 +5,7 @@
 
 use crate::support::{
     Run, agrees_with_reference, assert_consistent, ftpd3d, point_estimate, push_z_scores,
-    scene_path, temp_dir,
+    scene_path, small_slice, temp_dir,
 };
 use ftpd3d::ftpd::{Design, Params, Weighting, visit_point};
 use ftpd3d::rng::Sampler;
@@ -129,24 +129,7 @@ fn pairs_flag_runs_resumes_and_refuses() {
     let dir = temp_dir("pairs", "flag");
     let scene = scene_path("stair_wall.obj");
     let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
-    let run = |extra: &[&str]| -> Run {
-        let mut a = vec![
-            "--scene",
-            scene.to_str().unwrap(),
-            "--slice",
-            "z=0",
-            "--res",
-            "8",
-            "--pass-spp",
-            "4",
-            "--seed",
-            "3",
-            "--quiet",
-            "--no-png",
-        ];
-        a.extend_from_slice(extra);
-        ftpd3d(&a)
-    };
+    let run = |extra: &[&str]| -> Run { small_slice(&scene, extra) };
     let cells = |name: &str| ftpd3d::output::exr::read_exr(&dir.join(name)).unwrap();
     for (name, threads) in [("t1.exr", "1"), ("t2.exr", "2")] {
         let r = run(&[

@@ -17,6 +17,27 @@ pub fn ftpd3d(args: &[&str]) -> Run {
     run(Command::new(env!("CARGO_BIN_EXE_ftpd3d")).args(args))
 }
 
+/// A small quiet run of the binary on `scene`: the 8² slice z = 0 in passes of 4 samples with
+/// seed 3, no previews, then `extra` (the flags a test is about, the output, the budget).
+pub fn small_slice(scene: &Path, extra: &[&str]) -> Run {
+    let mut a = vec![
+        "--scene",
+        scene.to_str().unwrap(),
+        "--slice",
+        "z=0",
+        "--res",
+        "8",
+        "--pass-spp",
+        "4",
+        "--seed",
+        "3",
+        "--quiet",
+        "--no-png",
+    ];
+    a.extend_from_slice(extra);
+    ftpd3d(&a)
+}
+
 /// Runs the ftpd3d binary with `args` in `dir`.
 pub fn ftpd3d_in(dir: &Path, args: &[&str]) -> Run {
     run(Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
