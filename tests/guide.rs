@@ -4,8 +4,8 @@
 //! cannot act.
 
 use crate::support::{
-    Mean, Run, chi2_test, cuboid, gauss_legendre, material, scene_of, scene_path, small_slice,
-    temp_dir, z_limit,
+    Mean, Run, assert_resume_keeps, chi2_test, cuboid, gauss_legendre, material, scene_of,
+    scene_path, small_slice, temp_dir, z_limit,
 };
 use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::Rgb;
@@ -340,28 +340,9 @@ fn guide_flag_runs_resumes_and_refuses() {
         }
     }
     // 4 samples, resumed to 8: the 8-sample run, bit for bit.
-    let r = run(&["--guide", "on", "--spp", "4", "-o", &out("resumed.exr")]);
-    assert!(r.ok, "{}", r.err);
-    let r = run(&["--spp", "8", "--resume", &out("resumed.exr")]);
-    assert!(
-        !r.ok && r.err.contains("guide differs") && r.err.contains("--guide on"),
-        "{}",
-        r.err
-    );
-    let r = run(&[
-        "--guide",
-        "on",
-        "--spp",
-        "8",
-        "--resume",
-        &out("resumed.exr"),
-    ]);
-    assert!(r.ok, "{}", r.err);
-    assert_eq!(
-        cells("resumed.exr").cells,
-        t1.cells,
-        "resumed equals one go"
-    );
+    let resumed = out("resumed.exr");
+    let read = || cells("resumed.exr").cells;
+    assert_resume_keeps(run, &["--guide", "on"], "guide", &resumed, read, &t1.cells);
     // Nothing to guide: refused, naming the flag.
     for extra in [&["--weight", "unweighted"][..], &["--flatland"][..]] {
         let mut a = vec!["--guide", "on", "--spp", "1", "-o"];

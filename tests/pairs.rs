@@ -4,8 +4,8 @@
 //! plain reference estimator, between designs, and on the command line (threads, resume, refusals).
 
 use crate::support::{
-    Run, agrees_with_reference, assert_consistent, ftpd3d, point_estimate, push_z_scores,
-    scene_path, small_slice, temp_dir,
+    Run, agrees_with_reference, assert_consistent, assert_resume_keeps, ftpd3d, point_estimate,
+    push_z_scores, scene_path, small_slice, temp_dir,
 };
 use ftpd3d::ftpd::{Design, Params, Weighting, visit_point};
 use ftpd3d::rng::Sampler;
@@ -153,34 +153,15 @@ fn pairs_flag_runs_resumes_and_refuses() {
     assert_eq!(cells("default.exr").meta["pairs"], "2,2,1,2");
     assert_ne!(cells("default.exr").cells, t1.cells);
     // 4 samples, resumed to 8: the 8-sample run, bit for bit.
-    let r = run(&[
-        "--pairs",
-        "2,1,3,4",
-        "--spp",
-        "4",
-        "-o",
-        &out("resumed.exr"),
-    ]);
-    assert!(r.ok, "{}", r.err);
-    let r = run(&["--spp", "8", "--resume", &out("resumed.exr")]);
-    assert!(
-        !r.ok && r.err.contains("pairs differs") && r.err.contains("--pairs 2,1,3,4"),
-        "{}",
-        r.err
-    );
-    let r = run(&[
-        "--pairs",
-        "2,1,3,4",
-        "--spp",
-        "8",
-        "--resume",
-        &out("resumed.exr"),
-    ]);
-    assert!(r.ok, "{}", r.err);
-    assert_eq!(
-        cells("resumed.exr").cells,
-        t1.cells,
-        "resumed equals one go"
+    let resumed = out("resumed.exr");
+    let read = || cells("resumed.exr").cells;
+    assert_resume_keeps(
+        run,
+        &["--pairs", "2,1,3,4"],
+        "pairs",
+        &resumed,
+        read,
+        &t1.cells,
     );
     for bad in ["1,0,1,1", "1,1,1,65", "17,1,1,1"] {
         let r = run(&["--pairs", bad, "--spp", "1", "-o", &out("bad.exr")]);

@@ -38,6 +38,31 @@ pub fn small_slice(scene: &Path, extra: &[&str]) -> Run {
     ftpd3d(&a)
 }
 
+/// A run resumed with `--resume`: with its file's `setting` (flags) left out it is refused, naming
+/// the attribute `key` and the flags to add; with them, 4 samples resumed to 8 equal `one_go`,
+/// the 8-sample run, as `read` gives the resumed file back.
+pub fn assert_resume_keeps<T: PartialEq + std::fmt::Debug>(
+    run: impl Fn(&[&str]) -> Run,
+    setting: &[&str],
+    key: &str,
+    path: &str,
+    read: impl Fn() -> T,
+    one_go: &T,
+) {
+    let r = run(&[setting, &["--spp", "4", "-o", path]].concat());
+    assert!(r.ok, "{}", r.err);
+    let r = run(&["--spp", "8", "--resume", path]);
+    let named = setting.join(" ");
+    assert!(
+        !r.ok && r.err.contains(&format!("{key} differs")) && r.err.contains(&named),
+        "{}",
+        r.err
+    );
+    let r = run(&[setting, &["--spp", "8", "--resume", path]].concat());
+    assert!(r.ok, "{}", r.err);
+    assert_eq!(&read(), one_go, "resumed equals one go");
+}
+
 /// Runs the ftpd3d binary with `args` in `dir`.
 pub fn ftpd3d_in(dir: &Path, args: &[&str]) -> Run {
     run(Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
