@@ -4,8 +4,8 @@
 //! cannot act.
 
 use crate::support::{
-    Mean, Run, assert_resume_keeps, chi2_test, cuboid, gauss_legendre, material, scene_of,
-    scene_path, small_slice, temp_dir, z_limit,
+    Mean, Run, assert_resume_keeps, chi2_test, cuboid, gauss_legendre, material,
+    run_on_1_and_2_threads, scene_of, scene_path, small_slice, temp_dir, z_limit,
 };
 use ftpd3d::kernel::Radiance3D;
 use ftpd3d::math::Rgb;
@@ -295,19 +295,7 @@ fn guide_flag_runs_resumes_and_refuses() {
     let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
     let run = |extra: &[&str]| -> Run { small_slice(&scene, extra) };
     let cells = |name: &str| read_exr(&dir.join(name)).unwrap();
-    for (name, threads) in [("t1.exr", "1"), ("t2.exr", "2")] {
-        let r = run(&[
-            "--guide",
-            "on",
-            "--spp",
-            "8",
-            "--threads",
-            threads,
-            "-o",
-            &out(name),
-        ]);
-        assert!(r.ok, "{}", r.err);
-    }
+    run_on_1_and_2_threads(run, &["--guide", "on"], [&out("t1.exr"), &out("t2.exr")]);
     let (t1, t2) = (cells("t1.exr"), cells("t2.exr"));
     assert_eq!(t1.cells, t2.cells, "bit-identical on 1 and 2 threads");
     assert_eq!(t1.meta["guide"], "on");

@@ -5,7 +5,7 @@
 
 use crate::support::{
     Run, agrees_with_reference, assert_consistent, assert_resume_keeps, ftpd3d, point_estimate,
-    push_z_scores, scene_path, small_slice, temp_dir,
+    push_z_scores, run_on_1_and_2_threads, scene_path, small_slice, temp_dir,
 };
 use ftpd3d::ftpd::{Design, Params, Weighting, visit_point};
 use ftpd3d::rng::Sampler;
@@ -131,19 +131,11 @@ fn pairs_flag_runs_resumes_and_refuses() {
     let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
     let run = |extra: &[&str]| -> Run { small_slice(&scene, extra) };
     let cells = |name: &str| ftpd3d::output::exr::read_exr(&dir.join(name)).unwrap();
-    for (name, threads) in [("t1.exr", "1"), ("t2.exr", "2")] {
-        let r = run(&[
-            "--pairs",
-            "2,1,3,4",
-            "--spp",
-            "8",
-            "--threads",
-            threads,
-            "-o",
-            &out(name),
-        ]);
-        assert!(r.ok, "{}", r.err);
-    }
+    run_on_1_and_2_threads(
+        run,
+        &["--pairs", "2,1,3,4"],
+        [&out("t1.exr"), &out("t2.exr")],
+    );
     let (t1, t2) = (cells("t1.exr"), cells("t2.exr"));
     assert_eq!(t1.cells, t2.cells, "bit-identical on 1 and 2 threads");
     assert_eq!(t1.meta["pairs"], "2,1,3,4");

@@ -38,6 +38,15 @@ pub fn small_slice(scene: &Path, extra: &[&str]) -> Run {
     ftpd3d(&a)
 }
 
+/// 8 samples with the flags `setting`, on 1 thread into `paths[0]` and on 2 into `paths[1]` (for a
+/// test that compares the two files bit for bit).
+pub fn run_on_1_and_2_threads(run: impl Fn(&[&str]) -> Run, setting: &[&str], paths: [&str; 2]) {
+    for (path, threads) in paths.into_iter().zip(["1", "2"]) {
+        let r = run(&[setting, &["--spp", "8", "--threads", threads, "-o", path]].concat());
+        assert!(r.ok, "{}", r.err);
+    }
+}
+
 /// A run resumed with `--resume`: with its file's `setting` (flags) left out it is refused, naming
 /// the attribute `key` and the flags to add; with them, 4 samples resumed to 8 equal `one_go`,
 /// the 8-sample run, as `read` gives the resumed file back.
