@@ -13,7 +13,7 @@
 
 use crate::kernel::{Kernel, Space};
 use crate::math::Rgb;
-use crate::rng::Sampler;
+use crate::rng::{Uniform, mix64};
 use crate::scene::{Hit, Scene};
 use crate::transport::bsdf::Mode;
 use crate::transport::trace;
@@ -66,6 +66,35 @@ impl FirstSegment {
     }
 }
 
+/// The random stream of one walk: the numbers of [`crate::rng::Sampler::child`] for the same key and index,
+/// without what a sample's stream carries besides (the Sobol' point, its scrambles and the test
+/// of every number for a QMC dimension; walks draw none). Made once per walk, drawn from at
+/// every scattering event.
+pub struct WalkStream {
+    rng: rand_pcg::Pcg64Mcg,
+}
+
+impl WalkStream {
+    /// The stream [`crate::rng::Sampler::child`] gives for `key` and `k`.
+    #[inline(always)]
+    pub fn child(key: u64, k: u64) -> Self {
+        let hi = mix64(key ^ 0xA076_1D64_78BD_642F);
+        let lo = mix64(hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        WalkStream {
+            rng: rand_pcg::Pcg64Mcg::new(((hi as u128) << 64) | lo as u128),
+        }
+    }
+}
+
+impl Uniform for WalkStream {
+    /// 53 random bits, as [`crate::rng::Sampler::next_f64`] past its QMC dimensions.
+    #[inline(always)]
+    fn next_f64(&mut self) -> f64 {
+        use rand_core::Rng;
+        (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
 /// What [`walk_ends`] traced: rays beyond the shared first segment, and whether the walk reached
 /// the bounce cap before its longest run length.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -89,7 +118,7 @@ pub fn walk_ends<K: Kernel>(
     first: &FirstSegment,
     lengths: &[f64],
     max_bounces: u32,
-    s: &mut Sampler,
+    s: &mut impl Uniform,
     ends: &mut [End],
 ) -> WalkStats {
     debug_assert_eq!(lengths.len(), ends.len());
@@ -185,5 +214,27 @@ pub fn walk_ends<K: Kernel>(
 fn fill(ends: &mut [End], e: End) {
     for x in ends {
         *x = e;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Sampler;
+
+    #[test]
+    fn walk_streams_are_the_sample_streams_children() {
+        for (key, k) in [
+            (0, 0),
+            (1, 7),
+            (u64::MAX, 3),
+            (0x1234_5678_9abc_def0, 1 << 40),
+        ] {
+            let (mut a, mut b) = (WalkStream::child(key, k), Sampler::child(key, k));
+            for _ in 0..64 {
+                assert_eq!(a.next_f64().to_bits(), b.next_f64().to_bits(), "{key} {k}");
+            }
+            assert_eq!(a.next_2d(), b.next_2d());
+        }
     }
 }
