@@ -134,13 +134,18 @@ pub fn walk_ends<K: Kernel>(
     let mut beta = Rgb::ONE;
     let mut bounces = 0;
     // The current segment's hit, borrowed (from `first`, then from `traced`) rather than copied:
-    // a hit is about 120 bytes and every walk starts from the shared first segment.
-    let mut traced: Option<Hit>;
-    let mut hit = first.hit.as_ref();
+    // a hit is about 120 bytes and every walk starts from the shared first segment. A segment
+    // without a hit goes straight on through every run length left (handled where the ray
+    // query returns, so that no empty hit is stored).
+    let mut traced: Hit;
     let mut next = 0;
+    let Some(mut h) = first.hit.as_ref() else {
+        straight(lengths, ends, base, d, travelled, beta, bounces);
+        return stats;
+    };
     loop {
-        // The segment ends at the hit (or never); every run length it covers ends on it.
-        let seg_end = hit.map_or(f64::INFINITY, |h| travelled + (h.p - base).dot(d));
+        // The segment ends at the hit; every run length it covers ends on it.
+        let seg_end = travelled + (h.p - base).dot(d);
         while next < lengths.len() && lengths[next] <= seg_end {
             ends[next] = End {
                 p: base + d * (lengths[next] - travelled),
@@ -149,10 +154,6 @@ pub fn walk_ends<K: Kernel>(
             };
             next += 1;
         }
-        let Some(h) = hit else {
-            debug_assert_eq!(next, lengths.len());
-            return stats;
-        };
         if next == lengths.len() {
             return stats;
         }
@@ -201,13 +202,46 @@ pub fn walk_ends<K: Kernel>(
         base = h.p;
         travelled = seg_end;
         stats.rays += 1;
-        traced = trace::intersect::<K>(
-            scene,
-            origin,
-            d,
-            (t_max - travelled) + (origin - base).length(),
-        );
-        hit = traced.as_ref();
+        let reach = (t_max - travelled) + (origin - base).length();
+        match trace::intersect::<K>(scene, origin, d, reach) {
+            Some(hit) => {
+                traced = hit;
+                h = &traced;
+            }
+            None => {
+                straight(
+                    &lengths[next..],
+                    &mut ends[next..],
+                    base,
+                    d,
+                    travelled,
+                    beta,
+                    bounces,
+                );
+                return stats;
+            }
+        }
+    }
+}
+
+/// The ends at `lengths` of a walk that goes straight on from `base` along `d`, `travelled` of
+/// its length used up at `base`.
+#[inline(always)]
+fn straight(
+    lengths: &[f64],
+    ends: &mut [End],
+    base: DVec3,
+    d: DVec3,
+    travelled: f64,
+    beta: Rgb,
+    bounces: u32,
+) {
+    for (e, &len) in ends.iter_mut().zip(lengths) {
+        *e = End {
+            p: base + d * (len - travelled),
+            beta,
+            bounces,
+        };
     }
 }
 
