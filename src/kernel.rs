@@ -20,7 +20,7 @@
 //!
 //! This module names scene data only: every layer from transport up may name a kernel.
 
-use crate::rng::Sampler;
+use crate::rng::Uniform;
 use crate::scene::env::Environment;
 use crate::scene::light::{Lights, Shape};
 use crate::scene::material::Bsdf;
@@ -92,7 +92,7 @@ pub trait Space: Send + Sync + 'static {
         exponent: f64,
         r: DVec3,
         u: (f64, f64),
-        s: &mut Sampler,
+        s: &mut impl Uniform,
     ) -> Option<DVec3>;
     /// Density of [`phong`](Self::phong) at cosine `cos_a` to the mirror direction.
     fn phong_pdf(lobe: &Self::Lobe, exponent: f64, cos_a: f64) -> f64;

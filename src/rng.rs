@@ -140,6 +140,24 @@ impl SobolKeys {
     }
 }
 
+/// A source of uniform numbers in [0, 1): a sample's stream ([`Sampler`]), or a walk's
+/// random-only one (`crate::transport::deflection::WalkStream`), for the code both draw through.
+pub trait Uniform {
+    fn next_f64(&mut self) -> f64;
+
+    #[inline(always)]
+    fn next_2d(&mut self) -> (f64, f64) {
+        (self.next_f64(), self.next_f64())
+    }
+}
+
+impl Uniform for Sampler {
+    #[inline(always)]
+    fn next_f64(&mut self) -> f64 {
+        Sampler::next_f64(self)
+    }
+}
+
 /// A uniform random number source for one sample stream.
 pub struct Sampler {
     rng: Pcg64Mcg,

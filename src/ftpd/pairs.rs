@@ -25,7 +25,7 @@ use crate::kernel::{Kernel, Space};
 use crate::math::{Rgb, luminance};
 use crate::rng::Sampler;
 use crate::scene::Scene;
-use crate::transport::deflection::{End, FirstSegment, walk_ends};
+use crate::transport::deflection::{End, FirstSegment, WalkStream, walk_ends};
 use glam::DVec3;
 use std::cell::RefCell;
 
@@ -148,7 +148,7 @@ impl Walks<'_> {
     ) {
         out.rays += 1;
         for (i, e) in ends.chunks_exact_mut(self.lengths.len()).enumerate() {
-            let mut ws = Sampler::child(self.key, index + i as u64);
+            let mut ws = WalkStream::child(self.key, index + i as u64);
             let st = walk_ends::<K>(
                 self.scene,
                 first,

@@ -5,7 +5,7 @@ use crate::accel::{NO_INSTANCE, RawHit};
 use crate::scene::geometry::{Aabb, closest_point_on_triangle};
 use crate::scene::instance::Instancing;
 use crate::scene::model::Scene;
-use glam::DVec3;
+use glam::{DVec3, Vec3A};
 
 /// Everything the transport code needs about a ray-surface hit, in f64.
 #[derive(Clone, Copy, Debug)]
@@ -124,8 +124,12 @@ impl Scene {
         let th = &self.tri_hit[i];
         let shading =
             (!self.tri_shading.is_empty()).then(|| self.tri_shading[i].map(|n| n.as_dvec3()));
+        // The largest coordinate magnitude of the vertices, taken in f32, four lanes at a time:
+        // exactly that of their f64 copies (the conversion is exact and monotonic).
+        let [qa, qb, qc] = th.p.map(Vec3A::from);
+        let mag = f64::from(qa.abs().max(qb.abs()).max(qc.abs()).max_element());
         let p = th.p.map(|q| q.as_dvec3());
-        self.hit_on::<FLAT>(o, d, raw, p, th.ng, shading, th.material)
+        self.hit_on::<FLAT>(o, d, raw, p, mag, th.ng, shading, th.material)
     }
 
     /// [`Scene::hit_from_raw`] for a hit on an instance: the triangle in world space (see
@@ -134,14 +138,17 @@ impl Scene {
     #[inline(never)]
     fn instance_hit<const FLAT: bool>(&self, o: DVec3, d: DVec3, raw: RawHit) -> Hit {
         let p = self.world_vertices(raw.inst, raw.prim);
+        let [pa, pb, pc] = p;
+        let mag = pa.abs().max(pb.abs()).max(pc.abs()).max_element();
         let ng = self.world_normal(raw.inst, raw.prim);
         let shading = self.instance_corner_normals(raw.inst, raw.prim);
         let material = self.tri_hit[raw.prim as usize].material;
-        self.hit_on::<FLAT>(o, d, raw, p, ng, shading, material)
+        self.hit_on::<FLAT>(o, d, raw, p, mag, ng, shading, material)
     }
 
-    /// The hit of `raw` on the world-space triangle of vertices `[pa, pb, pc]`, unit geometric
-    /// normal `ng`, corner shading normals `shading` and material `material`.
+    /// The hit of `raw` on the world-space triangle of vertices `[pa, pb, pc]` (whose largest
+    /// coordinate magnitude is `tri_mag`), unit geometric normal `ng`, corner shading normals
+    /// `shading` and material `material`.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn hit_on<const FLAT: bool>(
@@ -150,17 +157,13 @@ impl Scene {
         d: DVec3,
         raw: RawHit,
         [pa, pb, pc]: [DVec3; 3],
+        tri_mag: f64,
         ng: DVec3,
         shading: Option<[DVec3; 3]>,
         material: u32,
     ) -> Hit {
         let (u, v) = (raw.u as f64, raw.v as f64);
-        let mag = pa
-            .abs()
-            .max(pb.abs())
-            .max(pc.abs())
-            .max_element()
-            .max(o.abs().max_element());
+        let mag = tri_mag.max(o.abs().max_element());
         let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
         // f64 rounding. For grazing rays (|d·n| ≤ 1e-4) that point may lie far along the ray from

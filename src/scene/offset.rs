@@ -17,8 +17,16 @@ impl Scene {
     /// room. Parallel surfaces (the hit surface's own neighbours) are left alone.
     #[inline]
     pub fn spawn_origin_from(&self, hit: &Hit, dir: DVec3, from: DVec3) -> DVec3 {
+        self.spawn_origin_at(hit, self.near_edge(hit), dir, from)
+    }
+
+    /// [`spawn_origin_from`](Self::spawn_origin_from) with `near_edge`, [`Scene::near_edge`] of
+    /// `hit`, already known: a vertex that spawns several rays (next-event estimation, the
+    /// mirror images, the path's next segment) tests it once.
+    #[inline(always)]
+    pub fn spawn_origin_at(&self, hit: &Hit, near_edge: bool, dir: DVec3, from: DVec3) -> DVec3 {
         let o = hit.spawn_origin(dir);
-        if self.near_edge(hit) {
+        if near_edge {
             self.spawn_near_edge(hit, dir, from, o)
         } else {
             o

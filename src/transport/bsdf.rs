@@ -9,7 +9,7 @@
 
 use crate::kernel::{Flatland, Space, Sphere};
 use crate::math::{Rgb, luminance, reflect, safe_sqrt};
-use crate::rng::Sampler;
+use crate::rng::{Sampler, Uniform};
 // The enum is scene data; its sampling and evaluation are the `impl Bsdf` blocks below.
 use crate::scene::flat::FlatBsdf;
 pub use crate::scene::material::Bsdf;
@@ -101,7 +101,7 @@ impl Bsdf {
         ns: DVec3,
         u_lobe: f64,
         u: (f64, f64),
-        s: &mut Sampler,
+        s: &mut impl Uniform,
         mode: Mode,
     ) -> Option<BsdfSample> {
         // Orient both normals towards wo: opaque surfaces are two-sided.

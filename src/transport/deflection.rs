@@ -13,7 +13,7 @@
 
 use crate::kernel::{Kernel, Space};
 use crate::math::Rgb;
-use crate::rng::Sampler;
+use crate::rng::{Uniform, mix64};
 use crate::scene::{Hit, Scene};
 use crate::transport::bsdf::Mode;
 use crate::transport::trace;
@@ -66,6 +66,35 @@ impl FirstSegment {
     }
 }
 
+/// The random stream of one walk: the numbers of [`crate::rng::Sampler::child`] for the same key and index,
+/// without what a sample's stream carries besides (the Sobol' point, its scrambles and the test
+/// of every number for a QMC dimension; walks draw none). Made once per walk, drawn from at
+/// every scattering event.
+pub struct WalkStream {
+    rng: rand_pcg::Pcg64Mcg,
+}
+
+impl WalkStream {
+    /// The stream [`crate::rng::Sampler::child`] gives for `key` and `k`.
+    #[inline(always)]
+    pub fn child(key: u64, k: u64) -> Self {
+        let hi = mix64(key ^ 0xA076_1D64_78BD_642F);
+        let lo = mix64(hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        WalkStream {
+            rng: rand_pcg::Pcg64Mcg::new(((hi as u128) << 64) | lo as u128),
+        }
+    }
+}
+
+impl Uniform for WalkStream {
+    /// 53 random bits, as [`crate::rng::Sampler::next_f64`] past its QMC dimensions.
+    #[inline(always)]
+    fn next_f64(&mut self) -> f64 {
+        use rand_core::Rng;
+        (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
 /// What [`walk_ends`] traced: rays beyond the shared first segment, and whether the walk reached
 /// the bounce cap before its longest run length.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -89,7 +118,7 @@ pub fn walk_ends<K: Kernel>(
     first: &FirstSegment,
     lengths: &[f64],
     max_bounces: u32,
-    s: &mut Sampler,
+    s: &mut impl Uniform,
     ends: &mut [End],
 ) -> WalkStats {
     debug_assert_eq!(lengths.len(), ends.len());
@@ -105,13 +134,18 @@ pub fn walk_ends<K: Kernel>(
     let mut beta = Rgb::ONE;
     let mut bounces = 0;
     // The current segment's hit, borrowed (from `first`, then from `traced`) rather than copied:
-    // a hit is about 120 bytes and every walk starts from the shared first segment.
-    let mut traced: Option<Hit>;
-    let mut hit = first.hit.as_ref();
+    // a hit is about 120 bytes and every walk starts from the shared first segment. A segment
+    // without a hit goes straight on through every run length left (handled where the ray
+    // query returns, so that no empty hit is stored).
+    let mut traced: Hit;
     let mut next = 0;
+    let Some(mut h) = first.hit.as_ref() else {
+        straight(lengths, ends, base, d, travelled, beta, bounces);
+        return stats;
+    };
     loop {
-        // The segment ends at the hit (or never); every run length it covers ends on it.
-        let seg_end = hit.map_or(f64::INFINITY, |h| travelled + (h.p - base).dot(d));
+        // The segment ends at the hit; every run length it covers ends on it.
+        let seg_end = travelled + (h.p - base).dot(d);
         while next < lengths.len() && lengths[next] <= seg_end {
             ends[next] = End {
                 p: base + d * (lengths[next] - travelled),
@@ -120,10 +154,6 @@ pub fn walk_ends<K: Kernel>(
             };
             next += 1;
         }
-        let Some(h) = hit else {
-            debug_assert_eq!(next, lengths.len());
-            return stats;
-        };
         if next == lengths.len() {
             return stats;
         }
@@ -172,18 +202,73 @@ pub fn walk_ends<K: Kernel>(
         base = h.p;
         travelled = seg_end;
         stats.rays += 1;
-        traced = trace::intersect::<K>(
-            scene,
-            origin,
-            d,
-            (t_max - travelled) + (origin - base).length(),
-        );
-        hit = traced.as_ref();
+        let reach = (t_max - travelled) + (origin - base).length();
+        match trace::intersect::<K>(scene, origin, d, reach) {
+            Some(hit) => {
+                traced = hit;
+                h = &traced;
+            }
+            None => {
+                straight(
+                    &lengths[next..],
+                    &mut ends[next..],
+                    base,
+                    d,
+                    travelled,
+                    beta,
+                    bounces,
+                );
+                return stats;
+            }
+        }
+    }
+}
+
+/// The ends at `lengths` of a walk that goes straight on from `base` along `d`, `travelled` of
+/// its length used up at `base`.
+#[inline(always)]
+fn straight(
+    lengths: &[f64],
+    ends: &mut [End],
+    base: DVec3,
+    d: DVec3,
+    travelled: f64,
+    beta: Rgb,
+    bounces: u32,
+) {
+    for (e, &len) in ends.iter_mut().zip(lengths) {
+        *e = End {
+            p: base + d * (len - travelled),
+            beta,
+            bounces,
+        };
     }
 }
 
 fn fill(ends: &mut [End], e: End) {
     for x in ends {
         *x = e;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Sampler;
+
+    #[test]
+    fn walk_streams_are_the_sample_streams_children() {
+        for (key, k) in [
+            (0, 0),
+            (1, 7),
+            (u64::MAX, 3),
+            (0x1234_5678_9abc_def0, 1 << 40),
+        ] {
+            let (mut a, mut b) = (WalkStream::child(key, k), Sampler::child(key, k));
+            for _ in 0..64 {
+                assert_eq!(a.next_f64().to_bits(), b.next_f64().to_bits(), "{key} {k}");
+            }
+            assert_eq!(a.next_2d(), b.next_2d());
+        }
     }
 }

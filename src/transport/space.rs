@@ -33,7 +33,7 @@
 
 use crate::kernel::{Flatland, Space, Sphere};
 use crate::math::Frame;
-use crate::rng::Sampler;
+use crate::rng::Uniform;
 use crate::scene::env::Environment;
 use crate::scene::flat::PhongLobe;
 use crate::scene::light::{Lights, Segment, Triangle};
@@ -130,7 +130,7 @@ impl Space for Sphere {
         exponent: f64,
         r: DVec3,
         u: (f64, f64),
-        _: &mut Sampler,
+        _: &mut impl Uniform,
     ) -> Option<DVec3> {
         Some(Frame::from_z(r).to_world(sample_phong_lobe(u, exponent)))
     }
@@ -268,7 +268,7 @@ impl Space for Flatland {
         _exponent: f64,
         r: DVec3,
         u: (f64, f64),
-        s: &mut Sampler,
+        s: &mut impl Uniform,
     ) -> Option<DVec3> {
         let (c, sn) = lobe.sample(u, s)?;
         Some(self.rotate(r, c, sn))
@@ -342,7 +342,7 @@ impl PhongLobe {
 
     /// An angle α with density ∝ cosⁿα on (−π/2, π/2), as (cos α, sin α). The first proposal uses
     /// `u`; further ones draw from `s`.
-    pub fn sample(&self, u: (f64, f64), s: &mut Sampler) -> Option<(f64, f64)> {
+    pub fn sample(&self, u: (f64, f64), s: &mut impl Uniform) -> Option<(f64, f64)> {
         let n = self.exponent;
         if n < 1.0 {
             let (mut a, mut b) = u;

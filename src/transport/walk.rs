@@ -20,6 +20,7 @@ use crate::transport::bsdf::{BsdfSample, Mode};
 use crate::transport::guide::{Guide, GuideAt, guidable};
 use crate::transport::{light, mirror, trace};
 use glam::DVec3;
+use std::cell::Cell;
 
 /// The scattering model at `hit` and its Phong lobe's constants, for kernel `$K`: the material's,
 /// or the model its textures give there, which then lives in `$slot`, a local the caller declares
@@ -362,6 +363,7 @@ pub fn radiance_guided<K: Kernel>(
                 .guide
                 .filter(|_| guidable(bsdf))
                 .and_then(|g| g.at(hit.p)),
+            near_edge: Cell::new(0),
         };
         // Next-event estimation on surfaces with a non-delta lobe.
         if !bsdf.is_delta() && !view.lights.is_empty() {
@@ -409,7 +411,7 @@ pub fn radiance_guided<K: Kernel>(
         if !path.scatter::<K>(&hit, &bs, s) {
             break;
         }
-        origin = scene.spawn_origin_from(&hit, bs.wi, origin);
+        origin = v.spawn(scene, bs.wi);
         d = bs.wi;
     }
     out.rest = path.l;
@@ -443,7 +445,7 @@ impl<'a, K: Kernel> SceneView<'a, K> {
 
 /// A scattering vertex of a radiance path: the hit, its scattering model (with the lobe's
 /// constants `L`), the direction back along the path, and the origin of the ray that found it
-/// (rays that leave the hit are offset from it: [`Scene::spawn_origin_from`]).
+/// (rays that leave the hit are offset from it: [`Vertex::spawn`]).
 struct Vertex<'a, L> {
     hit: &'a Hit,
     bsdf: &'a Bsdf,
@@ -452,6 +454,25 @@ struct Vertex<'a, L> {
     origin: DVec3,
     /// The guide at the hit, where the path mixes it with BSDF sampling.
     guide: Option<GuideAt<'a>>,
+    /// [`Scene::near_edge`] of the hit once a ray left it (0 unknown, 1 false, 2 true): the
+    /// vertex's rays (next event, mirror image, next segment) share one test.
+    near_edge: Cell<u8>,
+}
+
+impl<L> Vertex<'_, L> {
+    /// Where a ray leaving the vertex along `dir` starts ([`Scene::spawn_origin_from`]).
+    #[inline(always)]
+    fn spawn(&self, scene: &Scene, dir: DVec3) -> DVec3 {
+        let near = match self.near_edge.get() {
+            0 => {
+                let near = scene.near_edge(self.hit);
+                self.near_edge.set(1 + u8::from(near));
+                near
+            }
+            k => k == 2,
+        };
+        scene.spawn_origin_at(self.hit, near, dir, self.origin)
+    }
 }
 
 /// A direction at `v` from the one-sample MIS mixture of its BSDF (a model without a Dirac lobe,
@@ -625,7 +646,7 @@ impl PathState {
             return;
         }
         st.rays += 1;
-        let o = view.scene.spawn_origin_from(hit, ls.wi, v.origin);
+        let o = v.spawn(view.scene, ls.wi);
         if !trace::visible::<K>(view.scene, o, hit.p + ls.wi * ls.dist) {
             return;
         }
@@ -653,7 +674,7 @@ impl PathState {
         if f == Rgb::ZERO {
             return;
         }
-        let o = view.scene.spawn_origin_from(hit, vs.wi, v.origin);
+        let o = v.spawn(view.scene, vs.wi);
         let Some(li) = mirror::connect_virtual::<K>(view.scene, hit.p, o, &vs, &mut st.rays) else {
             return;
         };
