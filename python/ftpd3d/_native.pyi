@@ -34,7 +34,7 @@ class RunOptions(TypedDict, total=False):
     angle: float  # 2.0 (degrees)
     max_bounces: int  # 32
     radiance_bounces: Optional[int]  # None: max_bounces
-    pairs: Pairs  # None: 2,2,1,2
+    pairs: Pairs  # None: 2,2,2,2 radiance-weighted, else 2,2,1,2
     guide: bool  # False: guided radiance paths (radiance weighting)
     batches: int  # 8
     pass_spp: Optional[int]  # None
@@ -138,7 +138,7 @@ class Scene:
         error); none of them: stop at 0.05 or after 60 s. ``seed``: same seed, same field, on any
         number of ``threads`` (0: all cores). Run lengths ``t0``, ``t1`` default to 0.1 and 0.5
         of the scene's diagonal. ``pairs`` (kA, kB, J, M): the deflection pairs of a sample
-        (None: the weighting's, 2,2,1,2). ``progress``: None (a tqdm bar if tqdm is installed),
+        (None: the weighting's, 2,2,2,2 radiance-weighted, else 2,2,1,2). ``progress``: None (a tqdm bar if tqdm is installed),
         False, True, or ``f(done, total)`` (total None without ``spp``). Ctrl-C raises
         ``KeyboardInterrupt`` after the cells in flight."""
     def flatland(

@@ -79,7 +79,7 @@ pub struct EstimatorFlags {
     /// Deflection pairs per sample, kA,kB,J,M: kA walks along the direction, J directions in
     /// its cone with kB walks each, every walk read at M run lengths (one in each of M equal parts
     /// of [t0, t1]); Δ is averaged over all kA·kB·J·M pairs. 1,1,1,1 is one pair per sample
-    /// [default: 2,2,1,2].
+    /// [default: 2,2,2,2 with radiance weighting, else 2,2,1,2].
     #[arg(long, value_name = "KA,KB,J,M")]
     pub pairs: Option<crate::ftpd::Design>,
     /// Guided radiance paths (radiance weighting, 3D): learn where light arrives from by training

@@ -57,14 +57,16 @@ impl Design {
         }
     }
 
-    /// The design a run of `weighting` takes unless told otherwise: two walks along ω, one cone
-    /// direction with two walks, two run lengths (8 pairs from 4 walks), for every weighting. Chosen
-    /// by measured efficiency (1 / (variance · CPU time)) on the Cornell box, the stair wall and the
-    /// glass sphere, radiance-weighted and unweighted, where it was the best or within the
-    /// measurement's noise of the best in each (docs/performance.md, "Deflection pairs per
-    /// sample").
-    pub fn default_for(_weighting: Weighting) -> Design {
-        Design::new(2, 2, 1, 2)
+    /// The design a run of `weighting` takes unless told otherwise, chosen by measured efficiency
+    /// (1 / (variance · CPU time)) on the Cornell box, the stair wall and the glass sphere
+    /// (docs/performance.md, "Deflection pairs per sample"): radiance weighting two cone
+    /// directions (2,2,2,2: 16 pairs from 6 walks, whose radiance path, the costliest part of a
+    /// sample, they share), every other weighting one (2,2,1,2: 8 pairs from 4 walks).
+    pub fn default_for(weighting: Weighting) -> Design {
+        match weighting {
+            Weighting::Radiance => Design::new(2, 2, 2, 2),
+            Weighting::Unweighted | Weighting::Importance => Design::new(2, 2, 1, 2),
+        }
     }
 
     /// Checks each part against its range.
