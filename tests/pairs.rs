@@ -142,7 +142,7 @@ fn pairs_flag_runs_resumes_and_refuses() {
     // The default design differs from it: other sums.
     let r = run(&["--spp", "8", "-o", &out("default.exr")]);
     assert!(r.ok, "{}", r.err);
-    assert_eq!(cells("default.exr").meta["pairs"], "2,2,1,2");
+    assert_eq!(cells("default.exr").meta["pairs"], "2,2,2,2");
     assert_ne!(cells("default.exr").cells, t1.cells);
     // 4 samples, resumed to 8: the 8-sample run, bit for bit.
     let resumed = out("resumed.exr");
