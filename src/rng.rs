@@ -143,8 +143,10 @@ impl SobolKeys {
 /// A uniform random number source for one sample stream.
 pub struct Sampler {
     rng: Pcg64Mcg,
-    /// Hash of the stream's key, for the scramble seeds of its batches.
-    key: u64,
+    /// The low word of the stream's key, hashed into the scramble seeds of its groups only when a
+    /// group's first point is drawn ([`Sampler::next_point`]): random-only streams (the walks')
+    /// never pay for that hash.
+    lo: u64,
     /// The current sample's group, its point's index in the group's sequence and the next
     /// dimension; `dim == QMC_DIMS` when every number comes from `rng`.
     group: u32,
@@ -172,7 +174,7 @@ impl Sampler {
         // MCG state must be odd; the generator forces that itself.
         Sampler {
             rng: Pcg64Mcg::new(((hi as u128) << 64) | lo as u128),
-            key: mix64(lo ^ 0x5851_F42D_4C95_7F2D),
+            lo,
             group: 0,
             index: 0,
             dim: QMC_DIMS,
@@ -188,13 +190,10 @@ impl Sampler {
 
     /// A random-only stream of its own for each `k` under `key` (a [`Sampler::fork_key`]): the
     /// walks of one sample each draw from one, so that no number is shared between walks.
+    /// [`Children`] gives the same streams with the key's hash taken once for all of them.
     #[inline]
     pub fn child(key: u64, k: u64) -> Self {
-        let hi = mix64(key ^ 0xA076_1D64_78BD_642F);
-        let lo = mix64(hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB));
-        let mut s = Sampler::new_raw(hi, lo);
-        s.dim = QMC_DIMS;
-        s
+        Children::new(key).stream(k)
     }
 
     /// 64 bits of the random stream, for the keys of [`Sampler::child`] streams; takes no
@@ -244,7 +243,8 @@ impl Sampler {
     #[inline(never)]
     fn next_point(&mut self) {
         if self.keyed != Some(self.group) {
-            self.keys = SobolKeys::new(mix64(self.key ^ u64::from(self.group)) as u32);
+            let key = mix64(self.lo ^ 0x5851_F42D_4C95_7F2D);
+            self.keys = SobolKeys::new(mix64(key ^ u64::from(self.group)) as u32);
             self.keyed = Some(self.group);
         }
         self.keys
@@ -254,6 +254,29 @@ impl Sampler {
     #[inline]
     pub fn next_2d(&mut self) -> (f64, f64) {
         (self.next_f64(), self.next_f64())
+    }
+}
+
+/// The [`Sampler::child`] streams of one key, its hash taken once: a sample's walks each draw
+/// from one of them.
+#[derive(Clone, Copy, Debug)]
+pub struct Children {
+    hi: u64,
+}
+
+impl Children {
+    #[inline]
+    pub fn new(key: u64) -> Self {
+        Children {
+            hi: mix64(key ^ 0xA076_1D64_78BD_642F),
+        }
+    }
+
+    /// Stream `k`: [`Sampler::child`]`(key, k)`.
+    #[inline]
+    pub fn stream(&self, k: u64) -> Sampler {
+        let lo = mix64(self.hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        Sampler::new_raw(self.hi, lo)
     }
 }
 

@@ -23,7 +23,7 @@ use super::design::Design;
 use super::{Params, Sample, cone_constants, regulariser};
 use crate::kernel::{Kernel, Space};
 use crate::math::{Rgb, luminance};
-use crate::rng::Sampler;
+use crate::rng::{Children, Sampler};
 use crate::scene::Scene;
 use crate::transport::deflection::{End, FirstSegment, walk_ends};
 use glam::DVec3;
@@ -130,8 +130,8 @@ struct Walks<'a> {
     scene: &'a Scene,
     lengths: &'a [f64],
     max_bounces: u32,
-    /// The key of the sample's walk streams ([`Sampler::child`]).
-    key: u64,
+    /// The sample's walk streams ([`Sampler::child`] of its key).
+    streams: Children,
 }
 
 impl Walks<'_> {
@@ -148,7 +148,7 @@ impl Walks<'_> {
     ) {
         out.rays += 1;
         for (i, e) in ends.chunks_exact_mut(self.lengths.len()).enumerate() {
-            let mut ws = Sampler::child(self.key, index + i as u64);
+            let mut ws = self.streams.stream(index + i as u64);
             let st = walk_ends::<K>(
                 self.scene,
                 first,
@@ -238,7 +238,7 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
         scene,
         lengths: &sc.lengths,
         max_bounces: p.max_bounces,
-        key,
+        streams: Children::new(key),
     };
     let first = FirstSegment::trace::<K>(scene, x, omega, t_max);
     walks.trace::<K>(&first, 0, &mut sc.a, out);
