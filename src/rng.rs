@@ -229,8 +229,7 @@ impl Sampler {
             }
             // 24 bits from the sequence, the bits below them from the random stream: the point
             // keeps its strata, and every number keeps 53 bits.
-            let q = self.point[d as usize];
-            return (q + r * (1.0 / (1u64 << 24) as f64)).min(1.0 - f64::EPSILON / 2.0);
+            return Self::blend(self.point[d as usize], r);
         }
         r
     }
@@ -254,6 +253,32 @@ impl Sampler {
     #[inline]
     pub fn next_2d(&mut self) -> (f64, f64) {
         (self.next_f64(), self.next_f64())
+    }
+
+    /// `N` numbers in a row, the same as `N` calls of [`Sampler::next_f64`]: where all of them are
+    /// dimensions of the current QMC point, with one test of the dimension for all of them (a
+    /// sample's first numbers: its start point's, direction's and offsets'). Random-only streams
+    /// (the walks') should keep to [`Sampler::next_f64`], which tests less for them.
+    #[inline]
+    pub fn next_n<const N: usize>(&mut self) -> [f64; N] {
+        let d = self.dim as usize;
+        if d + N <= QMC_DIMS as usize {
+            if d == 0 {
+                self.next_point();
+            }
+            self.dim += N as u32;
+            return std::array::from_fn(|k| {
+                let r = (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+                Self::blend(self.point[d + k], r)
+            });
+        }
+        std::array::from_fn(|_| self.next_f64())
+    }
+
+    /// A QMC number `q` (24 bits) with the random number `r`'s bits below them.
+    #[inline(always)]
+    fn blend(q: f64, r: f64) -> f64 {
+        (q + r * (1.0 / (1u64 << 24) as f64)).min(1.0 - f64::EPSILON / 2.0)
     }
 }
 
@@ -372,6 +397,37 @@ mod tests {
                     b.map(f32::to_bits),
                     "{seed} {index} {set}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn next_n_draws_what_next_f64_draws() {
+        // Every split of a sample's numbers into runs of 1-4, from every dimension a run can start
+        // at, bit for bit against one number at a time (QMC, mixed and random-only runs).
+        for start in 0..QMC_DIMS + 2 {
+            for run in 1..=4usize {
+                let mut a = Sampler::new(3, 1, 9);
+                let mut b = Sampler::new(3, 1, 9);
+                a.begin_sample(2, 5);
+                b.begin_sample(2, 5);
+                for _ in 0..start {
+                    a.next_f64();
+                    b.next_f64();
+                }
+                let want: Vec<u64> = (0..3 * run).map(|_| a.next_f64().to_bits()).collect();
+                let mut got = Vec::new();
+                for _ in 0..3 {
+                    let xs: Vec<f64> = match run {
+                        1 => b.next_n::<1>().to_vec(),
+                        2 => b.next_n::<2>().to_vec(),
+                        3 => b.next_n::<3>().to_vec(),
+                        _ => b.next_n::<4>().to_vec(),
+                    };
+                    got.extend(xs.iter().map(|x| x.to_bits()));
+                }
+                assert_eq!(want, got, "start {start}, runs of {run}");
+                assert_eq!(a.next_f64().to_bits(), b.next_f64().to_bits());
             }
         }
     }

@@ -120,7 +120,8 @@ impl Domain for PlaneDomain<'_> {
     }
     #[inline]
     fn start(&self, scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
-        let x = self.plane.point(cell, s.next_2d());
+        let [u0, u1] = s.next_n();
+        let x = self.plane.point(cell, (u0, u1));
         Start::Point(if self.on_surfaces {
             scene.off_surfaces(x)
         } else {

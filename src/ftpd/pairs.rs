@@ -52,10 +52,10 @@ pub struct Offsets {
 impl Offsets {
     #[inline]
     pub fn draw(s: &mut Sampler) -> Self {
-        let u_t = s.next_f64();
+        let [u_t, u0] = s.next_n();
         Offsets {
             u_t,
-            u_cone: s.next_2d(),
+            u_cone: (u0, s.next_f64()),
         }
     }
 }
