@@ -105,18 +105,18 @@ struct Deviation {
 
 impl Deviation {
     #[inline(always)]
+    #[allow(clippy::eq_op)]
     fn new(t: f64, chord: f64, r: f64) -> Self {
         let s = regulariser(r);
         let denom = t * chord;
         // `pairwise_deviation`'s guards (s = 0, or denom not positive and finite) as float
-        // comparisons: `denom - denom` is 0 exactly when denom is finite (NaN otherwise). Written
-        // as `is_finite` (or `denom < ∞`), the test compiles to a long integer test of the bits.
-        #[allow(clippy::eq_op)]
-        let finite = denom - denom == 0.0;
+        // comparisons: `denom - denom` is 0 exactly when denom is finite (NaN otherwise), and
+        // only evaluated when the others pass. Written as `is_finite` (or `denom < ∞`), the test
+        // compiles to a long integer test of the bits.
         Deviation {
             s,
             denom,
-            zero: !(s != 0.0 && denom > 0.0 && finite),
+            zero: !(s != 0.0 && denom > 0.0 && denom - denom == 0.0),
         }
     }
 
