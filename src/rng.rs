@@ -161,8 +161,10 @@ impl Uniform for Sampler {
 /// A uniform random number source for one sample stream.
 pub struct Sampler {
     rng: Pcg64Mcg,
-    /// Hash of the stream's key, for the scramble seeds of its batches.
-    key: u64,
+    /// The low word of the stream's key, hashed into the scramble seeds of its groups only when a
+    /// group's first point is drawn ([`Sampler::next_point`]): random-only streams (the walks')
+    /// never pay for that hash.
+    lo: u64,
     /// The current sample's group, its point's index in the group's sequence and the next
     /// dimension; `dim == QMC_DIMS` when every number comes from `rng`.
     group: u32,
@@ -190,7 +192,7 @@ impl Sampler {
         // MCG state must be odd; the generator forces that itself.
         Sampler {
             rng: Pcg64Mcg::new(((hi as u128) << 64) | lo as u128),
-            key: mix64(lo ^ 0x5851_F42D_4C95_7F2D),
+            lo,
             group: 0,
             index: 0,
             dim: QMC_DIMS,
@@ -206,13 +208,10 @@ impl Sampler {
 
     /// A random-only stream of its own for each `k` under `key` (a [`Sampler::fork_key`]): the
     /// walks of one sample each draw from one, so that no number is shared between walks.
+    /// [`Children`] gives the same streams with the key's hash taken once for all of them.
     #[inline]
     pub fn child(key: u64, k: u64) -> Self {
-        let hi = mix64(key ^ 0xA076_1D64_78BD_642F);
-        let lo = mix64(hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB));
-        let mut s = Sampler::new_raw(hi, lo);
-        s.dim = QMC_DIMS;
-        s
+        Children::new(key).stream(k)
     }
 
     /// 64 bits of the random stream, for the keys of [`Sampler::child`] streams; takes no
@@ -248,8 +247,7 @@ impl Sampler {
             }
             // 24 bits from the sequence, the bits below them from the random stream: the point
             // keeps its strata, and every number keeps 53 bits.
-            let q = self.point[d as usize];
-            return (q + r * (1.0 / (1u64 << 24) as f64)).min(1.0 - f64::EPSILON / 2.0);
+            return Self::blend(self.point[d as usize], r);
         }
         r
     }
@@ -262,7 +260,8 @@ impl Sampler {
     #[inline(never)]
     fn next_point(&mut self) {
         if self.keyed != Some(self.group) {
-            self.keys = SobolKeys::new(mix64(self.key ^ u64::from(self.group)) as u32);
+            let key = mix64(self.lo ^ 0x5851_F42D_4C95_7F2D);
+            self.keys = SobolKeys::new(mix64(key ^ u64::from(self.group)) as u32);
             self.keyed = Some(self.group);
         }
         self.keys
@@ -272,6 +271,64 @@ impl Sampler {
     #[inline]
     pub fn next_2d(&mut self) -> (f64, f64) {
         (self.next_f64(), self.next_f64())
+    }
+
+    /// `N` numbers in a row, the same as `N` calls of [`Sampler::next_f64`]: where all of them are
+    /// dimensions of the current QMC point, with one test of the dimension for all of them (a
+    /// sample's first numbers: its start point's, direction's and offsets'). Random-only streams
+    /// (the walks') should keep to [`Sampler::next_f64`], which tests less for them.
+    #[inline]
+    pub fn next_n<const N: usize>(&mut self) -> [f64; N] {
+        let d = self.dim as usize;
+        if d + N <= QMC_DIMS as usize {
+            if d == 0 {
+                self.next_point();
+            }
+            self.dim += N as u32;
+            return std::array::from_fn(|k| {
+                let r = (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+                Self::blend(self.point[d + k], r)
+            });
+        }
+        std::array::from_fn(|_| self.next_f64())
+    }
+
+    /// A QMC number `q` (24 bits) with the random number `r`'s bits below them.
+    #[inline(always)]
+    fn blend(q: f64, r: f64) -> f64 {
+        (q + r * (1.0 / (1u64 << 24) as f64)).min(1.0 - f64::EPSILON / 2.0)
+    }
+}
+
+/// The [`Sampler::child`] streams of one key, its hash taken once: a sample's walks each draw
+/// from one of them.
+#[derive(Clone, Copy, Debug)]
+pub struct Children {
+    hi: u64,
+}
+
+impl Children {
+    #[inline]
+    pub fn new(key: u64) -> Self {
+        Children {
+            hi: mix64(key ^ 0xA076_1D64_78BD_642F),
+        }
+    }
+
+    /// The 128-bit state `(hi, lo)` of stream `k`.
+    #[inline]
+    pub fn state(&self, k: u64) -> (u64, u64) {
+        (
+            self.hi,
+            mix64(self.hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB)),
+        )
+    }
+
+    /// Stream `k`: [`Sampler::child`]`(key, k)`.
+    #[inline]
+    pub fn stream(&self, k: u64) -> Sampler {
+        let (hi, lo) = self.state(k);
+        Sampler::new_raw(hi, lo)
     }
 }
 
@@ -367,6 +424,37 @@ mod tests {
                     b.map(f32::to_bits),
                     "{seed} {index} {set}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn next_n_draws_what_next_f64_draws() {
+        // Every split of a sample's numbers into runs of 1-4, from every dimension a run can start
+        // at, bit for bit against one number at a time (QMC, mixed and random-only runs).
+        for start in 0..QMC_DIMS + 2 {
+            for run in 1..=4usize {
+                let mut a = Sampler::new(3, 1, 9);
+                let mut b = Sampler::new(3, 1, 9);
+                a.begin_sample(2, 5);
+                b.begin_sample(2, 5);
+                for _ in 0..start {
+                    a.next_f64();
+                    b.next_f64();
+                }
+                let want: Vec<u64> = (0..3 * run).map(|_| a.next_f64().to_bits()).collect();
+                let mut got = Vec::new();
+                for _ in 0..3 {
+                    let xs: Vec<f64> = match run {
+                        1 => b.next_n::<1>().to_vec(),
+                        2 => b.next_n::<2>().to_vec(),
+                        3 => b.next_n::<3>().to_vec(),
+                        _ => b.next_n::<4>().to_vec(),
+                    };
+                    got.extend(xs.iter().map(|x| x.to_bits()));
+                }
+                assert_eq!(want, got, "start {start}, runs of {run}");
+                assert_eq!(a.next_f64().to_bits(), b.next_f64().to_bits());
             }
         }
     }

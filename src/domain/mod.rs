@@ -120,13 +120,21 @@ impl Domain for PlaneDomain<'_> {
     }
     #[inline]
     fn start(&self, scene: &Scene, cell: usize, s: &mut Sampler) -> Start {
-        let x = self.plane.point(cell, s.next_2d());
+        let [u0, u1] = s.next_n();
+        let x = self.plane.point(cell, (u0, u1));
         Start::Point(if self.on_surfaces {
-            scene.off_surfaces(x)
+            moved_off(scene, x)
         } else {
             x
         })
     }
+}
+
+/// [`Scene::off_surfaces`], not inlined: inlined into [`PlaneDomain::start`] its point query made
+/// every sample's start save and restore registers, planes that cut no surface too.
+#[inline(never)]
+fn moved_off(scene: &Scene, x: DVec3) -> DVec3 {
+    scene.off_surfaces(x)
 }
 
 impl Domain for Volume {

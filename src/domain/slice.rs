@@ -252,9 +252,20 @@ impl Plane {
     #[inline]
     pub fn point(&self, idx: usize, jitter: (f64, f64)) -> DVec3 {
         let (i, j) = (idx % self.width, idx / self.width);
-        let fu = (i as f64 + jitter.0) / self.width as f64;
-        let fv = (j as f64 + jitter.1) / self.height as f64;
+        let fu = (index_f64(i) + jitter.0) / index_f64(self.width);
+        let fv = (index_f64(j) + jitter.1) / index_f64(self.height);
         self.origin + self.u_axis * (fu * self.size.0) + self.v_axis * (fv * self.size.1)
+    }
+}
+
+/// `n as f64` (the same value for every `n`), converted from 32 bits where `n` fits them, as every
+/// grid index of a domain does: the conversion of a 64-bit unsigned integer takes five SSE2
+/// instructions, that of a 32-bit one a single one, and a cell's point converts four per sample.
+#[inline(always)]
+fn index_f64(n: usize) -> f64 {
+    match u32::try_from(n) {
+        Ok(m) => f64::from(m),
+        Err(_) => n as f64,
     }
 }
 

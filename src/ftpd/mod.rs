@@ -229,12 +229,11 @@ pub struct DirectionNumbers {
 impl DirectionNumbers {
     #[inline]
     pub fn draw(s: &mut Sampler) -> Self {
-        let strategy = s.next_f64();
-        let u_l = s.next_f64();
+        let [strategy, u_l, u0, u1] = s.next_n();
         DirectionNumbers {
             strategy,
             u_l,
-            u: s.next_2d(),
+            u: (u0, u1),
         }
     }
 }
@@ -460,10 +459,11 @@ pub fn visit_at<K: Kernel, V: FnMut(&Pair) + ?Sized>(
     let nums = if radiance {
         DirectionNumbers::draw(s)
     } else {
+        let [u0, u1] = s.next_n();
         DirectionNumbers {
             strategy: 0.0,
             u_l: 0.0,
-            u: s.next_2d(),
+            u: (u0, u1),
         }
     };
     let off = pairs::Offsets::draw(s);

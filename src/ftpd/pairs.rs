@@ -23,7 +23,7 @@ use super::design::Design;
 use super::{Params, Sample, cone_constants, regulariser};
 use crate::kernel::{Kernel, Space};
 use crate::math::{Rgb, luminance};
-use crate::rng::Sampler;
+use crate::rng::{Children, Sampler};
 use crate::scene::Scene;
 use crate::transport::deflection::{End, FirstSegment, WalkStream, walk_ends};
 use glam::DVec3;
@@ -52,10 +52,10 @@ pub struct Offsets {
 impl Offsets {
     #[inline]
     pub fn draw(s: &mut Sampler) -> Self {
-        let u_t = s.next_f64();
+        let [u_t, u0] = s.next_n();
         Offsets {
             u_t,
-            u_cone: s.next_2d(),
+            u_cone: (u0, s.next_f64()),
         }
     }
 }
@@ -105,13 +105,18 @@ struct Deviation {
 
 impl Deviation {
     #[inline(always)]
+    #[allow(clippy::eq_op)]
     fn new(t: f64, chord: f64, r: f64) -> Self {
         let s = regulariser(r);
         let denom = t * chord;
+        // `pairwise_deviation`'s guards (s = 0, or denom not positive and finite) as float
+        // comparisons: `denom - denom` is 0 exactly when denom is finite (NaN otherwise), and
+        // only evaluated when the others pass. Written as `is_finite` (or `denom < ∞`), the test
+        // compiles to a long integer test of the bits.
         Deviation {
             s,
             denom,
-            zero: s == 0.0 || !(denom > 0.0) || !denom.is_finite(),
+            zero: !(s != 0.0 && denom > 0.0 && denom - denom == 0.0),
         }
     }
 
@@ -130,8 +135,8 @@ struct Walks<'a> {
     scene: &'a Scene,
     lengths: &'a [f64],
     max_bounces: u32,
-    /// The key of the sample's walk streams ([`Sampler::child`]).
-    key: u64,
+    /// The sample's walk streams ([`Sampler::child`] of its key).
+    streams: Children,
 }
 
 impl Walks<'_> {
@@ -148,7 +153,7 @@ impl Walks<'_> {
     ) {
         out.rays += 1;
         for (i, e) in ends.chunks_exact_mut(self.lengths.len()).enumerate() {
-            let mut ws = WalkStream::child(self.key, index + i as u64);
+            let mut ws = WalkStream::of(&self.streams, index + i as u64);
             let st = walk_ends::<K>(
                 self.scene,
                 first,
@@ -238,7 +243,7 @@ fn combine<K: Kernel, V: FnMut(&Pair) + ?Sized>(
         scene,
         lengths: &sc.lengths,
         max_bounces: p.max_bounces,
-        key,
+        streams: Children::new(key),
     };
     let first = FirstSegment::trace::<K>(scene, x, omega, t_max);
     walks.trace::<K>(&first, 0, &mut sc.a, out);

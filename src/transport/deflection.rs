@@ -13,7 +13,7 @@
 
 use crate::kernel::{Kernel, Space};
 use crate::math::Rgb;
-use crate::rng::{Uniform, mix64};
+use crate::rng::Uniform;
 use crate::scene::{Hit, Scene};
 use crate::transport::bsdf::Mode;
 use crate::transport::trace;
@@ -78,8 +78,14 @@ impl WalkStream {
     /// The stream [`crate::rng::Sampler::child`] gives for `key` and `k`.
     #[inline(always)]
     pub fn child(key: u64, k: u64) -> Self {
-        let hi = mix64(key ^ 0xA076_1D64_78BD_642F);
-        let lo = mix64(hi ^ k.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        WalkStream::of(&crate::rng::Children::new(key), k)
+    }
+
+    /// Stream `k` of `children` (their key hashed once for all the sample's walks): the numbers
+    /// of [`crate::rng::Children::stream`].
+    #[inline(always)]
+    pub fn of(children: &crate::rng::Children, k: u64) -> Self {
+        let (hi, lo) = children.state(k);
         WalkStream {
             rng: rand_pcg::Pcg64Mcg::new(((hi as u128) << 64) | lo as u128),
         }
