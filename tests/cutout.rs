@@ -5,7 +5,6 @@
 //! checks the walks, the radiance paths and their shadow rays alike; the ray and point queries are
 //! also checked one by one where the answer is known exactly.
 
-use ftpd3d::ftpd::Params;
 use ftpd3d::math::Rgb;
 use ftpd3d::rng::Sampler;
 use ftpd3d::scene::Scene;
@@ -166,17 +165,7 @@ fn z_scores(mode: AlphaMode) -> Vec<(String, f64)> {
             (0..4).map(move |iz| DVec3::new(-0.25 + 0.3 * ix as f64, 0.55, 0.3 + 0.5 * iz as f64))
         })
         .collect();
-    let params = |weighting| Params {
-        t0: 0.3,
-        t1: 0.8,
-        theta_max: 0.15,
-        weighting,
-        max_bounces: 8,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(weighting),
-        guide: false,
-    };
+    let params = |weighting| crate::support::params(0.3, 0.8, 0.15, weighting, 8);
     crate::support::z_scores_of_two_scenes([&cut, &squares], &points, params, 11, 3000)
 }
 

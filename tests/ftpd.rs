@@ -214,17 +214,7 @@ fn diffuse_wall_sigma_falls_with_distance() {
 fn small_run(seed: u64, threads: usize) -> Field {
     let scene = load_scene(&scene_path("cornell_mirror.obj")).unwrap();
     let plane = Plane::axis_slice(&scene.bounds, "z=0".parse().unwrap(), None, 24).unwrap();
-    let p = Params {
-        t0: 0.3,
-        t1: 1.5,
-        theta_max: 0.05,
-        weighting: Weighting::Radiance,
-        max_bounces: 16,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
-        guide: false,
-    };
+    let p = crate::support::params(0.3, 1.5, 0.05, Weighting::Radiance, 16);
     run_plane(&scene, &plane, &p, &opts(16, seed, threads))
         .unwrap()
         .0
@@ -286,17 +276,7 @@ fn camera_image_of_an_empty_scene_is_zero_and_beauty_sees_the_light() {
         fov_y: 0.6,
         aspect: None,
     };
-    let p = Params {
-        t0: 0.5,
-        t1: 2.0,
-        theta_max: 0.1,
-        weighting: Weighting::Importance,
-        max_bounces: 8,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(Weighting::Importance),
-        guide: false,
-    };
+    let p = crate::support::params(0.5, 2.0, 0.1, Weighting::Importance, 8);
     // Empty: the only geometry is 10 km behind the camera.
     let scene = load_scene(&scene_path("diffuse_plane.obj")).unwrap();
     let far = crate::support::translated(&scene, glam::Vec3::new(0.0, 1e4, 0.0));

@@ -340,7 +340,6 @@ fn instance_normals_follow_the_inverse_transpose_and_mirroring() {
 /// `assert_consistent` (false failures with probability at most `ALPHA`).
 #[test]
 fn instanced_field_is_the_flattened_field() {
-    use ftpd3d::ftpd::Params;
     let dir = temp_dir("instancing", "field");
     let path = write_scene(&dir, "trees.gltf", &placements());
     let [inst, flat] = both(&path);
@@ -348,17 +347,7 @@ fn instanced_field_is_the_flattened_field() {
         .into_iter()
         .flat_map(|x| [0.4, 1.1].map(|y| DVec3::new(x, y, 0.3 * x - 0.1)))
         .collect();
-    let params = |weighting| Params {
-        t0: 0.5,
-        t1: 1.5,
-        theta_max: 0.15,
-        weighting,
-        max_bounces: 8,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(weighting),
-        guide: false,
-    };
+    let params = |weighting| crate::support::params(0.5, 1.5, 0.15, weighting, 8);
     let zs = crate::support::z_scores_of_two_scenes([&inst, &flat], &points, params, 31, 3000);
     crate::support::assert_consistent("instanced vs flattened", &zs);
 }

@@ -109,17 +109,7 @@ fn mirror_room() -> Scene {
 }
 
 fn params() -> Params {
-    Params {
-        t0: 0.5,
-        t1: 1.5,
-        theta_max: 0.2,
-        weighting: Weighting::Radiance,
-        max_bounces: 8,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
-        guide: false,
-    }
+    crate::support::params(0.5, 1.5, 0.2, Weighting::Radiance, 8)
 }
 
 #[test]

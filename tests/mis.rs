@@ -3,7 +3,7 @@
 //! diffuse walls and a mirror, and on one lit by a sky, two suns and a spot light.
 
 use crate::support::{agrees_with_reference, scene_path};
-use ftpd3d::ftpd::{Params, Weighting};
+use ftpd3d::ftpd::Weighting;
 use ftpd3d::scene::Scene;
 use glam::DVec3;
 
@@ -16,17 +16,7 @@ fn cornell_with_point_light() -> Scene {
 #[test]
 fn mis_radiance_weighting_matches_the_reference() {
     let scene = cornell_with_point_light();
-    let p = Params {
-        t0: 0.3,
-        t1: 1.2,
-        theta_max: 0.2,
-        weighting: Weighting::Radiance,
-        max_bounces: 12,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
-        guide: false,
-    };
+    let p = crate::support::params(0.3, 1.2, 0.2, Weighting::Radiance, 12);
     let points = [
         DVec3::new(0.2, 1.0, 0.0),
         DVec3::new(-0.6, 0.4, 0.5),
@@ -67,17 +57,13 @@ fn mis_radiance_weighting_matches_the_reference_under_sky_sun_and_spot() {
     let lo = scene.bounds.min;
     let hi = scene.bounds.max;
     let at = |a: f64, b: f64, c: f64| lo + (hi - lo) * DVec3::new(a, b, c);
-    let p = Params {
-        t0: 0.1 * scene.extent(),
-        t1: 0.5 * scene.extent(),
-        theta_max: 0.2,
-        weighting: Weighting::Radiance,
-        max_bounces: 12,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
-        guide: false,
-    };
+    let p = crate::support::params(
+        0.1 * scene.extent(),
+        0.5 * scene.extent(),
+        0.2,
+        Weighting::Radiance,
+        12,
+    );
     let points = [at(0.3, 0.5, 0.5), at(0.6, 0.8, 0.3)].map(|x| scene.off_surfaces(x));
     agrees_with_reference(&scene, &points, &p, 24000, (500, 600), "outdoor point");
 }
@@ -112,17 +98,7 @@ fn mis_emission_texture_agrees_with_the_reference() {
         scene.report.warnings
     );
     assert!(scene.features.emission_textures);
-    let p = Params {
-        t0: 0.2,
-        t1: 0.6,
-        theta_max: 0.1,
-        weighting: Weighting::Radiance,
-        max_bounces: 4,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(Weighting::Radiance),
-        guide: false,
-    };
+    let p = crate::support::params(0.2, 0.6, 0.1, Weighting::Radiance, 4);
     let points = [
         DVec3::new(0.25, 0.5, 0.5),
         DVec3::new(0.75, 0.5, 0.5),

@@ -836,17 +836,7 @@ fn valid_glossy_sigma_falls_with_the_exponent_towards_its_mirror_limit() {
         "mirror quadrature: m1 {:.9} m2 {:.9} σ {:.9} (16 points: σ {:.9})",
         mirror_f.0, mirror_f.1, mirror_f.2, mirror_c.2
     );
-    let p = Params {
-        t0: setup.t,
-        t1: setup.t,
-        theta_max: setup.theta_max,
-        weighting: Weighting::Unweighted,
-        max_bounces: 64,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(Weighting::Unweighted),
-        guide: false,
-    };
+    let p = crate::support::params(setup.t, setup.t, setup.theta_max, Weighting::Unweighted, 64);
     let run = |bsdf: Bsdf, seed: u64, per_batch: usize| {
         let scene = big_plane(crate::support::material("plane", bsdf));
         run_ftpd(&scene, setup.x(), &p, seed, 32, per_batch)

@@ -8,6 +8,23 @@ use ftpd3d::rng::Sampler;
 use ftpd3d::scene::Scene;
 use glam::DVec3;
 
+/// The estimator's parameters most tests take: run lengths [`t0`, `t1`], cone half-angle
+/// `theta_max`, `max_bounces` for walks and radiance paths, 3D, the weighting's default design,
+/// no guiding.
+pub fn params(t0: f64, t1: f64, theta_max: f64, weighting: Weighting, max_bounces: u32) -> Params {
+    Params {
+        t0,
+        t1,
+        theta_max,
+        weighting,
+        max_bounces,
+        radiance_bounces: None,
+        flat: None,
+        design: ftpd3d::ftpd::Design::default_for(weighting),
+        guide: false,
+    }
+}
+
 /// σ, its standard error, the mean luminance of the weight (the fluence for radiance weighting)
 /// and its standard error, from `n` samples at `at` drawn with `s`.
 pub fn point_estimate(
