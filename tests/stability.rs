@@ -120,17 +120,7 @@ fn assert_agree(what: &str, a: &CellValue, b: &CellValue, k: f64) {
 }
 
 fn params(weighting: Weighting, t0: f64, t1: f64, angle_deg: f64, max_bounces: u32) -> Params {
-    Params {
-        t0,
-        t1,
-        theta_max: angle_deg.to_radians(),
-        weighting,
-        max_bounces,
-        radiance_bounces: None,
-        flat: None,
-        design: ftpd3d::ftpd::Design::default_for(weighting),
-        guide: false,
-    }
+    crate::support::params(t0, t1, angle_deg.to_radians(), weighting, max_bounces)
 }
 
 /// Every channel of every part of an EXR file (f32 and u32 alike) holds finite values only.
