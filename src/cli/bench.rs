@@ -65,7 +65,10 @@ pub fn bench_plane(
         }
         let start = Instant::now();
         let hits: u64 = pool.install(|| {
+            // Balanced as the kernel's passes are (render::pass), so that neither side of the
+            // ratio waits for the other's slowest run of chunks.
             rays.par_chunks(4096)
+                .with_max_len(1)
                 .map(|chunk| {
                     let mut h = 0u64;
                     for r in chunk {
