@@ -73,8 +73,8 @@ where
             .enumerate()
             // Every chunk its own stealable job. Rayon's default cuts the chunks into a few runs
             // per thread (about four in all on two threads) and runs each run whole once taken,
-            // so a thread whose runs were cheap sat idle until the other finished: 10-20 % of
-            // the cores in a pass.
+            // so a thread whose runs were cheap sat idle until the other finished: 9-14 % of
+            // the two cores' time on the Cornell box at 48² (docs/performance.md).
             .with_max_len(1)
             .map(|(ci, chunk)| {
                 if stop.is_some_and(|s| s.load(Relaxed)) {
