@@ -35,7 +35,13 @@ pub fn hash_unit(words: &[u32]) -> f64 {
     let h = words
         .iter()
         .fold(0x2545_F491_4F6C_DD1D_u64, |h, &w| mix64(h ^ w as u64));
-    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    unit_f64(h)
+}
+
+/// The top 53 bits of `bits` as a number in [0, 1): every uniform number the project draws.
+#[inline(always)]
+pub fn unit_f64(bits: u64) -> f64 {
+    (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// Numbers per sample drawn from the scrambled Sobol' sequence: the start point's in its cell,
@@ -238,7 +244,7 @@ impl Sampler {
     /// Uniform in [0, 1): the next dimension of the current QMC point, or 53 random bits.
     #[inline]
     pub fn next_f64(&mut self) -> f64 {
-        let r = (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+        let r = unit_f64(self.rng.next_u64());
         if self.dim < QMC_DIMS {
             let d = self.dim;
             self.dim += 1;
@@ -286,7 +292,7 @@ impl Sampler {
             }
             self.dim += N as u32;
             return std::array::from_fn(|k| {
-                let r = (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+                let r = unit_f64(self.rng.next_u64());
                 Self::blend(self.point[d + k], r)
             });
         }

@@ -97,7 +97,7 @@ impl Uniform for WalkStream {
     #[inline(always)]
     fn next_f64(&mut self) -> f64 {
         use rand_core::Rng;
-        (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        crate::rng::unit_f64(self.rng.next_u64())
     }
 }
 
