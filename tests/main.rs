@@ -5,6 +5,7 @@ mod cli;
 mod converge;
 mod courtyard;
 mod cutout;
+mod docs_commands;
 mod driver;
 mod envmap;
 mod flat;

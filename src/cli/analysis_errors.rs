@@ -116,7 +116,6 @@ pub fn merge(e: &MergeError) -> String {
 mod tests {
     use super::*;
     use crate::analysis::separatrix::SepParams;
-    use crate::cli::errors::message;
 
     #[test]
     fn separatrix_settings_are_named_by_their_flags() {
@@ -140,26 +139,6 @@ mod tests {
             }),
             "--sep-tau NaN: τ must be a finite number ≥ 0"
         );
-    }
-
-    #[test]
-    fn converge_settings_are_named_by_their_flags() {
-        use crate::analysis::converge::spp_levels;
-        let msg = |e: ConvergeError| message(&anyhow::Error::from(e).context("converge"));
-        assert_eq!(
-            msg(spp_levels(0, 8).unwrap_err()),
-            "converge: --start-spp 0: at least one sample per cell is needed"
-        );
-        assert_eq!(
-            msg(spp_levels(8, 4).unwrap_err()),
-            "converge: --max-spp 4 is smaller than --start-spp 8"
-        );
-        // The cause of an unreadable reference follows the flag, as a context did before.
-        let e = ConvergeError::ReadReference {
-            path: "ref.exr".into(),
-            source: anyhow::anyhow!("ref.exr: not an EXR file"),
-        };
-        assert_eq!(msg(e), "converge: --reference: ref.exr: not an EXR file");
     }
 
     #[test]

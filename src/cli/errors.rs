@@ -200,4 +200,26 @@ mod tests {
         let e = anyhow::anyhow!("plain").context("outer");
         assert_eq!(message(&e), format!("{e:#}"));
     }
+
+    #[test]
+    fn converge_settings_are_named_by_their_flags() {
+        // Here rather than beside `analysis_errors::converge`: the whole chain goes through
+        // [`message`], and the analysis messages never look back up at this file.
+        use crate::analysis::converge::{ConvergeError, spp_levels};
+        let msg = |e: ConvergeError| message(&anyhow::Error::from(e).context("converge"));
+        assert_eq!(
+            msg(spp_levels(0, 8).unwrap_err()),
+            "converge: --start-spp 0: at least one sample per cell is needed"
+        );
+        assert_eq!(
+            msg(spp_levels(8, 4).unwrap_err()),
+            "converge: --max-spp 4 is smaller than --start-spp 8"
+        );
+        // The cause of an unreadable reference follows the flag, as a context did before.
+        let e = ConvergeError::ReadReference {
+            path: "ref.exr".into(),
+            source: anyhow::anyhow!("ref.exr: not an EXR file"),
+        };
+        assert_eq!(msg(e), "converge: --reference: ref.exr: not an EXR file");
+    }
 }
