@@ -3,7 +3,7 @@
 //! next to it); and the names messages give its objects.
 
 use crate::scene::error::LoadError;
-use crate::scene::files::percent_decode;
+use crate::scene::files::{Outside, Reach, percent_decode};
 use base64::Engine as _;
 use std::path::Path;
 
@@ -38,6 +38,18 @@ pub(super) fn malformed(path: &Path, what: String) -> LoadError {
         file: path.to_path_buf(),
         line: None,
         what,
+    }
+}
+
+/// The URI `uri` of `what` (a buffer, an image) in glTF file `path` lies outside the folder the
+/// file may read.
+pub(super) fn outside(path: &Path, what: &str, uri: &str, o: Outside) -> LoadError {
+    LoadError::Outside {
+        file: path.to_path_buf(),
+        what: format!("{what}: URI"),
+        name: uri.to_string(),
+        folder: o.folder,
+        why: o.why,
     }
 }
 
@@ -317,7 +329,9 @@ pub(super) fn load_buffers(
                 decode_data_uri(uri).map_err(|e| malformed(path, format!("{label}: {e}")))?
             }
             ::gltf::buffer::Source::Uri(uri) => {
-                let target = dir.join(percent_decode(uri));
+                let target = reach
+                    .resolve(dir, &percent_decode(uri))
+                    .map_err(|o| outside(path, &label, uri, o))?;
                 // Only regular files: /dev/zero or a FIFO would never end.
                 if target.exists() && !target.is_file() {
                     return Err(malformed(
