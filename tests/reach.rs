@@ -242,6 +242,38 @@ fn reach_the_command_line_names_its_flag() {
         "--allow-outside-uris",
     ]);
     assert!(run.ok, "{}", run.err);
+    // `converge` loads scenes too.
+    let out = root.join("conv");
+    let conv = |extra: &[&str]| {
+        let mut a = vec![
+            "converge",
+            "--scene",
+            scene,
+            "--slice",
+            "x=0.25",
+            "--res",
+            "2",
+            "--start-spp",
+            "1",
+            "--max-spp",
+            "8",
+            "--weight",
+            "unweighted",
+            "--quiet",
+            "--out-dir",
+            out.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        ftpd3d(&a)
+    };
+    let run = conv(&[]);
+    assert!(
+        !run.ok && run.err.contains("--allow-outside-uris"),
+        "{}",
+        run.err
+    );
+    let run = conv(&["--allow-outside-uris"]);
+    assert!(run.ok, "{}", run.err);
 }
 
 /// A scene path that is a loop of symbolic links says so (the system's cause), not "no such
