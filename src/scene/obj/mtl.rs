@@ -61,7 +61,7 @@ pub(super) fn load_mtl(
         ));
         return Err(tobj::LoadError::OpenFileFailed);
     }
-    let bytes = match std::fs::read(&path) {
+    let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) => {
             note(format!(
