@@ -288,6 +288,8 @@ impl Scene {
     /// paths that are absolute, climb out with `..` or lead elsewhere through a link), which are
     /// refused otherwise.
     #[new]
+    // Python's keyword arguments, one parameter each.
+    #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (path, *, point_lights = Vec::new(), sun = None, sky = None, env = None, strict = false, allow_outside_uris = false))]
     fn new(
         py: Python<'_>,
