@@ -97,7 +97,7 @@ FLATLAND = {'paper/fig3a_stairs.obj', 'paper/fig3b_mirrors.obj', 'paper/fig3c_cu
 # Sidecar scene files to check (relative to this directory).
 SIDECARS = ['courtyard/courtyard.toml', 'paper/fig4c_patches.toml', 'paper/fig6b_door.toml',
             'paper/fig6c_canal.toml', 'paper/fig6c_canal_obstacle.toml',
-            'paper/fig7c_courtyard.toml']
+            'courtyard/fig7c_courtyard.toml']
 
 # Map images whose alpha must be binary (0 or 255): cut-out masks meant to be exact.
 BINARY_ALPHA = {'courtyard/leaf_mask.png'}

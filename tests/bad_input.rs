@@ -409,9 +409,21 @@ fn bad_input_sidecar_files_name_the_file_and_the_problem() {
 
 #[test]
 fn bad_input_non_regular_files_are_not_read() {
-    // /dev/zero never ends: a library or buffer named so must not be read.
-    let path = corpus("warn_mtllib_dev_zero.obj");
-    let scene = load_scene(&path).unwrap();
+    // /dev/zero never ends: a library or buffer named so must not be read. By default it lies
+    // outside the scene's folder and is refused before anything looks at it; where the load
+    // allows that, it is still never opened.
+    use ftpd3d::scene::load::{LoadOptions, load_scene_with};
+    let anywhere = LoadOptions {
+        allow_outside_uris: true,
+        ..Default::default()
+    };
+    let path = corpus("err_mtllib_dev_zero.obj");
+    assert!(
+        error_of("err_mtllib_dev_zero.obj").contains("mtllib '/dev/zero' lies outside"),
+        "{}",
+        error_of("err_mtllib_dev_zero.obj")
+    );
+    let scene = load_scene_with(&path, &[], &anywhere).unwrap();
     assert_eq!(
         scene.report.warnings,
         vec![format!(
@@ -419,9 +431,49 @@ fn bad_input_non_regular_files_are_not_read() {
             path.display()
         )]
     );
+    let gltf = corpus("err_buffer_dev_zero.gltf");
+    assert!(
+        error_of("err_buffer_dev_zero.gltf").contains("buffer #0: URI '/dev/zero' lies outside")
+    );
+    let e = format!(
+        "{:#}",
+        load_scene_with(&gltf, &[], &anywhere).err().unwrap()
+    );
+    assert_eq!(
+        e,
+        format!(
+            "{}: buffer #0: '/dev/zero' (/dev/zero) is not a regular file",
+            gltf.display()
+        )
+    );
+}
+
+/// Hostile references: files the corpus's scene files name outside their folder are refused,
+/// naming the reference, and never read.
+#[test]
+fn bad_input_references_outside_the_folder_are_refused() {
+    for (name, uri) in [
+        ("err_buffer_outside.gltf", "'../outside.bin'"),
+        ("err_buffer_absolute.gltf", "'/etc/passwd'"),
+        ("err_buffer_proc_environ.gltf", "'/proc/self/environ'"),
+        ("err_buffer_percent_dotdot.gltf", "'..%2F..%2Fx.bin'"),
+        ("err_buffer_file_uri.gltf", "'file:///etc/passwd'"),
+        ("err_buffer_backslash.gltf", "'..\\..\\x.bin'"),
+        ("err_buffer_drive.gltf", "'C:\\Windows\\x.bin'"),
+        ("err_image_outside.gltf", "'../../x.png'"),
+        ("err_mtllib_outside.obj", "'../../x.mtl'"),
+        ("err_sidecar_mesh_outside.toml", "'../x.obj'"),
+    ] {
+        let e = error_of(name);
+        assert!(e.contains(uri) && e.contains("lies outside"), "{name}: {e}");
+    }
     assert_error(
-        "err_buffer_dev_zero.gltf",
-        ": buffer #0: '/dev/zero' (/dev/zero) is not a regular file",
+        "err_light_negative_intensity.gltf",
+        ": KHR_lights_punctual light 'bulb': intensity -100 must be finite and ≥ 0",
+    );
+    assert_error(
+        "err_emissive_negative.gltf",
+        ": material 'glow': emissiveFactor [1.0, -1.0, 0.5] must be finite and ≥ 0 in each component",
     );
 }
 

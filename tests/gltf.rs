@@ -412,6 +412,61 @@ fn gltf_emissive_material_is_an_area_light() {
     assert!(scene.features.area_lights);
 }
 
+/// A negative (or, through an f32 overflow, infinite) light intensity or colour, emissiveFactor or
+/// emissive strength is refused naming the light or material and the field, as the glTF validator
+/// reports them: clamped to 0 it made a light that gives nothing yet counts as one.
+#[test]
+fn gltf_negative_light_intensity_and_emission_are_refused_naming_them() {
+    let dir = temp_dir("gltf", "negative");
+    let cases = [
+        (
+            json!({"extensionsUsed": ["KHR_lights_punctual"],
+                   "extensions": {"KHR_lights_punctual": {"lights": [
+                       {"name": "bulb", "type": "point", "intensity": -100.0}]}}}),
+            vec!["KHR_lights_punctual light 'bulb'", "intensity -100"],
+        ),
+        (
+            json!({"extensionsUsed": ["KHR_lights_punctual"],
+                   "extensions": {"KHR_lights_punctual": {"lights": [
+                       {"type": "spot", "intensity": 1.0, "color": [1.0, -0.5, 1.0], "spot": {}}]}}}),
+            vec!["KHR_lights_punctual light #0", "color"],
+        ),
+        (
+            json!({"extensionsUsed": ["KHR_lights_punctual"],
+                   "extensions": {"KHR_lights_punctual": {"lights": [
+                       {"type": "point", "intensity": 1e39}]}}}),
+            vec!["KHR_lights_punctual light #0", "intensity inf"],
+        ),
+        (
+            json!({"materials": [{"name": "glow", "emissiveFactor": [1.0, -2.0, 0.0]}]}),
+            vec!["material 'glow'", "emissiveFactor"],
+        ),
+        (
+            json!({"extensionsUsed": ["KHR_materials_emissive_strength"],
+                   "materials": [{"emissiveFactor": [1.0, 1.0, 1.0], "extensions":
+                       {"KHR_materials_emissive_strength": {"emissiveStrength": -3.0}}}]}),
+            vec!["material #0", "KHR_materials_emissive_strength -3"],
+        ),
+    ];
+    for (k, (mut extra, words)) in cases.into_iter().enumerate() {
+        let mut bin = Bin::default();
+        let material = extra.get("materials").map(|_| 0);
+        let mesh = quad(&mut bin, "Floor", material);
+        extra["scenes"] = json!([{"nodes": [0]}]);
+        extra["nodes"] = json!([{"mesh": 0}]);
+        extra["meshes"] = json!([mesh]);
+        let path = bin.write_embedded(&dir, &format!("n{k}.gltf"), extra);
+        let e = match load_scene(&path) {
+            Ok(_) => panic!("case {k} loaded"),
+            Err(e) => format!("{e:#}"),
+        };
+        assert!(e.starts_with(&path.display().to_string()), "{e}");
+        for w in words {
+            assert!(e.contains(w), "case {k}: no '{w}' in: {e}");
+        }
+    }
+}
+
 #[test]
 fn gltf_transmission_is_a_dielectric_with_its_ior() {
     let dir = temp_dir("gltf", "glass");

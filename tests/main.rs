@@ -26,6 +26,7 @@ mod pairs;
 mod pinned;
 mod python;
 mod radiance_cap;
+mod reach;
 mod run_info;
 mod separatrix;
 mod stability;

@@ -96,6 +96,8 @@ class Scene:
     or a list of them. ``sky``: (r, g, b) radiance from every direction leaving the scene.
     ``env``: a lat-long ``.exr``/``.hdr`` map (+y up), or (file, scale[, rotation in degrees]).
     ``strict``: refuse, naming the file and line, what a tolerant load warns about.
+    ``allow_outside_uris``: let the scene file read files outside its own folder (refused
+    otherwise, with a ``SceneError`` naming the reference).
 
     Raises ``MissingFileError`` (a ``FileNotFoundError``) for a missing file, ``SceneError`` (a
     ``ValueError``) for a file that cannot be loaded, ``ParameterError`` for a light's bad value.
@@ -110,6 +112,7 @@ class Scene:
         sky: Optional[Vec3] = None,
         env: Optional[Env] = None,
         strict: bool = False,
+        allow_outside_uris: bool = False,
     ) -> None: ...
     @property
     def path(self) -> str: ...

@@ -284,8 +284,13 @@ impl Scene {
     /// list of them, `sky` (r, g, b) (radiance from every direction leaving the scene), `env` a
     /// lat-long `.exr`/`.hdr` map (+y up) or (file, scale[, rotation in degrees]). `strict`
     /// refuses, naming the file and line, what a tolerant load goes on past with a warning.
+    /// `allow_outside_uris` lets the scene file read files outside its own folder (URIs and
+    /// paths that are absolute, climb out with `..` or lead elsewhere through a link), which are
+    /// refused otherwise.
     #[new]
-    #[pyo3(signature = (path, *, point_lights = Vec::new(), sun = None, sky = None, env = None, strict = false))]
+    // Python's keyword arguments, one parameter each.
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (path, *, point_lights = Vec::new(), sun = None, sky = None, env = None, strict = false, allow_outside_uris = false))]
     fn new(
         py: Python<'_>,
         path: PathBuf,
@@ -294,6 +299,7 @@ impl Scene {
         sky: Option<Vec3>,
         env: Option<Env>,
         strict: bool,
+        allow_outside_uris: bool,
     ) -> PyResult<Scene> {
         let suns = match sun {
             None => Vec::new(),
@@ -319,6 +325,7 @@ impl Scene {
         let lights = py.detach(|| lights.lights())?;
         let load = LoadOptions {
             strict,
+            allow_outside_uris,
             ..Default::default()
         };
         let scene = py

@@ -264,6 +264,12 @@ pub struct RunArgs {
     /// vertices, `usemtl`/`mtllib` without a name, unsupported statements, non-UTF-8 text.
     #[arg(long)]
     pub strict: bool,
+    /// Let the scene file read files outside its own folder: buffer and image URIs, material
+    /// libraries and maps, a sidecar's mesh and environment map that are absolute paths or
+    /// `file:` URIs, climb out with `..` or lead elsewhere through a symbolic link. Without it
+    /// such a scene is refused, naming the reference.
+    #[arg(long)]
+    pub allow_outside_uris: bool,
     /// No progress bar or summary (errors and warnings still go to stderr).
     #[arg(short, long)]
     pub quiet: bool,

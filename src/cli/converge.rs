@@ -55,6 +55,9 @@ pub struct ConvergeArgs {
     /// No per-run lines or summary.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Let the scene file read files outside its own folder (as the main command's flag).
+    #[arg(long)]
+    pub allow_outside_uris: bool,
 }
 
 impl ConvergeArgs {
@@ -78,6 +81,10 @@ impl ConvergeArgs {
             batches: self.batches,
             seed: self.seed,
             threads: self.threads,
+            load: crate::scene::LoadOptions {
+                allow_outside_uris: self.allow_outside_uris,
+                ..Default::default()
+            },
             quiet: self.quiet,
         }
     }

@@ -82,12 +82,16 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
     }
 }
 
-/// A scene that failed to load: strict loading named by its flag.
+/// A scene that failed to load: strict loading and reading outside the scene's folder named by
+/// their flags.
 pub fn load(e: &LoadError) -> String {
     match e {
         LoadError::Strict { file, line, what } => {
             format!("{}:{line}: {what} (--strict)", file.display())
         }
+        LoadError::Outside { .. } => e
+            .outside_message("--allow-outside-uris")
+            .unwrap_or_else(|| e.to_string()),
         _ => e.to_string(),
     }
 }

@@ -53,6 +53,7 @@ impl RunArgs {
             separatrices: self.separatrices()?,
             load: crate::scene::load::LoadOptions {
                 strict: self.strict,
+                allow_outside_uris: self.allow_outside_uris,
                 ..Default::default()
             },
         })

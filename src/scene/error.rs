@@ -59,6 +59,17 @@ pub enum LoadError {
         what: String,
         source: std::io::Error,
     },
+    /// A file the scene file names lies outside the folder it may read (its own and the folders
+    /// below it; see `crate::scene::files::Reach`): `what` says which reference (a buffer, an
+    /// image, a material library), `name` gives it as the file does, `why` how it leaves `folder`.
+    /// Nothing was read from it. The load option `allow_outside_uris` opts in.
+    Outside {
+        file: PathBuf,
+        what: String,
+        name: String,
+        folder: PathBuf,
+        why: String,
+    },
     /// An image the scene file refers to or holds (`image`: which) could not be decoded.
     Image {
         file: PathBuf,
@@ -134,6 +145,11 @@ impl LoadError {
             E::TooLarge { file, what } => write!(f, "{}: {what}", file.display()),
             E::NoGeometry { file, what } => write!(f, "{}: no geometry: {what}", file.display()),
             E::Referenced { file, what, .. } => write!(f, "{}: {what}", file.display()),
+            E::Outside { .. } => f.write_str(
+                &self
+                    .outside_message("allow_outside_uris")
+                    .unwrap_or_default(),
+            ),
             E::Image { file, image, .. } => write!(f, "{}: {image}", file.display()),
             E::Mesh { sidecar, .. } => write!(f, "{}: loading its mesh", sidecar.display()),
             E::Environment { sidecar, .. } => write!(f, "{}: [environment]", sidecar.display()),
@@ -141,6 +157,42 @@ impl LoadError {
                 write!(f, "{}: camera #{index}", sidecar.display())
             }
             E::Build { file, .. } => write!(f, "{}: building the scene", file.display()),
+        }
+    }
+
+    /// For [`LoadError::Outside`]: its message, naming `opt_in` as the way to read such files
+    /// anyway (a flag on the command line, a keyword in Python).
+    pub fn outside_message(&self, opt_in: &str) -> Option<String> {
+        let LoadError::Outside {
+            file,
+            what,
+            name,
+            folder,
+            why,
+        } = self
+        else {
+            return None;
+        };
+        Some(format!(
+            "{}: {what} '{name}' lies outside the scene's folder {} ({why}); a scene file reads \
+             files only inside its own folder, and {opt_in} lets it read them anyway",
+            file.display(),
+            folder.display()
+        ))
+    }
+
+    /// A scene file at `file` whose metadata could not be read (`source`): missing, or unreadable
+    /// for the cause the system gives (a loop of symbolic links, a permission), never a loop
+    /// reported as missing.
+    pub fn unopened(file: &std::path::Path, source: std::io::Error) -> LoadError {
+        match source.kind() {
+            std::io::ErrorKind::NotFound => LoadError::NotFound {
+                file: file.to_path_buf(),
+            },
+            _ => LoadError::Unreadable {
+                file: file.to_path_buf(),
+                source,
+            },
         }
     }
 
@@ -158,6 +210,7 @@ impl LoadError {
             | E::TooLarge { file, .. }
             | E::NoGeometry { file, .. }
             | E::Referenced { file, .. }
+            | E::Outside { file, .. }
             | E::Image { file, .. }
             | E::Build { file, .. } => file,
             E::Mesh { sidecar, .. }

@@ -1,9 +1,10 @@
 //! File names as scenes give them: a path's extension, which picks a scene reader or an image
-//! decoder, relative URIs (a glTF file's) read as paths, and the check that a named file is a
+//! decoder, relative URIs (a glTF file's) read as paths, where they may lead ([`Reach`]: inside
+//! the scene file's folder unless the load opts out), and the check that a named file is a
 //! regular one before it is opened (a FIFO would block the open or the read forever, a device
 //! never end, a directory fail obscurely). A leaf: it imports nothing of `crate::scene`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A path's extension in lower case.
 pub fn extension(path: &Path) -> Option<String> {
@@ -31,6 +32,111 @@ pub fn percent_decode(uri: &str) -> String {
         }
     }
     String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Where the files a scene file names (buffers, images, material libraries, maps, a sidecar's mesh
+/// and environment map) may lie. A scene file may come from anywhere, so by default it reads only
+/// inside its own folder and the folders below it: a name that is absolute, a `file:` URI, a
+/// Windows drive or UNC path, one that climbs out with `..` (after percent-decoding; `/` and `\`
+/// both separate) or one that resolves through a symbolic link to a place outside the folder is
+/// refused. Opting in ([`Reach::Anywhere`]) reads names as paths relative to the scene's folder,
+/// wherever they lead (a `file:` URI as its path).
+#[derive(Clone, Debug)]
+pub enum Reach {
+    /// Inside `folder` (as the scene file's path gives it) or below; `real` is its canonical path,
+    /// against which resolved links are checked.
+    Folder {
+        folder: PathBuf,
+        real: Option<PathBuf>,
+    },
+    /// Anywhere (opted in).
+    Anywhere,
+}
+
+/// A name that lies outside the folder a scene may read: the folder and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Outside {
+    pub folder: PathBuf,
+    pub why: String,
+}
+
+impl Reach {
+    /// The reach of the scene file at `scene`: its own folder, or anywhere when `anywhere`.
+    pub fn of(scene: &Path, anywhere: bool) -> Reach {
+        if anywhere {
+            return Reach::Anywhere;
+        }
+        let folder = match scene.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let real = std::fs::canonicalize(&folder).ok();
+        Reach::Folder { folder, real }
+    }
+
+    /// The path to open for `name` (a path relative to folder `base`, which lies inside this
+    /// reach; percent-decoded where it comes from a URI), or why it may not be read. A name that
+    /// does not exist passes when it stays inside lexically: reading it reports it missing.
+    pub fn resolve(&self, base: &Path, name: &str) -> Result<PathBuf, Outside> {
+        let (folder, real) = match self {
+            Reach::Anywhere => return Ok(base.join(file_uri_path(name).unwrap_or(name))),
+            Reach::Folder { folder, real } => (folder, real),
+        };
+        let outside = |why: String| Outside {
+            folder: folder.clone(),
+            why,
+        };
+        let b = name.as_bytes();
+        if b.len() >= 5 && b[..5].eq_ignore_ascii_case(b"file:") {
+            return Err(outside("a file: URI names an absolute path".into()));
+        }
+        if b.len() >= 2 && b[0].is_ascii_alphabetic() && b[1] == b':' {
+            return Err(outside("a Windows drive path".into()));
+        }
+        if name.starts_with('/') || name.starts_with('\\') {
+            return Err(outside("an absolute path".into()));
+        }
+        let target = base.join(name);
+        // Lexically, from the folder: `..` may not climb above it.
+        let below = base.strip_prefix(folder).unwrap_or(Path::new(""));
+        let mut depth = 0usize;
+        let rest = below.to_string_lossy().into_owned() + "/" + name;
+        for part in rest.split(['/', '\\']) {
+            match part {
+                "" | "." => {}
+                ".." if depth == 0 => {
+                    return Err(outside("'..' climbs out of the folder".into()));
+                }
+                ".." => depth -= 1,
+                _ => depth += 1,
+            }
+        }
+        // Symbolic links: where it really is.
+        if let (Some(root), Ok(to)) = (real, std::fs::canonicalize(&target))
+            && !to.starts_with(root)
+        {
+            return Err(outside(format!(
+                "it resolves through a symbolic link to {}",
+                to.display()
+            )));
+        }
+        Ok(target)
+    }
+}
+
+/// The path of a `file:` URI (`file:///p`, `file://localhost/p`, `file:/p`), if `name` is one.
+fn file_uri_path(name: &str) -> Option<&str> {
+    let rest = name
+        .get(..5)?
+        .eq_ignore_ascii_case("file:")
+        .then(|| &name[5..])?;
+    match rest.strip_prefix("//") {
+        Some(r) => r
+            .strip_prefix("localhost")
+            .or(Some(r))
+            .filter(|p| p.starts_with('/')),
+        None => Some(rest),
+    }
 }
 
 /// An OpenEXR image's texels: RGBA per texel, row-major from the top row.
@@ -149,6 +255,57 @@ mod tests {
             not_regular(Path::new("/dev/null")),
             Some("a character device")
         );
+    }
+
+    #[test]
+    fn names_outside_the_folder_are_refused() {
+        let dir = std::env::temp_dir().join(format!("ftpd3d-reach-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        std::fs::write(dir.join("sub/in.bin"), b"x").unwrap();
+        let scene = dir.join("s.gltf");
+        let reach = Reach::of(&scene, false);
+        for bad in [
+            "../outside.bin",
+            "/etc/passwd",
+            "/proc/self/environ",
+            "sub/../../x.bin",
+            "file:///etc/passwd",
+            "C:\\Windows\\x.bin",
+            "..\\x.bin",
+            "\\\\server\\share\\x.bin",
+        ] {
+            assert!(reach.resolve(&dir, bad).is_err(), "{bad}");
+        }
+        for good in [
+            "sub/in.bin",
+            "sub/../sub/in.bin",
+            "./missing.bin",
+            "a%2Fb",
+            "é",
+        ] {
+            assert!(reach.resolve(&dir, good).is_ok(), "{good}");
+        }
+        // From a subfolder (a material library's), `..` may come back up to the folder.
+        assert!(reach.resolve(&dir.join("sub"), "../x.png").is_ok());
+        assert!(reach.resolve(&dir.join("sub"), "../../x.png").is_err());
+        #[cfg(unix)]
+        {
+            let link = dir.join("link.bin");
+            let _ = std::fs::remove_file(&link);
+            std::os::unix::fs::symlink("/etc/hostname", &link).unwrap();
+            let e = reach.resolve(&dir, "link.bin").unwrap_err();
+            assert!(e.why.contains("symbolic link"), "{e:?}");
+        }
+        let anywhere = Reach::of(&scene, true);
+        assert_eq!(
+            anywhere.resolve(&dir, "file:///etc/passwd").unwrap(),
+            Path::new("/etc/passwd")
+        );
+        assert_eq!(
+            anywhere.resolve(&dir, "../x.bin").unwrap(),
+            dir.join("../x.bin")
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

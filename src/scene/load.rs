@@ -3,6 +3,7 @@
 //! as lights come in, so a caller adds its own lights here, before anything reads them.
 
 use crate::scene::error::LoadError;
+use crate::scene::files::Reach;
 pub use crate::scene::files::extension;
 use crate::scene::light::Light;
 use crate::scene::model::Scene;
@@ -20,6 +21,11 @@ pub struct LoadOptions {
     /// instead of instances of one prototype ([`crate::scene::instance`]): the same field, at the
     /// memory of every copy. For comparisons and tests.
     pub flatten_instances: bool,
+    /// Read files the scene names wherever they lie. By default a scene file reads only inside
+    /// its own folder and the folders below it (buffer and image URIs, material libraries and
+    /// their maps, a sidecar's mesh and environment map): a downloaded file must not make the
+    /// tool read elsewhere ([`Reach`]); what leaves is a [`LoadError::Outside`].
+    pub allow_outside_uris: bool,
 }
 
 /// Loads a scene by its extension (see the module docs), tolerantly.
@@ -41,7 +47,7 @@ pub fn load_scene_with(
 ) -> Result<Scene, LoadError> {
     let mut scene = match extension(path).as_deref() {
         Some("toml") => load_sidecar(path, options)?,
-        _ => load_mesh(path, options)?,
+        _ => load_mesh(path, options, &Reach::of(path, options.allow_outside_uris))?,
     };
     for l in lights {
         if let Light::Env(env) = l {
@@ -55,7 +61,12 @@ pub fn load_scene_with(
 /// A sidecar scene file: its mesh, then its lights, cameras and named slices.
 fn load_sidecar(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
     let sc = sidecar::read(path)?;
-    let mesh = path.parent().unwrap_or(Path::new(".")).join(&sc.mesh);
+    // The sidecar's folder bounds its mesh and everything the mesh names.
+    let reach = Reach::of(path, options.allow_outside_uris);
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mesh = reach
+        .resolve(dir, &sc.mesh)
+        .map_err(|o| sidecar::outside(path, "mesh", &sc.mesh, o))?;
     if extension(&mesh).as_deref() == Some("toml") {
         return Err(LoadError::Malformed {
             file: path.to_path_buf(),
@@ -66,11 +77,11 @@ fn load_sidecar(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> 
             ),
         });
     }
-    let mut scene = load_mesh(&mesh, options).map_err(|source| LoadError::Mesh {
+    let mut scene = load_mesh(&mesh, options, &reach).map_err(|source| LoadError::Mesh {
         sidecar: path.to_path_buf(),
         source: Box::new(source),
     })?;
-    sidecar::apply(&sc, path, &mut scene)?;
+    sidecar::apply(&sc, path, &reach, &mut scene)?;
     scene.named_slices = sc
         .slice
         .iter()
@@ -79,12 +90,13 @@ fn load_sidecar(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> 
     Ok(scene)
 }
 
-/// Loads a mesh file; its report's `parse_seconds` is the time of everything but the BVH build.
-fn load_mesh(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
+/// Loads a mesh file, reading the files it names within `reach`; its report's `parse_seconds` is
+/// the time of everything but the BVH build.
+fn load_mesh(path: &Path, options: &LoadOptions, reach: &Reach) -> Result<Scene, LoadError> {
     let start = std::time::Instant::now();
     let mut scene = match extension(path).as_deref() {
-        Some("obj") => obj::load(path, options.strict)?,
-        Some("gltf" | "glb") => gltf::load_with(path, !options.flatten_instances)?,
+        Some("obj") => obj::load_within(path, options.strict, reach)?,
+        Some("gltf" | "glb") => gltf::load_within(path, !options.flatten_instances, reach)?,
         other => {
             return Err(LoadError::UnsupportedFormat {
                 file: path.to_path_buf(),

@@ -41,6 +41,7 @@
 
 use crate::scene::env::{EnvMap, Environment};
 use crate::scene::error::{CameraError, LoadError};
+use crate::scene::files::{Outside, Reach};
 use crate::scene::light::{DEFAULT_SUN_DIAMETER_DEG, Light};
 use crate::scene::model::{Camera, Scene};
 use glam::DVec3;
@@ -130,6 +131,17 @@ pub fn read(path: &Path) -> Result<Sidecar, LoadError> {
     let sc: Sidecar = toml::from_str(&text).map_err(|e| malformed(path, e.to_string()))?;
     validate(&sc, path)?;
     Ok(sc)
+}
+
+/// File `name`, which scene file `file` gives as its `what`, lies outside the folder it may read.
+pub fn outside(file: &Path, what: &str, name: &str, o: Outside) -> LoadError {
+    LoadError::Outside {
+        file: file.to_path_buf(),
+        what: what.to_string(),
+        name: name.to_string(),
+        folder: o.folder,
+        why: o.why,
+    }
 }
 
 /// A sidecar's content that cannot be used: `what` says why.
@@ -241,8 +253,8 @@ pub fn camera_of(c: &CameraSpec) -> Result<Camera, CameraError> {
 }
 
 /// Applies a sidecar's lights and cameras to a loaded scene; `path` is the sidecar's own (files
-/// it names are relative to it).
-pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> Result<(), LoadError> {
+/// it names are relative to it, and read within `reach`).
+pub fn apply(sc: &Sidecar, path: &Path, reach: &Reach, scene: &mut Scene) -> Result<(), LoadError> {
     for l in &sc.point_light {
         scene.add_point_light(DVec3::from(l.position), DVec3::from(l.intensity));
     }
@@ -269,7 +281,10 @@ pub fn apply(sc: &Sidecar, path: &Path, scene: &mut Scene) -> Result<(), LoadErr
         });
     }
     if let Some(env) = &sc.environment {
-        let file = path.parent().unwrap_or(Path::new(".")).join(&env.file);
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let file = reach
+            .resolve(dir, &env.file)
+            .map_err(|o| outside(path, "[environment] file", &env.file, o))?;
         let map = EnvMap::load(
             &file,
             env.scale.unwrap_or(1.0),

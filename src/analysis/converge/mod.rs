@@ -43,7 +43,7 @@ use crate::ftpd::{Params, Weighting};
 use crate::output::{check_writable, write_atomically, write_outputs};
 use crate::params::EstimatorArgs;
 use crate::scene::Scene;
-use crate::scene::load::load_scene_with_lights;
+use crate::scene::load::load_scene_with;
 use anyhow::Context;
 use std::path::PathBuf;
 
@@ -69,6 +69,8 @@ pub struct ConvergeJob {
     pub seed: u64,
     pub threads: usize,
     pub quiet: bool,
+    /// How the scene file is read (whether it may read files outside its folder).
+    pub load: crate::scene::LoadOptions,
 }
 
 /// Cells along the longer side of a convergence run without a reference or a resolution.
@@ -137,7 +139,7 @@ impl Setup {
         })?;
         check_writable(&job.out_dir.join("converge.csv"))?;
         let reference = read_reference(job)?;
-        let scene = load_scene_with_lights(&job.scene, &job.lights)?;
+        let scene = load_scene_with(&job.scene, &job.lights, &job.load)?;
         for w in &scene.report.warnings {
             eprintln!("warning: {w}");
         }

@@ -3,7 +3,7 @@
 //! next to it); and the names messages give its objects.
 
 use crate::scene::error::LoadError;
-use crate::scene::files::percent_decode;
+use crate::scene::files::{Outside, Reach, percent_decode};
 use base64::Engine as _;
 use std::path::Path;
 
@@ -41,6 +41,18 @@ pub(super) fn malformed(path: &Path, what: String) -> LoadError {
     }
 }
 
+/// The URI `uri` of `what` (a buffer, an image) in glTF file `path` lies outside the folder the
+/// file may read.
+pub(super) fn outside(path: &Path, what: &str, uri: &str, o: Outside) -> LoadError {
+    LoadError::Outside {
+        file: path.to_path_buf(),
+        what: format!("{what}: URI"),
+        name: uri.to_string(),
+        folder: o.folder,
+        why: o.why,
+    }
+}
+
 /// The extensions this reader implements: a file that requires one of them loads, one that
 /// requires any other is refused, naming it. Extensions a file only uses and this list lacks are
 /// ignored with one warning. The image-format extensions (KTX2, WebP, AVIF) are accepted: the
@@ -56,6 +68,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_mesh_quantization",
+    "KHR_meshopt_compression",
     "KHR_texture_basisu",
     "KHR_texture_transform",
 ];
@@ -272,31 +285,36 @@ fn check_attribute_indices(root: &::gltf::json::Root) -> Result<(), String> {
     Ok(())
 }
 
-/// The name of the meshopt extension.
-const MESHOPT: &str = "EXT_meshopt_compression";
+/// The names of the meshopt extension: the vendor one and the ratified one, which reads the same
+/// bitstream and adds attribute codec version 1 and the COLOR filter (not decoded here: refused
+/// by name, [`super::meshopt`]).
+const MESHOPT: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
 
-/// True when `buffer` is a placeholder of EXT_meshopt_compression: marked as the fallback of
+/// True when `buffer` is a placeholder of a meshopt extension: marked as the fallback of
 /// compressed views, or without data of its own (no URI and no GLB chunk left for it) in a file
 /// that uses the extension. Its views are decoded from their compressed data, so it is never read
 /// (and a marked one never loaded).
 fn is_placeholder(buffer: &::gltf::Buffer, uses_meshopt: bool, blob_left: bool) -> bool {
-    let marked = buffer
-        .extension_value(MESHOPT)
-        .and_then(|e| e.get("fallback"))
-        .and_then(|f| f.as_bool())
-        .unwrap_or(false);
+    let marked = MESHOPT.iter().any(|name| {
+        buffer
+            .extension_value(name)
+            .and_then(|e| e.get("fallback"))
+            .and_then(|f| f.as_bool())
+            .unwrap_or(false)
+    });
     marked || (uses_meshopt && !blob_left && matches!(buffer.source(), ::gltf::buffer::Source::Bin))
 }
 
 /// Reads every buffer: the GLB binary chunk, a base64 data URI, or a file relative to the glTF file
-/// (a placeholder of compressed views is left empty: [`is_placeholder`]).
+/// within `reach` (a placeholder of compressed views is left empty: [`is_placeholder`]).
 pub(super) fn load_buffers(
     path: &Path,
     doc: &::gltf::Document,
     mut blob: Option<Vec<u8>>,
+    reach: &Reach,
 ) -> Result<Vec<Vec<u8>>, LoadError> {
     let dir = path.parent().unwrap_or(Path::new(""));
-    let uses_meshopt = doc.extensions_used().any(|e| e == MESHOPT);
+    let uses_meshopt = doc.extensions_used().any(|e| MESHOPT.contains(&e));
     let mut out = Vec::new();
     for buffer in doc.buffers() {
         let label = named("buffer", buffer.index(), buffer.name());
@@ -317,7 +335,9 @@ pub(super) fn load_buffers(
                 decode_data_uri(uri).map_err(|e| malformed(path, format!("{label}: {e}")))?
             }
             ::gltf::buffer::Source::Uri(uri) => {
-                let target = dir.join(percent_decode(uri));
+                let target = reach
+                    .resolve(dir, &percent_decode(uri))
+                    .map_err(|o| outside(path, &label, uri, o))?;
                 // Only regular files: /dev/zero or a FIFO would never end.
                 if target.exists() && !target.is_file() {
                     return Err(malformed(
@@ -351,7 +371,8 @@ pub(super) fn load_buffers(
     Ok(out)
 }
 
-/// Decodes the buffer views compressed with EXT_meshopt_compression: each one's decoded bytes
+/// Decodes the buffer views compressed with EXT_meshopt_compression or KHR_meshopt_compression
+/// (the same bitstream, of the versions [`super::meshopt`] reads): each one's decoded bytes
 /// become a buffer of their own (appended to `buffers`) that the view then names, so accessors
 /// (and images) read them as any other view.
 pub(super) fn decode_compressed_views(
@@ -361,10 +382,14 @@ pub(super) fn decode_compressed_views(
 ) -> Result<::gltf::Document, LoadError> {
     let mut root = doc.into_json();
     for (i, view) in root.buffer_views.iter_mut().enumerate() {
-        let Some(ext) = view.extensions.as_ref().and_then(|e| e.others.get(MESHOPT)) else {
+        let Some((name, ext)) = view.extensions.as_ref().and_then(|e| {
+            MESHOPT
+                .iter()
+                .find_map(|name| Some((*name, e.others.get(*name)?)))
+        }) else {
             continue;
         };
-        let label = format!("buffer view #{i} ({MESHOPT})");
+        let label = format!("buffer view #{i} ({name})");
         let fail = |e: String| malformed(path, format!("{label}: {e}"));
         let field = |k: &str| ext.get(k).and_then(|v| v.as_u64()).map(|v| v as usize);
         let (Some(source), Some(length), Some(stride), Some(count)) = (
@@ -382,6 +407,11 @@ pub(super) fn decode_compressed_views(
             |k: &str, default: &'static str| ext.get(k).map_or(Some(default), |v| v.as_str());
         let mode = word("mode", "").and_then(super::meshopt::Mode::parse);
         let filter = word("filter", "NONE").and_then(super::meshopt::Filter::parse);
+        if name == MESHOPT[1] && word("filter", "NONE") == Some("COLOR") {
+            return Err(fail(
+                "filter COLOR (of KHR_meshopt_compression) is not decoded by this reader".into(),
+            ));
+        }
         let (Some(mode), Some(filter)) = (mode, filter) else {
             return Err(fail(format!(
                 "mode {} or filter {} is not one the extension defines",

@@ -270,6 +270,30 @@ pub(super) fn pbr_params(m: &::gltf::Material) -> (PbrParams, Vec<String>) {
     (params, warnings)
 }
 
+/// Refuses a material whose `emissiveFactor` has a negative or non-finite component, or whose
+/// `KHR_materials_emissive_strength` is negative or not finite (glTF: both ≥ 0; the glTF
+/// validator reports such values as errors), naming the material and the field: clamping them to
+/// 0 would silently turn off a light the file means to have.
+pub(super) fn check_emission(doc: &::gltf::Document) -> Result<(), String> {
+    for m in doc.materials() {
+        let label = named("material", m.index().unwrap_or(0), m.name());
+        let factor = m.emissive_factor();
+        if !factor.iter().all(|c| c.is_finite() && *c >= 0.0) {
+            return Err(format!(
+                "{label}: emissiveFactor {factor:?} must be finite and ≥ 0 in each component"
+            ));
+        }
+        if let Some(s) = m.emissive_strength()
+            && !(s.is_finite() && s >= 0.0)
+        {
+            return Err(format!(
+                "{label}: KHR_materials_emissive_strength {s} must be finite and ≥ 0"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Converts a glTF material: the material and its warnings.
 fn convert_material(m: &::gltf::Material, label: &str) -> (Material, Vec<String>) {
     let (params, warnings) = pbr_params(m);

@@ -1,8 +1,10 @@
-//! The decoder of EXT_meshopt_compression: buffer views stored with meshoptimizer's codecs
-//! (Appendix A of the extension's specification: attributes, triangles and indices; Appendix B:
-//! the octahedral, quaternion and exponential filters). Safe code throughout: every read is
-//! checked, so a malformed stream gives an error, never a panic. Only the versions the extension
-//! defines are read (attribute codec 0, triangle codec 1).
+//! The decoder of EXT_meshopt_compression (and of KHR_meshopt_compression where its bitstream is
+//! the same: attribute codec version 0, the filters below): buffer views stored with
+//! meshoptimizer's codecs (Appendix A of the extension's specification: attributes, triangles
+//! and indices; Appendix B: the octahedral, quaternion and exponential filters). Safe code
+//! throughout: every read is checked, so a malformed stream gives an error, never a panic. Only
+//! attribute codec 0 and triangle codec 1 are read; KHR's attribute codec 1 (control and channel
+//! modes) and COLOR filter are refused by name.
 
 /// The compression mode of a buffer view (the extension's `mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -181,7 +183,8 @@ fn decode_attributes(
         Some(&HEADER) => {}
         Some(h) if h & 0xf0 == HEADER => {
             return Err(format!(
-                "attribute codec version {} (EXT_meshopt_compression defines version 0)",
+                "attribute codec version {}: only version 0 is decoded (EXT_meshopt_compression's, \
+                 which KHR_meshopt_compression also allows; its version 1 is not decoded yet)",
                 h & 0x0f
             ));
         }

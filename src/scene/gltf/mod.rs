@@ -4,12 +4,14 @@
 //! winding flipped where the transform mirrors), and a mesh used by several nodes is copied once per
 //! node. A mesh placed by EXT_mesh_gpu_instancing is stored once, as a prototype, and placed by
 //! Embree instances ([`crate::scene::instance`]; copied per instance when it emits, has alpha or
-//! is a perfect mirror, or when [`load_with`] is told not to instance). TRIANGLES, TRIANGLE_STRIP and
+//! is a perfect mirror, or when [`load_within`] is told not to instance). TRIANGLES, TRIANGLE_STRIP and
 //! TRIANGLE_FAN primitives are read, indexed or not; points and lines are skipped with a warning.
-//! Vertex data may be quantized (KHR_mesh_quantization) or compressed (EXT_meshopt_compression,
-//! KHR_draco_mesh_compression); a file that requires any other extension is refused, naming it.
-//! Buffers are read by this module; images (base-colour, emissive and metallic-roughness
-//! textures) are decoded by `crate::scene::texture`: file URIs are percent-decoded, and an image
+//! Vertex data may be quantized (KHR_mesh_quantization) or compressed (EXT_meshopt_compression
+//! and KHR_meshopt_compression, KHR_draco_mesh_compression); a file that requires any other
+//! extension is refused, naming it. Buffers are read by this module; images (base-colour,
+//! emissive and metallic-roughness textures) are decoded by `crate::scene::texture`. File URIs
+//! are percent-decoded and must lie in the glTF file's folder or below it unless the load's
+//! reach allows more ([`Reach`]; one that leaves is an error naming it), and an image
 //! that is missing, not a regular file or not decodable (KTX2 from `KHR_texture_basisu`, WebP,
 //! AVIF) is a warning naming it and its materials, which keep their factors in that slot.
 //!
@@ -83,6 +85,7 @@ pub use crate::scene::pbr::{MAX_PHONG_EXPONENT, pbr_lobes, phong_exponent};
 pub use material::{PbrParams, map_pbr};
 
 use crate::scene::error::LoadError;
+use crate::scene::files::Reach;
 use crate::scene::instance::{Instancing, instanceable};
 use crate::scene::model::{LoadReport, Scene, Shading, TexCoords};
 use document::Warnings;
@@ -93,12 +96,13 @@ use std::path::Path;
 /// Loads a `.gltf` or `.glb` file (and the buffers and images it names) into a [`Scene`], with
 /// EXT_mesh_gpu_instancing as instances.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
-    load_with(path, true)
+    load_within(path, true, &Reach::of(path, false))
 }
 
 /// As [`load`]; with `instancing` false, EXT_mesh_gpu_instancing is flattened (one copy of the
-/// mesh per instance) instead.
-pub fn load_with(path: &Path, instancing: bool) -> Result<Scene, LoadError> {
+/// mesh per instance) instead. Buffer and image URIs are read within `reach` (by default the
+/// glTF file's folder): one that leaves it is a [`LoadError::Outside`].
+pub fn load_within(path: &Path, instancing: bool, reach: &Reach) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
     if let Some(kind) = crate::scene::files::not_regular(path) {
         return Err(LoadError::NotRegular {
@@ -106,17 +110,18 @@ pub fn load_with(path: &Path, instancing: bool) -> Result<Scene, LoadError> {
             kind,
         });
     }
-    if !path.is_file() {
-        return Err(LoadError::NotFound {
-            file: path.to_path_buf(),
-        });
+    if let Err(source) = std::fs::metadata(path) {
+        return Err(LoadError::unopened(path, source));
     }
     let document::Read {
         doc,
         blob,
         ignored_extensions,
     } = document::read(path)?;
-    let mut buffers = document::load_buffers(path, &doc, blob)?;
+    nodes::check_lights(&doc)
+        .and_then(|()| material::check_emission(&doc))
+        .map_err(|e| document::malformed(path, e))?;
+    let mut buffers = document::load_buffers(path, &doc, blob, reach)?;
     let doc = document::decode_compressed_views(path, doc, &mut buffers)?;
     let mut warnings = Warnings::new(&file);
     if !ignored_extensions.is_empty() {
@@ -169,7 +174,7 @@ pub fn load_with(path: &Path, instancing: bool) -> Result<Scene, LoadError> {
         requests,
         &mut materials,
         &buffers,
-        path,
+        (path, reach),
         &mut report.warnings,
     )?;
     report.texture_bytes = textures.bytes();

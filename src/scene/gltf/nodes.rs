@@ -439,6 +439,32 @@ impl<'a> World<'a> {
     }
 }
 
+/// Refuses a `KHR_lights_punctual` light whose `intensity` or `color` is negative or not finite
+/// (the extension: intensity ≥ 0, colour in [0, 1]; the glTF validator reports such values as
+/// errors), naming the light and the field: clamping them to 0 would leave a light that gives
+/// nothing, counted as a light.
+pub(super) fn check_lights(doc: &::gltf::Document) -> Result<(), String> {
+    let Some(lights) = doc.lights() else {
+        return Ok(());
+    };
+    for light in lights {
+        let label = named("KHR_lights_punctual light", light.index(), light.name());
+        let intensity = light.intensity();
+        if !(intensity.is_finite() && intensity >= 0.0) {
+            return Err(format!(
+                "{label}: intensity {intensity} must be finite and ≥ 0"
+            ));
+        }
+        let color = light.color();
+        if !color.iter().all(|c| c.is_finite() && *c >= 0.0) {
+            return Err(format!(
+                "{label}: color {color:?} must be finite and ≥ 0 in each component"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// A node's local transform in f64 (the matrix, or translation · rotation · scale).
 fn local_matrix(t: ::gltf::scene::Transform) -> DMat4 {
     match t {

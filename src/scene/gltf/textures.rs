@@ -3,10 +3,10 @@
 
 use crate::math::Rgb;
 use crate::scene::error::{ImageError, LoadError};
-use crate::scene::files::percent_decode;
+use crate::scene::files::{Reach, percent_decode};
 use crate::scene::gltf::accessor::view_bytes;
-use crate::scene::gltf::document::malformed;
 use crate::scene::gltf::document::{decode_data_uri, named};
+use crate::scene::gltf::document::{malformed, outside};
 use crate::scene::gltf::material::{Slot, TextureRequest, pbr_params};
 use crate::scene::material::{Bsdf, Material, MetallicRoughness, TextureRef};
 use crate::scene::texture::{Encoding, Texture, TextureSet};
@@ -14,7 +14,8 @@ use rayon::prelude::*;
 use std::path::Path;
 
 /// Decodes the images of `requests` and gives the materials (indexed as in `doc`) their texture
-/// references; `buffers` are the document's, `path` the glTF file's. An image that cannot be
+/// references; `buffers` are the document's, `path` the glTF file's, `reach` where its image
+/// files may lie (an image outside it refuses the file). An image that cannot be
 /// read or decoded (missing, not a regular file, a format not decoded here such as KTX2) is a
 /// warning in `warnings` naming it and the materials that use it, and those materials keep their
 /// factors in that slot.
@@ -23,7 +24,7 @@ pub(super) fn resolve(
     requests: Vec<TextureRequest>,
     materials: &mut [Material],
     buffers: &[Vec<u8>],
-    path: &Path,
+    (path, reach): (&Path, &Reach),
     warnings: &mut Vec<String>,
 ) -> Result<TextureSet, LoadError> {
     if requests.is_empty() {
@@ -37,7 +38,7 @@ pub(super) fn resolve(
     };
     let decoded = images
         .par_iter()
-        .map(|&(i, e)| decode_image(doc, i, e, buffers, path))
+        .map(|&(i, e)| decode_image(doc, i, e, buffers, (path, reach)))
         .collect::<Vec<_>>();
     // The images that decoded, renumbered; the others leave a warning (once per image, both
     // encodings of one image fail alike).
@@ -189,7 +190,7 @@ fn attach(
 }
 
 /// Decodes image `index` of the document: a data URI, a file next to the glTF (its URI
-/// percent-decoded), or a buffer view (PNG, JPEG, TGA, HDR). Colour textures (`encoding`) are
+/// percent-decoded, within `reach`: one outside is a [`LoadError::Outside`], not a warning), or a buffer view (PNG, JPEG, TGA, HDR). Colour textures (`encoding`) are
 /// sRGB-encoded (glTF's rule), decoded to linear; data textures are read as stored. An image that
 /// cannot be used is a [`LoadError::Image`] (the caller makes it a warning).
 fn decode_image(
@@ -197,7 +198,7 @@ fn decode_image(
     index: usize,
     encoding: Encoding,
     buffers: &[Vec<u8>],
-    path: &Path,
+    (path, reach): (&Path, &Reach),
 ) -> Result<Texture, LoadError> {
     let image = doc
         .images()
@@ -219,7 +220,10 @@ fn decode_image(
         }
         ::gltf::image::Source::Uri { uri, .. } => {
             let dir = path.parent().unwrap_or(Path::new("."));
-            Texture::load(&dir.join(percent_decode(uri)), encoding).map_err(image_error)
+            let file = reach
+                .resolve(dir, &percent_decode(uri))
+                .map_err(|o| outside(path, &label, uri, o))?;
+            Texture::load(&file, encoding).map_err(image_error)
         }
         ::gltf::image::Source::View { view, .. } => {
             let bytes =

@@ -16,6 +16,8 @@
 //!   are exact and fractional `d` is unbiased. Dielectrics (`illum` 4, 6, 7, 9) ignore `d`:
 //!   their transparency is the refraction itself. `Tr` is not read (its sense differs between
 //!   exporters).
+//! - A map may lie only inside the OBJ file's folder (or below), as the load's reach says
+//!   ([`crate::scene::files::Reach`]): one that leaves it refuses the file, naming the map.
 //! - A map whose file is missing or cannot be decoded leaves a warning naming it and its
 //!   materials, which keep their constant values; one that is not a regular file (a FIFO, a
 //!   device, a directory) is refused at once, naming it and its material, like a scene file of
@@ -28,6 +30,7 @@
 
 use crate::math::Rgb;
 use crate::scene::error::LoadError;
+use crate::scene::files::Reach;
 use crate::scene::material::{Alpha, AlphaMode, Bsdf, Material, TextureRef};
 use crate::scene::model::LoadReport;
 use crate::scene::texture::{Encoding, Texture, TextureSet, UvTransform, Wrap};
@@ -43,6 +46,18 @@ enum Slot {
     Specular,
     Emission,
     Alpha,
+}
+
+impl Slot {
+    /// The MTL statement that names a map of this slot.
+    fn statement(self) -> &'static str {
+        match self {
+            Slot::Base => "map_Kd",
+            Slot::Specular => "map_Ks",
+            Slot::Emission => "map_Ke",
+            Slot::Alpha => "map_d",
+        }
+    }
 }
 
 /// A map statement's value: its file (the last word, backslashes as separators), whether it
@@ -114,7 +129,7 @@ fn split_word(s: &str) -> (&str, &str) {
 /// `dirs[k]` is the directory of material k's MTL file) and gives the materials their texture
 /// references and cut-outs. Returns the decoded textures (each file once, in parallel).
 pub(super) fn apply(
-    file: &str,
+    (path, reach): (&Path, &Reach),
     list: &[tobj::Material],
     dirs: &[PathBuf],
     materials: &mut [Material],
@@ -124,7 +139,8 @@ pub(super) fn apply(
         files,
         uses,
         unread,
-    } = Requests::of(list, dirs);
+    } = Requests::of(list, dirs, (path, reach))?;
+    let file = &path.display().to_string();
     if unread.0 > 0 {
         report.warnings.push(format!(
             "{file}: {} texture maps other than map_Kd, map_Ks, map_Ke and map_d are not read (the first: \
@@ -191,7 +207,12 @@ struct Requests {
 }
 
 impl Requests {
-    fn of(list: &[tobj::Material], dirs: &[PathBuf]) -> Requests {
+    /// The maps of `list`, each file within `reach` (of the OBJ file at `path`).
+    fn of(
+        list: &[tobj::Material],
+        dirs: &[PathBuf],
+        (path, reach): (&Path, &Reach),
+    ) -> Result<Requests, LoadError> {
         let mut files: Vec<(PathBuf, Encoding)> = Vec::new();
         let mut index: HashMap<(PathBuf, Encoding), usize> = HashMap::new();
         let mut uses = Vec::new();
@@ -216,7 +237,16 @@ impl Requests {
                 let Some(spec) = value.and_then(parse_map) else {
                     continue;
                 };
-                let key = (dir.join(&spec.file), encoding);
+                let at = reach
+                    .resolve(dir, &spec.file.to_string_lossy())
+                    .map_err(|o| LoadError::Outside {
+                        file: path.to_path_buf(),
+                        what: format!("the {} map of material '{}'", slot.statement(), m.name),
+                        name: spec.file.display().to_string(),
+                        folder: o.folder,
+                        why: o.why,
+                    })?;
+                let key = (at, encoding);
                 let r = *index.entry(key.clone()).or_insert_with(|| {
                     files.push(key);
                     files.len() - 1
@@ -242,11 +272,11 @@ impl Requests {
                 unread.0 += 1;
             }
         }
-        Requests {
+        Ok(Requests {
             files,
             uses,
             unread,
-        }
+        })
     }
 }
 

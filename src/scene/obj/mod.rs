@@ -17,6 +17,7 @@ mod token;
 mod tolerance;
 
 use crate::scene::error::LoadError;
+use crate::scene::files::Reach;
 use crate::scene::material::Material;
 use crate::scene::model::{LoadReport, Scene, Shading, TexCoords};
 use crate::scene::texture::TextureSet;
@@ -49,6 +50,13 @@ use tolerance::LineFault;
 /// `vt` table, when some material reads a texture ([`Material::maps`]); a corner whose face
 /// gives no `vt` index reads (0, 0), and so do faces of files without `vt`.
 pub fn load(path: &Path, strict: bool) -> Result<Scene, LoadError> {
+    load_within(path, strict, &Reach::of(path, false))
+}
+
+/// As [`load`], reading material libraries and their maps within `reach` (by default the OBJ
+/// file's folder): a library or map outside it is a [`LoadError::Outside`] (`mtllib` names a
+/// library relative to the OBJ file, a map is relative to its library).
+pub fn load_within(path: &Path, strict: bool, reach: &Reach) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
     if let Some(kind) = crate::scene::files::not_regular(path) {
         return Err(LoadError::NotRegular {
@@ -56,10 +64,8 @@ pub fn load(path: &Path, strict: bool) -> Result<Scene, LoadError> {
             kind,
         });
     }
-    if !path.is_file() {
-        return Err(LoadError::NotFound {
-            file: path.to_path_buf(),
-        });
+    if let Err(source) = std::fs::metadata(path) {
+        return Err(LoadError::unopened(path, source));
     }
     refuse_utf16(path)?;
     let data = read(path, strict)?;
@@ -68,8 +74,8 @@ pub fn load(path: &Path, strict: bool) -> Result<Scene, LoadError> {
         ..Default::default()
     };
     let dir = path.parent().unwrap_or(Path::new(""));
-    let (libraries, runs) = Libraries::read(&file, dir, &data);
-    let (materials, textures) = libraries.materials(&file, &mut report)?;
+    let (libraries, runs) = Libraries::read((path, dir), &data, reach)?;
+    let (materials, textures) = libraries.materials(path, &mut report, reach)?;
     // Index of the default material for faces without one (the last).
     let default_id = materials.len() as u32 - 1;
     let tri_material = tri_materials(&runs, data.triangles.len(), default_id);
@@ -174,10 +180,17 @@ struct Libraries {
 }
 
 impl Libraries {
-    /// Reads the libraries `data` names (relative to `dir`) and resolves each `usemtl` against
-    /// those named before it; returns them and the runs of faces, (first triangle, material or
-    /// `None`), which end at `o`, `g` and a `usemtl` that changes the material.
-    fn read(file: &str, dir: &Path, data: &ObjData) -> (Libraries, Vec<(usize, Option<usize>)>) {
+    /// Reads the libraries `data` names (relative to `dir`, the folder of the OBJ file at `path`,
+    /// and within `reach`) and resolves each `usemtl` against those named before it; returns
+    /// them and the runs of faces, (first triangle, material or `None`), which end at `o`, `g` and
+    /// a `usemtl` that changes the material.
+    #[allow(clippy::type_complexity)]
+    fn read(
+        (path, dir): (&Path, &Path),
+        data: &ObjData,
+        reach: &Reach,
+    ) -> Result<(Libraries, Vec<(usize, Option<usize>)>), LoadError> {
+        let file = &path.display().to_string();
         let mut libs = Libraries {
             list: Vec::new(),
             dirs: Vec::new(),
@@ -188,7 +201,16 @@ impl Libraries {
         let mut runs: Vec<(usize, Option<usize>)> = vec![(0, None)];
         for event in &data.events {
             match &event.what {
-                Statement::Mtllib(lib) => libs.add(file, dir, lib),
+                Statement::Mtllib(lib) => {
+                    let at = reach.resolve(dir, lib).map_err(|o| LoadError::Outside {
+                        file: path.to_path_buf(),
+                        what: "mtllib".into(),
+                        name: lib.clone(),
+                        folder: o.folder,
+                        why: o.why,
+                    })?;
+                    libs.add(file, &at)
+                }
                 Statement::Usemtl(name) => {
                     let id = name.as_ref().and_then(|n| libs.by_name.get(n).copied());
                     let current = runs.last().and_then(|r| r.1);
@@ -202,16 +224,16 @@ impl Libraries {
                 }
             }
         }
-        (libs, runs)
+        Ok((libs, runs))
     }
 
-    /// Reads library `lib` (relative to `dir`) and adds its materials.
-    fn add(&mut self, file: &str, dir: &Path, lib: &str) {
-        match mtl::load_mtl(file, dir, Path::new(lib), &mut self.notes) {
+    /// Reads the library at `at` and adds its materials.
+    fn add(&mut self, file: &str, at: &Path) {
+        match mtl::load_mtl(file, at, &mut self.notes) {
             Ok((mut mats, map)) => {
                 let offset = self.list.len();
                 // Texture paths are relative to the library's own directory.
-                let lib_dir = dir.join(lib).parent().map(Path::to_path_buf);
+                let lib_dir = at.parent().map(Path::to_path_buf);
                 self.dirs
                     .extend(std::iter::repeat_n(lib_dir.unwrap_or_default(), mats.len()));
                 self.list.append(&mut mats);
@@ -226,11 +248,19 @@ impl Libraries {
     /// material (for faces without one) last; the textures they read. Warnings go to `report`.
     fn materials(
         self,
-        file: &str,
+        path: &Path,
         report: &mut LoadReport,
+        reach: &Reach,
     ) -> Result<(Vec<Material>, TextureSet), LoadError> {
+        let file = &path.display().to_string();
         let mut materials = mtl::convert_materials(file, &self.list, report);
-        let textures = maps::apply(file, &self.list, &self.dirs, &mut materials, report)?;
+        let textures = maps::apply(
+            (path, reach),
+            &self.list,
+            &self.dirs,
+            &mut materials,
+            report,
+        )?;
         if materials.is_empty()
             && let Some(e) = self.error
             && self.notes.is_empty()

@@ -49,11 +49,9 @@ pub(super) fn convert_materials(
 /// number (`Kd 0.5`, grey) is expanded to three, which tobj requires.
 pub(super) fn load_mtl(
     obj_file: &str,
-    dir: &Path,
-    lib: &Path,
+    path: &Path,
     notes: &mut Vec<String>,
 ) -> tobj::MTLLoadResult {
-    let path = dir.join(lib);
     let shown = path.display().to_string();
     let mut note = |s: String| notes.push(format!("{obj_file}: {s}"));
     // Only regular files: a library named /dev/zero or a FIFO would never end.
@@ -63,7 +61,7 @@ pub(super) fn load_mtl(
         ));
         return Err(tobj::LoadError::OpenFileFailed);
     }
-    let bytes = match std::fs::read(&path) {
+    let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) => {
             note(format!(
