@@ -147,6 +147,10 @@ pub fn domain(e: &DomainError) -> String {
             "--window {}: needs u0 < u1 and v0 < v1 (an empty rectangle)",
             commas(window)
         ),
+        D::WindowAndSize { window, w, h } => format!(
+            "--window {} and the --plane's size={w},{h} both set its rectangle: give one of them",
+            commas(window)
+        ),
         D::NoCells => "--res must be at least 1".into(),
         D::UpAlongNormal { up } => format!(
             "--plane: up ({}, {}, {}) is parallel to the normal",
