@@ -185,6 +185,7 @@ fn negative_values_name_their_flag() {
         (&["--volume", "-2"], "--volume"),
         (&["--size", "-1,2"], "--size"),
         (&["--adaptive", "--adaptive-cap", "-1"], "--adaptive-cap"),
+        (&["--fov", "-10"], "--fov"),
     ];
     for (extra, flag) in cases {
         let mut args = vec![
@@ -197,7 +198,7 @@ fn negative_values_name_their_flag() {
         if extra.contains(&"--volume") {
             args.truncate(2);
         }
-        if extra.contains(&"--size") {
+        if extra.contains(&"--size") || extra.contains(&"--fov") {
             args.truncate(2);
             args.extend(["--eye", "0,1,3", "--target", "0,1,0"]);
         }

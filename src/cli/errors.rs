@@ -178,6 +178,11 @@ pub fn domain(e: &DomainError) -> String {
         D::EmptyImage { w, h } => {
             format!("--size {w},{h}: the image needs at least one pixel each way")
         }
+        // --fov sets the field of view of the camera placed by --eye/--target alone.
+        D::FieldOfView { name, fov_deg } if name == crate::app::PLACED_CAMERA => format!(
+            "--fov {fov_deg}: the vertical field of view must lie strictly between 0 and 180 \
+             degrees"
+        ),
         // No flag sets these alone: the library's words are the message.
         D::EmptyPlane { .. }
         | D::EmptyVolumeBox { .. }
