@@ -4,8 +4,8 @@
 //! weighting, and for flatland runs the prepared plane. Settings that cannot run are
 //! [`ParamError`]s.
 
-use crate::domain::Plane;
-use crate::domain::offset::{box_offset, flat_extent, plane_offset};
+use crate::domain::offset::{box_offset, camera_offset, flat_extent, plane_offset};
+use crate::domain::{CameraView, Plane};
 use crate::ftpd::design::DesignError;
 use crate::ftpd::{Design, Params, Weighting};
 use crate::scene::{self, Scene};
@@ -92,16 +92,17 @@ impl EstimatorArgs {
         self.resolve_from(scene, 0.0, d)
     }
 
-    /// [`resolve`](Self::resolve) for a camera at `eye`: the default run lengths start where the
-    /// scene starts, `dist + [0.1 D, 0.5 D]` with `dist` the distance from the eye to the scene's
-    /// bounds, so that pairs from a camera outside the scene reach it (walks that end in empty
-    /// space are never deflected).
+    /// [`resolve`](Self::resolve) for a camera `view`: the default run lengths start where the
+    /// scene starts as the camera sees it, `dist + [0.1 D, 0.5 D]` with `dist` the distance from
+    /// the eye to the nearest surface in view ([`camera_offset`]), so that pairs from a camera
+    /// outside the scene, or inside a room, reach its surfaces (walks that end in empty space are
+    /// never deflected).
     pub fn resolve_for_camera(
         &self,
         scene: &Scene,
-        eye: glam::DVec3,
+        view: &CameraView,
     ) -> Result<Params, ParamError> {
-        self.resolve_from(scene, scene.bounds.distance(eye), scene.extent())
+        self.resolve_from(scene, camera_offset(scene, view), scene.extent())
     }
 
     /// [`resolve`](Self::resolve) for a slice: the default run lengths start where the scene starts

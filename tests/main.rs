@@ -2,6 +2,7 @@
 mod bad_input;
 mod bsdf;
 mod cli;
+mod cli_guards;
 mod converge;
 mod courtyard;
 mod cutout;

@@ -2,6 +2,7 @@
 //! run it ([`run_domain`]) with checkpoints and the interrupt flag, report, extract separatrices,
 //! write the outputs and say how to resume a partial run.
 
+use super::blank::blank_warning;
 use super::describe::describe_domain;
 use super::job::Job;
 use super::progress::write_volume_progress_with;
@@ -61,15 +62,8 @@ pub(super) fn run_domain_job(
     };
     let run = run_domain(scene, domain, params, opts, info, start, hooks)?;
     let error = render::error_stats(&run.field.cells);
-    if run.none_deflected() {
-        eprintln!(
-            "warning: no pair was deflected: every walk ran straight for its whole run length \
-             (T in [{:.4}, {:.4}]) without reaching any geometry, so σ is 0 everywhere; give \
-             longer run lengths with --t0/--t1 (the scene's diagonal is {:.4})",
-            params.t0,
-            params.t1,
-            scene.extent()
-        );
+    if let Some(w) = blank_warning(job, scene, domain, params, &run) {
+        eprintln!("{w}");
     }
     say(job, summary(&run.field, &run.stats, &error, params));
     write_outputs(job, &run, output, write)?;

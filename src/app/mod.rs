@@ -5,6 +5,7 @@
 //! computes a resolved domain's field without printing or writing, for any caller that wants the
 //! field the command line would compute. Everything here returns errors, never panics.
 
+mod blank;
 mod check;
 mod describe;
 mod domain_job;
@@ -69,7 +70,19 @@ pub fn run_job(job: &Job) -> anyhow::Result<Vec<RunOutcome>> {
     say(job, scene_line(&job.scene, &scene, t_load.elapsed()));
     let domains = resolve_domains(job, &scene)?;
     let mut outcomes = Vec::with_capacity(domains.len());
-    for (domain, out) in &domains {
+    for (k, (domain, out)) in domains.iter().enumerate() {
+        // A stop that came while the previous domain's outputs were written: the domains left
+        // are not started (nothing of theirs is written).
+        if render::INTERRUPT.load(Ordering::SeqCst) {
+            eprintln!(
+                "interrupted: {} of {} domains not run",
+                domains.len() - k,
+                domains.len()
+            );
+            break;
+        }
+        // Until this domain's passes start, a signal ends the process (see `render::LISTENING`).
+        render::LISTENING.store(false, Ordering::SeqCst);
         let params = domain.params(&mut scene, &job.estimator, job.flatland)?;
         if let (JobDomain::Plane(plane), Some(f)) = (domain, &scene.flat)
             && job.flatland

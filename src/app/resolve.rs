@@ -66,7 +66,7 @@ impl JobDomain {
         Ok(match self {
             JobDomain::Plane(plane) if flatland => prepare_flatland(scene, plane, estimator)?,
             JobDomain::Plane(plane) => estimator.resolve_for_plane(scene, plane)?,
-            JobDomain::Camera(view) => estimator.resolve_for_camera(scene, view.camera.eye)?,
+            JobDomain::Camera(view) => estimator.resolve_for_camera(scene, view)?,
             JobDomain::Volume(v) => estimator.resolve_for_box(
                 scene,
                 &scene::Aabb {

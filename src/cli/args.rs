@@ -6,8 +6,8 @@
 #![allow(rustdoc::invalid_html_tags)]
 
 use super::parse::{
-    parse_duration, parse_env, parse_point_light, parse_size, parse_sky, parse_sun, parse_vec3,
-    parse_volume, parse_window,
+    parse_cells, parse_duration, parse_env, parse_point_light, parse_size, parse_sky, parse_sun,
+    parse_threads, parse_u64, parse_vec3, parse_volume, parse_window,
 };
 use super::sep_flags::SepFlags;
 use crate::domain::slice::SliceSpec;
@@ -52,7 +52,7 @@ pub struct EstimatorFlags {
     #[arg(long, value_name = "X,Y,Z:R,G,B[:DIAM]", allow_hyphen_values = true, value_parser = parse_sun)]
     pub sun: Vec<crate::scene::Light>,
     /// Add a uniform sky: radiance r,g,b from every direction that leaves the scene.
-    #[arg(long, value_name = "R,G,B", value_parser = parse_sky)]
+    #[arg(long, value_name = "R,G,B", allow_hyphen_values = true, value_parser = parse_sky)]
     pub sky: Option<crate::scene::Light>,
     /// Add an environment map: a lat-long .exr or .hdr in Mitsuba 3's convention (+y up, u = 1/4
     /// looks along +x), its radiance × SCALE [default: 1], turned about +y from +x towards +z by
@@ -80,7 +80,7 @@ pub struct EstimatorFlags {
     /// its cone with kB walks each, every walk read at M run lengths (one in each of M equal parts
     /// of [t0, t1]); Δ is averaged over all kA·kB·J·M pairs. 1,1,1,1 is one pair per sample
     /// [default: 2,2,2,2 with radiance weighting, else 2,2,1,2].
-    #[arg(long, value_name = "KA,KB,J,M")]
+    #[arg(long, value_name = "KA,KB,J,M", allow_hyphen_values = true)]
     pub pairs: Option<crate::ftpd::Design>,
     /// Guided radiance paths (radiance weighting, 3D): learn where light arrives from by training
     /// paths before the run and mix that guide with BSDF sampling (one-sample MIS); the
@@ -157,7 +157,7 @@ pub struct RunArgs {
     /// A voxel grid instead of a slice, written as VTK ImageData (.vti): N voxels along the longest
     /// side of the box (the others by aspect), or NX,NY,NZ. Takes the budget, resume, checkpoint
     /// and tile flags as slices do (a tile is a slab of whole z layers).
-    #[arg(long, value_name = "N|NX,NY,NZ", value_parser = parse_volume,
+    #[arg(long, value_name = "N|NX,NY,NZ", allow_hyphen_values = true, value_parser = parse_volume,
           conflicts_with_all = ["slice", "slices", "plane", "window", "res", "camera", "eye", "flatland"])]
     pub volume: Option<VolumeRes>,
     /// The box a volume covers [default: the scene bounds, flat sides padded].
@@ -167,24 +167,25 @@ pub struct RunArgs {
     #[arg(long, value_name = "U0,V0,U1,V1", allow_hyphen_values = true, value_parser = parse_window)]
     pub window: Option<[f64; 4]>,
     /// Cells along the longer side of the slice.
-    #[arg(long, default_value_t = crate::app::DEFAULT_RES)]
+    #[arg(long, default_value_t = crate::app::DEFAULT_RES, allow_negative_numbers = true,
+          value_parser = parse_cells)]
     pub res: usize,
     /// Samples per cell (each takes the pairs of --pairs) [default: no cap; without --spp, --time and
     /// --target-error a run stops at --target-error 0.05 or after --time 60s, whichever comes
     /// first]. With --adaptive: the mean over cells.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub spp: Option<u32>,
     /// Passes --spp is split into when no --pass-spp is given (at most --spp).
-    #[arg(long, default_value_t = RenderOptions::default().batches)]
+    #[arg(long, default_value_t = RenderOptions::default().batches, allow_negative_numbers = true)]
     pub batches: u32,
     /// Time budget of the whole run, e.g. 90s, 10m, 1h30m: no pass starts that would end after it.
-    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    #[arg(long, value_name = "DURATION", allow_hyphen_values = true, value_parser = parse_duration)]
     pub time: Option<Duration>,
     /// Stop when 95 % of the cells with σ > 0 have a relative standard error ≤ this (e.g. 0.05).
-    #[arg(long, value_name = "REL")]
+    #[arg(long, value_name = "REL", allow_negative_numbers = true)]
     pub target_error: Option<f64>,
     /// Samples per cell added by each pass (one batch) [default: spp/batches, or 8 without --spp].
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub pass_spp: Option<u32>,
     /// From the third pass on, give the samples of a pass to the cells with the largest error
     /// [default: on when the run stops at a target error (--target-error, or no budget given)].
@@ -194,11 +195,16 @@ pub struct RunArgs {
     #[arg(long)]
     pub uniform: bool,
     /// Adaptive runs: at most this many times the uniform share per cell and pass [default: 4].
-    #[arg(long, value_name = "K", conflicts_with = "uniform")]
+    #[arg(
+        long,
+        value_name = "K",
+        conflicts_with = "uniform",
+        allow_negative_numbers = true
+    )]
     pub adaptive_cap: Option<u32>,
     /// Write the field so far (marked partial, resumable) to the output every DURATION, at pass
     /// boundaries.
-    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    #[arg(long, value_name = "DURATION", allow_hyphen_values = true, value_parser = parse_duration)]
     pub checkpoint_every: Option<Duration>,
     /// Continue the run saved in FILE (a partial or checkpointed output of the same command);
     /// writes to FILE unless -o says otherwise.
@@ -222,22 +228,24 @@ pub struct RunArgs {
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
     pub up: Option<glam::DVec3>,
     /// Vertical field of view of --eye cameras, degrees.
-    #[arg(long, default_value_t = crate::app::DEFAULT_FOV_DEG)]
+    #[arg(long, default_value_t = crate::app::DEFAULT_FOV_DEG, allow_negative_numbers = true)]
     pub fov: f64,
     /// Camera image size in pixels [default: 512,512].
-    #[arg(long, value_name = "W,H", value_parser = parse_size)]
+    #[arg(long, value_name = "W,H", allow_hyphen_values = true, value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
     #[command(flatten)]
     pub estimator: EstimatorFlags,
     /// Seed of the random streams (same seed, same result, on any number of threads).
-    #[arg(long, default_value_t = RenderOptions::default().seed)]
+    #[arg(long, default_value_t = RenderOptions::default().seed, allow_negative_numbers = true,
+          value_parser = parse_u64)]
     pub seed: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long, default_value_t = RenderOptions::default().threads)]
+    /// Worker threads, at most 64 per core; 0: one per core [default: 0].
+    #[arg(long, default_value_t = RenderOptions::default().threads, allow_negative_numbers = true,
+          value_parser = parse_threads)]
     pub threads: usize,
     /// Compute only stripe I of N (grid rows from the bottom, a volume's z layers; from 0), with the
     /// same per-cell random streams as a full run; `merge` the N files afterwards.
-    #[arg(long, value_name = "I/N")]
+    #[arg(long, value_name = "I/N", allow_hyphen_values = true)]
     pub tile: Option<Tile>,
     /// Output EXR, or .vti for a volume [default: out/<scene>_<slice>.exr, with _tile<I>of<N> for a
     /// tile; out/<scene>_volume.vti].

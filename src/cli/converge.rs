@@ -3,7 +3,7 @@
 
 use crate::analysis::converge::{self, ConvergeJob};
 use crate::cli::args::{EstimatorFlags, WeightArg};
-use crate::cli::parse::parse_window;
+use crate::cli::parse::{parse_cells, parse_threads, parse_u64, parse_window};
 use crate::cli::report;
 use crate::ftpd::Weighting;
 use crate::render::RenderOptions;
@@ -29,28 +29,30 @@ pub struct ConvergeArgs {
     #[arg(long, value_name = "U0,V0,U1,V1", allow_hyphen_values = true, value_parser = parse_window)]
     pub window: Option<[f64; 4]>,
     /// Cells along the longer side [default: the reference's, else 64].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_cells)]
     pub res: Option<usize>,
     /// Samples per cell of the first run; each further run doubles them.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
     pub start_spp: u32,
     /// Largest samples per cell.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
     pub max_spp: u32,
     /// Weighting of a single curve [default: the reference's; else radiance and unweighted when
     /// the scene has lights, unweighted otherwise].
     #[arg(long = "weight", value_enum)]
     pub weight: Option<WeightArg>,
     /// Passes each run is split into (at most the run's spp).
-    #[arg(long, default_value_t = RenderOptions::default().batches)]
+    #[arg(long, default_value_t = RenderOptions::default().batches, allow_negative_numbers = true)]
     pub batches: u32,
     #[command(flatten)]
     pub estimator: EstimatorFlags,
     /// Seed of the first run; run k uses seed + k (every run independent).
-    #[arg(long, default_value_t = RenderOptions::default().seed)]
+    #[arg(long, default_value_t = RenderOptions::default().seed, allow_negative_numbers = true,
+          value_parser = parse_u64)]
     pub seed: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long, default_value_t = RenderOptions::default().threads)]
+    /// Worker threads, at most 64 per core; 0: one per core [default: 0].
+    #[arg(long, default_value_t = RenderOptions::default().threads, allow_negative_numbers = true,
+          value_parser = parse_threads)]
     pub threads: usize,
     /// No per-run lines or summary.
     #[arg(short, long)]

@@ -151,6 +151,10 @@ pub fn domain(e: &DomainError) -> String {
             "--window {}: needs u0 < u1 and v0 < v1 (an empty rectangle)",
             commas(window)
         ),
+        D::WindowAndSize { window, w, h } => format!(
+            "--window {} and the --plane's size={w},{h} both set its rectangle: give one of them",
+            commas(window)
+        ),
         D::NoCells => "--res must be at least 1".into(),
         D::UpAlongNormal { up } => format!(
             "--plane: up ({}, {}, {}) is parallel to the normal",
@@ -178,6 +182,11 @@ pub fn domain(e: &DomainError) -> String {
         D::EmptyImage { w, h } => {
             format!("--size {w},{h}: the image needs at least one pixel each way")
         }
+        // --fov sets the field of view of the camera placed by --eye/--target alone.
+        D::FieldOfView { name, fov_deg } if name == crate::app::PLACED_CAMERA => format!(
+            "--fov {fov_deg}: the vertical field of view must lie strictly between 0 and 180 \
+             degrees"
+        ),
         // No flag sets these alone: the library's words are the message.
         D::EmptyPlane { .. }
         | D::EmptyVolumeBox { .. }

@@ -15,6 +15,9 @@ pub fn run(args: &RunArgs) -> anyhow::Result<Option<StopReason>> {
     let job = args.job()?;
     super::signals::install_signal_handler();
     let outcomes = app::run_job(&job)?;
+    if crate::render::INTERRUPT.load(std::sync::atomic::Ordering::SeqCst) {
+        return Ok(Some(StopReason::Interrupted));
+    }
     Ok(outcomes.last().map(|o| o.stats.stop))
 }
 

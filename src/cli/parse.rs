@@ -102,12 +102,59 @@ pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
     Ok((p(w)?, p(h)?))
 }
 
+/// Worker threads above this many per core are refused ([`parse_threads`]): the work is CPU
+/// bound, so more threads than a few per core only cost memory and start-up time, and a count a
+/// thousand times the cores (a typo, a variable holding something else) would start threads for
+/// minutes before any sample.
+pub const MAX_THREADS_PER_CORE: usize = 64;
+
+/// The largest `--threads` this machine takes: [`MAX_THREADS_PER_CORE`] × its available
+/// parallelism (cores, or the CPU quota of the container).
+pub fn max_threads() -> usize {
+    MAX_THREADS_PER_CORE * std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// Parses `--threads N`: 0 for every core, else at most [`max_threads`].
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let n: usize = s.trim().parse().map_err(|_| {
+        format!("'{s}' is not a whole number ≥ 0 (0: all {cores} cores of this machine)")
+    })?;
+    let max = max_threads();
+    if n > max {
+        return Err(format!(
+            "{n} threads is more than {MAX_THREADS_PER_CORE} per core of this machine's {cores} \
+             cores: give at most {max}, or 0 for one per core"
+        ));
+    }
+    Ok(n)
+}
+
+/// Parses a count of cells (`--res`): a whole number, 1 or more (0 is refused with the domain).
+pub fn parse_cells(s: &str) -> Result<usize, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a whole number of cells (1 or more)"))
+}
+
+/// Parses a whole number from 0 to `u64::MAX` (`--seed`).
+pub fn parse_u64(s: &str) -> Result<u64, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a whole number from 0 to {}", u64::MAX))
+}
+
 /// Parses a duration such as `90s`, `10m`, `1h30m`, `2.5h`, `1d`, `500ms`; a bare number is
 /// seconds.
 pub fn parse_duration(s: &str) -> Result<Duration, String> {
     let t = s.trim();
     if t.is_empty() {
         return Err("empty duration; expected e.g. 90s, 10m or 1h30m".into());
+    }
+    if t.starts_with('-') {
+        return Err(format!(
+            "'{s}': a duration must be ≥ 0 (e.g. 90s, 10m or 1h30m)"
+        ));
     }
     if let Ok(x) = t.parse::<f64>() {
         return Duration::try_from_secs_f64(x)

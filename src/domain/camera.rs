@@ -60,6 +60,15 @@ impl CameraView {
         let y = (2.0 * (j as f64 + jitter.1) / self.height as f64 - 1.0) * self.tan_half;
         (self.camera.forward + self.right * x + self.up * y).normalize()
     }
+
+    /// Unit direction through the image position (`fx`, `fy`) ∈ [0, 1]² (from the bottom-left
+    /// corner; (0.5, 0.5) is the centre, along the view).
+    pub fn direction_at(&self, fx: f64, fy: f64) -> DVec3 {
+        let aspect = self.width as f64 / self.height as f64;
+        let x = (2.0 * fx - 1.0) * self.tan_half * aspect;
+        let y = (2.0 * fy - 1.0) * self.tan_half;
+        (self.camera.forward + self.right * x + self.up * y).normalize()
+    }
 }
 
 #[cfg(test)]

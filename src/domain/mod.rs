@@ -33,6 +33,11 @@ pub enum DomainError {
         commas(window)
     )]
     EmptyWindow { window: [f64; 4] },
+    #[error(
+        "window {}: the plane's size={w},{h} sets its rectangle too; give one of them",
+        commas(window)
+    )]
+    WindowAndSize { window: [f64; 4], w: f64, h: f64 },
     #[error("a grid needs at least 1 cell along its longer side")]
     NoCells,
     #[error("plane {label}: size {w} x {h} is empty")]

@@ -2,7 +2,7 @@
 //! (walks that end in empty space are never deflected, so pairs must reach the scene), and the
 //! size of a flatland scene.
 
-use super::Plane;
+use super::{CameraView, Plane};
 use crate::scene::flat::Flatland;
 use crate::scene::{self, Scene};
 
@@ -15,6 +15,39 @@ pub fn plane_offset(scene: &Scene, plane: &Plane) -> f64 {
     }
     let d = plane.distance_to_box(&scene.bounds);
     if d > 1e-9 * scene.extent() { d } else { 0.0 }
+}
+
+/// Rays per side of the grid over the image that [`camera_offset`] probes the view with (odd, so
+/// that one looks along the view's centre).
+const CAMERA_PROBES: usize = 17;
+
+/// Where a camera's default run lengths start: the distance from the eye to the nearest surface
+/// its view meets, probed by a grid of [`CAMERA_PROBES`]² rays over the image, and never less than
+/// the distance to the scene's bounds (which is all there is when no probe meets a surface). A
+/// camera inside a room sees its walls further away than a fraction of the room's diagonal: run
+/// lengths from the eye that end before them would never be deflected.
+pub fn camera_offset(scene: &Scene, view: &CameraView) -> f64 {
+    let eye = view.camera.eye;
+    let to_bounds = if scene.bounds.is_empty() {
+        0.0
+    } else {
+        scene.bounds.distance(eye)
+    };
+    let last = (CAMERA_PROBES - 1) as f64;
+    let mut nearest = f64::INFINITY;
+    for j in 0..CAMERA_PROBES {
+        for i in 0..CAMERA_PROBES {
+            let d = view.direction_at(i as f64 / last, j as f64 / last);
+            if let Some(hit) = scene.intersect(eye, d, f64::INFINITY) {
+                nearest = nearest.min((hit.p - eye).length());
+            }
+        }
+    }
+    if nearest.is_finite() {
+        nearest.max(to_bounds)
+    } else {
+        to_bounds
+    }
 }
 
 /// The distance between two boxes (0 when they overlap).

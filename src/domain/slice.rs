@@ -74,6 +74,11 @@ impl fmt::Display for SliceSpec {
     }
 }
 
+/// How far, in f32 ulps of the scene's magnitude, an axis slice may lie outside the scene's bounds
+/// and still be taken: the bounds hold f32 coordinates, so a slice at the decimal coordinate of a
+/// flat model (`z=2.3` for vertices at z = 2.3f32) lies a fraction of an ulp away from them.
+const SLICE_TOLERANCE_ULPS: f64 = 8.0;
+
 /// A rectangle in 3D with a cell grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Plane {
@@ -102,7 +107,11 @@ impl Plane {
         }
         let k = spec.axis.index();
         let (lo, hi) = (bounds.min[k], bounds.max[k]);
-        if spec.value < lo || spec.value > hi {
+        // The bounds are f32 coordinates: `z=2.3` names the f32 plane 2.2999999523…, so a slice is
+        // outside only beyond their rounding (a few ulps of the scene's magnitude).
+        let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
+        let tol = SLICE_TOLERANCE_ULPS * f32::EPSILON as f64 * magnitude.max(bounds.diagonal());
+        if spec.value < lo - tol || spec.value > hi + tol {
             return Err(DomainError::SliceOutsideBounds {
                 slice: spec.to_string(),
                 lo,
@@ -349,6 +358,19 @@ impl FromStr for PlaneSpec {
 impl Plane {
     /// An arbitrary plane (see [`PlaneSpec`]) with `res` cells along the longer side.
     pub fn from_spec(bounds: &Aabb, spec: &PlaneSpec, res: usize) -> Result<Plane, DomainError> {
+        Plane::from_spec_window(bounds, spec, None, res)
+    }
+
+    /// [`from_spec`](Self::from_spec), or the part `window` = (u0, v0, u1, v1) of the plane, in its
+    /// own coordinates: u and v along its axes from the spec's `origin` (so that
+    /// `-w/2,-h/2,w/2,h/2` is the rectangle of `size=w,h`). A window and a size together are
+    /// refused: each sets the rectangle.
+    pub fn from_spec_window(
+        bounds: &Aabb,
+        spec: &PlaneSpec,
+        window: Option<[f64; 4]>,
+        res: usize,
+    ) -> Result<Plane, DomainError> {
         let n = spec.normal;
         let up = spec
             .up
@@ -361,9 +383,20 @@ impl Plane {
             "plane origin={},{},{} normal={},{},{}",
             spec.origin.x, spec.origin.y, spec.origin.z, n.x, n.y, n.z
         );
-        let (lo, hi) = match spec.size {
-            Some((w, h)) => ((-0.5 * w, -0.5 * h), (0.5 * w, 0.5 * h)),
-            None => {
+        let (lo, hi) = match (spec.size, window) {
+            (Some((w, h)), Some(window)) => {
+                return Err(DomainError::WindowAndSize { window, w, h });
+            }
+            (None, Some([a, b, c, d])) => {
+                if !(c > a && d > b) {
+                    return Err(DomainError::EmptyWindow {
+                        window: [a, b, c, d],
+                    });
+                }
+                ((a, b), (c, d))
+            }
+            (Some((w, h)), None) => ((-0.5 * w, -0.5 * h), (0.5 * w, 0.5 * h)),
+            (None, None) => {
                 if bounds.is_empty() {
                     return Err(DomainError::PlaneWithoutBounds);
                 }
@@ -476,8 +509,9 @@ pub fn resolve_slice(arg: &str, scene: &Scene) -> Result<SliceSpec, DomainError>
     }
 }
 
-/// The plane of one slice of a run with `res` cells along the longer side; `window` (u0,v0,u1,v1)
-/// applies to axis slices.
+/// The plane of one slice of a run with `res` cells along the longer side, or its part `window`
+/// (u0,v0,u1,v1): scene coordinates along the slice's axes for an axis slice, the plane's own
+/// coordinates from its origin for a plane ([`Plane::from_spec_window`]).
 pub fn resolve_plane(
     arg: &SliceArg,
     scene: &Scene,
@@ -488,7 +522,7 @@ pub fn resolve_plane(
         SliceArg::Axis(a) => {
             Plane::axis_slice(&scene.bounds, resolve_slice(a, scene)?, window, res)
         }
-        SliceArg::Plane(spec) => Plane::from_spec(&scene.bounds, spec, res),
+        SliceArg::Plane(spec) => Plane::from_spec_window(&scene.bounds, spec, window, res),
     }
 }
 

@@ -52,7 +52,7 @@ pub use error_stats::{ErrorStats, error_stats};
 pub use eta::{CALIBRATION_SECONDS, Eta, estimate_time};
 pub use options::{Adaptive, Budget, RenderOptions, RunStats, StopReason};
 pub use pass::CHUNK;
-pub use progressive::{AfterPass, Hooks, INTERRUPT, run_in, run_progressive};
+pub use progressive::{AfterPass, Hooks, INTERRUPT, LISTENING, run_in, run_progressive};
 pub use runs::{check_flatland, run_camera, run_domain, run_domain_progressive, run_plane};
 pub use schedule::{DEFAULT_PASS_SPP, InFlight, Progress, Schedule, samples_in_pass};
 

@@ -19,6 +19,12 @@ use std::time::Instant;
 /// driver as [`Hooks::stop`] (library users may pass a flag of their own instead).
 pub static INTERRUPT: AtomicBool = AtomicBool::new(false);
 
+/// Whether a stop request would be heard: set when a driver given a [`Hooks::stop`] flag starts
+/// its passes, cleared by the caller before the set-up of its next run (scene loading, BVH build,
+/// thread start, guide training), which checks no flag. The command line's signal handler reads
+/// it: a signal that no driver would hear ends the process at once instead of being stored.
+pub static LISTENING: AtomicBool = AtomicBool::new(false);
+
 /// Called after every completed pass (checkpoints, convergence logs). `Err` aborts the run.
 pub type AfterPass<'a> = dyn FnMut(&mut Field, &Progress, &RunStats) -> anyhow::Result<()> + 'a;
 
@@ -62,6 +68,9 @@ pub fn run_progressive<K>(
 where
     K: Fn(usize, &mut Sampler) -> Sample + Sync,
 {
+    if hooks.stop.is_some() {
+        LISTENING.store(true, std::sync::atomic::Ordering::SeqCst);
+    }
     let mut run = Driver::new(field, opts, progress);
     let reason = loop {
         let pass = progress.passes;
