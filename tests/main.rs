@@ -30,4 +30,6 @@ mod separatrix;
 mod stability;
 mod support;
 mod valid;
+#[cfg(feature = "view")]
+mod view;
 mod volume;
