@@ -153,7 +153,10 @@ pub fn status(shared: &Shared, g: &Inner) -> String {
         g.generation,
         json_str(&state_query(&g.state)),
         live,
-        g.since.elapsed().as_secs_f64()
+        match (&g.stopped, &g.snapshot) {
+            (Some(_), Some(snap)) => snap.progress.elapsed,
+            _ => g.since.elapsed().as_secs_f64(),
+        }
     );
     let _ = write!(
         s,
