@@ -147,7 +147,7 @@ pub fn merge_state(base: &[Pair], url: &[Pair]) -> Result<Vec<Pair>, String> {
     let domain_given = url.iter().any(|(k, _)| DOMAIN.contains(&k.as_str()));
     let mut out: Vec<Pair> = base
         .iter()
-        .filter(|(k, _)| !given(k) && !(domain_given && DOMAIN.contains(&k.as_str())))
+        .filter(|(k, _)| !(given(k) || domain_given && DOMAIN.contains(&k.as_str())))
         .cloned()
         .collect();
     for (n, (k, v)) in url.iter().enumerate() {

@@ -43,10 +43,7 @@ pub fn picture(snap: &Snapshot, channel: &str) -> anyhow::Result<Vec<u8>> {
             field_colors(&lum, &ok, w, h)
         }
         "separatrix" => {
-            let params = match &snap.run.job.separatrices {
-                Some(p) => p.clone(),
-                None => Default::default(),
-            };
+            let params = snap.run.job.separatrices.unwrap_or_default();
             let (sep, _) = separatrix::of_field(f, "the view", &params)?;
             let (bw, bh, img) = separatrix::overlay_colors(&sigma, &valid, &sep);
             return png_bytes(bw, bh, &img).map_err(anyhow::Error::msg);
