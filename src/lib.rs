@@ -20,7 +20,9 @@
 //! - [`app`]: validated jobs, run to fields and files ([`app::run_domain`] computes a resolved
 //!   domain's field without printing or writing);
 //! - [`cli`]: the command line (arguments, job validation, messages that name the flags); the
-//!   binary `src/main.rs` is a thin caller of it.
+//!   binary `src/main.rs` is a thin caller of it;
+//! - `view` (the default cargo feature `view`): `ftpd3d view`, the live view in a web page, on
+//!   top of [`cli`]'s parsers and [`app`]'s runs.
 //!
 //! Flag names appear only in `src/main.rs`, [`cli`] and [`app`]; the library's errors are typed
 //! and [`cli::errors`] words them for the command line. `docs/architecture.md` describes the
@@ -46,6 +48,8 @@ pub mod rng;
 pub mod run_info;
 pub mod scene;
 pub mod transport;
+#[cfg(feature = "view")]
+pub mod view;
 
 /// Tool version and the Embree version it was built against, e.g. `0.1.0 (Embree 3.13.5)`.
 pub fn version_string() -> String {

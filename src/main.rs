@@ -33,6 +33,13 @@ enum Command {
     ///
     /// Example: ftpd3d separatrices out/cornell_mirror_z0.exr --sep-scale 2 -o out/sep.exr
     Separatrices(SeparatricesArgs),
+    /// A live view in a web page on 127.0.0.1: the field of a slice refined pass by pass, the
+    /// slice and the run flags changed from the page, what it shows saved as the command line
+    /// would write it. Takes every run flag; prints the page's URL (with its token) first.
+    ///
+    /// Example: ftpd3d view --scene scenes/cornell_mirror.obj --slice z=0 --res 64
+    #[cfg(feature = "view")]
+    View(ftpd3d::cli::view::ViewArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +49,14 @@ fn main() -> ExitCode {
         Some(Command::Merge(args)) => cli::merge::run(args).map(|()| None),
         Some(Command::Converge(args)) => cli::converge::run(args).map(|()| None),
         Some(Command::Separatrices(args)) => cli::separatrices::run(args).map(|()| None),
+        #[cfg(feature = "view")]
+        Some(Command::View(args)) => {
+            let raw: Vec<String> = std::env::args()
+                .skip_while(|a| a != "view")
+                .skip(1)
+                .collect();
+            ftpd3d::view::serve(args, &raw).map(|()| None)
+        }
         None if cli.run.explain => explain::command(&cli.run).map(|()| None),
         None => ftpd3d::cli::job::run(&cli.run),
     };

@@ -33,4 +33,6 @@ mod separatrix;
 mod stability;
 mod support;
 mod valid;
+#[cfg(feature = "view")]
+mod view;
 mod volume;

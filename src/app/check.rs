@@ -14,6 +14,13 @@ pub fn check_job(job: &Job) -> anyhow::Result<()> {
     check_files(job)
 }
 
+/// [`check_job`] without the outputs: what a job that writes only when asked (the live view) is
+/// refused for before it runs. Creates nothing.
+pub fn check_job_to_run(job: &Job) -> anyhow::Result<()> {
+    check_budgets(job)?;
+    check_domain(job)
+}
+
 /// Sample counts, budgets and intervals that would never end, or never start.
 fn check_budgets(job: &Job) -> anyhow::Result<()> {
     let opts = &job.render;

@@ -18,7 +18,7 @@ mod resolve;
 mod run_domain;
 mod sampling;
 
-pub use check::check_job;
+pub use check::{check_job, check_job_to_run};
 pub use describe::describe_domain;
 pub use job::{
     CameraArg, DEFAULT_FOV_DEG, DEFAULT_IMAGE_SIZE, DEFAULT_RES, DEFAULT_UP, DomainArg, Job,

@@ -63,7 +63,7 @@ pub use extract::extract;
 pub use files::{Placement, Rerun, of_field, rerun, side_paths, write_side_files};
 pub use grid::Grid;
 pub use lines::{LINE_MIN_SCALES, MIN_LINE_CELLS};
-pub use preview::{write_overlay_png, write_svg};
+pub use preview::{overlay_colors, write_overlay_png, write_svg};
 pub use scale::MIN_SCALE;
 pub use significance::{Z_CAP, normal_two_sided_tail, scheffe_z};
 pub use surface::{Mesh, surface};

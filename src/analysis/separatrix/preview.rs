@@ -57,6 +57,16 @@ pub fn write_overlay_png(
     valid: &[bool],
     sep: &Separatrices,
 ) -> anyhow::Result<()> {
+    let (bw, bh, img) = overlay_colors(sigma, valid, sep);
+    Ok(crate::output::png::write_png(path, bw, bh, &img)?)
+}
+
+/// The pixels of [`write_overlay_png`]'s picture: width, height and colours (row 0 the bottom).
+pub fn overlay_colors(
+    sigma: &[f64],
+    valid: &[bool],
+    sep: &Separatrices,
+) -> (usize, usize, Vec<[u8; 3]>) {
     let (w, h) = (sep.dims[0], sep.dims[1]);
     let base = crate::output::png::field_colors(sigma, valid, w, h);
     let f = (512 / w.max(h).max(1)).max(1);
@@ -101,5 +111,5 @@ pub fn write_overlay_png(
             dot(p[0], p[1], c);
         }
     }
-    Ok(crate::output::png::write_png(path, bw, bh, &img)?)
+    (bw, bh, img)
 }

@@ -100,16 +100,45 @@ fn write_png_file(
 ) -> Result<(), png::EncodingError> {
     let file = File::create(path)?;
     let mut out = BufWriter::new(file);
-    let mut encoder = png::Encoder::new(&mut out, width, height);
+    encode_rows(&mut out, width, height, data)?;
+    out.flush()?;
+    out.get_ref().sync_all()?;
+    Ok(())
+}
+
+/// Encodes packed RGB8 rows (top row first) as an 8-bit sRGB PNG into `out`.
+fn encode_rows(
+    out: impl Write,
+    width: u32,
+    height: u32,
+    data: &[u8],
+) -> Result<(), png::EncodingError> {
+    let mut encoder = png::Encoder::new(out, width, height);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
     encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
     let mut writer = encoder.write_header()?;
     writer.write_image_data(data)?;
-    writer.finish()?;
-    out.flush()?;
-    out.get_ref().sync_all()?;
-    Ok(())
+    writer.finish()
+}
+
+/// The bytes of the PNG that [`write_png`] writes for the same pixels (row 0 the bottom row), in
+/// memory (the live view serves them). Errors where `write_png` would refuse the image.
+pub fn png_bytes(width: usize, height: usize, rgb: &[[u8; 3]]) -> Result<Vec<u8>, String> {
+    if width == 0 || height == 0 || width.checked_mul(height) != Some(rgb.len()) {
+        return Err(format!("{} pixels for a {width}x{height} PNG", rgb.len()));
+    }
+    let (w, h) = (
+        u32::try_from(width).map_err(|e| e.to_string())?,
+        u32::try_from(height).map_err(|e| e.to_string())?,
+    );
+    let mut data = Vec::with_capacity(rgb.len() * 3);
+    for row in rgb.chunks_exact(width).rev() {
+        data.extend(row.iter().flatten());
+    }
+    let mut out = Vec::new();
+    encode_rows(&mut out, w, h, &data).map_err(|e| e.to_string())?;
+    Ok(out)
 }
 
 /// Writes the field view ([`field_colors`]) of a field as a PNG (see [`write_png`]).
