@@ -20,6 +20,8 @@
 //!   (`ftpd`) in each and σ > 0 somewhere; with `--window U0,V0,U1,V1` the field's plane is that
 //!   window; a file a line's comment names (`# out/x.vti`) is there afterwards; every command but
 //!   `bench`, `--explain`, `--help` and `--version` writes a field.
+//!   A `view` command serves until stopped: it must print its URL, serve the page and a PNG of
+//!   the field, and end within 5 s of SIGTERM.
 //! - **Error examples.** A transcript whose output has a line `error: MESSAGE` must fail with that
 //!   line on stderr (`…` in it stands for text that depends on the machine). It runs as written,
 //!   without a budget substituted, since a bad value is refused before any work.
@@ -47,7 +49,14 @@ const SKIP: &[(&str, &str, &str)] = &[
     ),
 ];
 
-const SUBCOMMANDS: &[&str] = &["bench", "merge", "converge", "separatrices", "help"];
+const SUBCOMMANDS: &[&str] = &[
+    "bench",
+    "merge",
+    "converge",
+    "separatrices",
+    "help",
+    "view",
+];
 
 /// What a command of a doc must do.
 #[derive(Debug, PartialEq)]
@@ -555,6 +564,14 @@ fn run_doc(doc: &str, commands: &[DocCommand]) -> (TempDir, Vec<String>) {
             }
         };
         let args = expand_globs(&dir, args);
+        if args.first().is_some_and(|a| a == "view") && c.expect == Expect::Success {
+            // A server runs until stopped: it must serve its picture and stop on SIGTERM.
+            let refs: Vec<&str> = args[1..].iter().map(String::as_str).collect();
+            if let Err(e) = crate::view::doc_command_serves_and_stops(&dir, &refs) {
+                fail(e);
+            }
+            continue;
+        }
         let before = snapshot(&dir);
         let refs: Vec<&str> = args.iter().map(String::as_str).collect();
         let run = ftpd3d_in(&dir, &refs);

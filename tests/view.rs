@@ -260,6 +260,27 @@ fn exits_within(child: &mut Child, limit: Duration) -> bool {
     false
 }
 
+/// A doc's `ftpd3d view …` command (tests/docs_commands.rs), run as shown with a tiny budget: it
+/// prints its URL, serves the token holder the page and a PNG of the field once a run has stopped,
+/// and ends within 5 s of SIGTERM.
+pub(crate) fn doc_command_serves_and_stops(dir: &Path, args: &[&str]) -> Result<(), String> {
+    let mut v = start(dir, args);
+    let (c, page) = v.get("/");
+    if c != 200 || !String::from_utf8_lossy(&page).contains("<html") {
+        return Err(format!("the page at {} answered {c}", v.url));
+    }
+    v.wait_stopped();
+    let (c, png) = v.get("/image.png?channel=ftpd");
+    if c != 200 || !png.starts_with(b"\x89PNG\r\n\x1a\n") {
+        return Err(format!("image.png answered {c}, not a PNG"));
+    }
+    sigterm(&v.child);
+    if !exits_within(&mut v.child, Duration::from_secs(5)) {
+        return Err("still serving 5 s after SIGTERM".into());
+    }
+    Ok(())
+}
+
 #[test]
 fn serves_token_holders_the_field_and_saves_what_the_command_line_writes() {
     let dir = temp_dir("view", "serves");
