@@ -82,24 +82,52 @@ impl Scene {
     }
 
     /// The shadow ray from `o` (a point off any surface, e.g. from [`Hit::spawn_origin`]) to the
-    /// point `target` (e.g. a sampled light point), which may lie on a surface: the ray is aimed at
-    /// `target` itself and stops short of it by its error bound. (Keeping a direction measured from
-    /// an un-offset point would make oblique lights occlude themselves.) `None` when `o` and
-    /// `target` coincide or are not finite: nothing is visible then.
+    /// point `target` (e.g. a sampled light point): its unit direction and the distance at which
+    /// it stops. `None` when `o` and `target` coincide or are not finite: nothing is visible then.
+    ///
+    /// A `target` on a surface of unit normal `surface` (an area light's point) is first moved off
+    /// that surface, towards `o`'s side, by the error bound of both ends, and the ray ends there
+    /// (pbrt's spawn-ray-to, both ends off their surfaces). So its end lies as far from the
+    /// surface at every angle: a ray that ended a distance short *along the ray* instead came
+    /// within that distance times the sine of its angle of the surface, less than the f32
+    /// rounding of the ray's origin for a lamp seen a degree from its plane, and the lamp hid its
+    /// own sample. A free `target` (a point light, a far point towards a sun or the sky) has
+    /// nothing to move off: the ray stops its error bound short of it. The ray is aimed at the
+    /// end itself (keeping a direction measured from an un-offset point would make oblique
+    /// lights occlude themselves).
     #[inline]
-    pub fn shadow_ray(&self, o: DVec3, target: DVec3) -> Option<(DVec3, f64)> {
-        let to = target - o;
+    pub fn shadow_ray(
+        &self,
+        o: DVec3,
+        target: DVec3,
+        surface: Option<DVec3>,
+    ) -> Option<(DVec3, f64)> {
+        let (end, short) = match surface {
+            Some(n) => {
+                // The f32 rounding of the ray's origin counts too (a lamp seen from afar).
+                let eps = self.eps_at(o.abs().max(target.abs()));
+                let side = if (o - target).dot(n) >= 0.0 {
+                    eps
+                } else {
+                    -eps
+                };
+                (target + n * side, 0.0)
+            }
+            None => (target, self.eps_at(target)),
+        };
+        let to = end - o;
         let len = to.length();
         if !(len > 0.0) || !len.is_finite() {
             return None;
         }
-        Some((to / len, len - self.eps_at(target)))
+        Some((to / len, len - short))
     }
 
-    /// True when nothing blocks the segment from `o` to `target` (see [`shadow_ray`](Self::shadow_ray)).
+    /// True when nothing blocks the segment from `o` to `target` (on a surface of unit normal
+    /// `surface`, if any; see [`shadow_ray`](Self::shadow_ray)).
     #[inline]
-    pub fn visible(&self, o: DVec3, target: DVec3) -> bool {
-        self.shadow_ray(o, target)
+    pub fn visible(&self, o: DVec3, target: DVec3, surface: Option<DVec3>) -> bool {
+        self.shadow_ray(o, target, surface)
             .is_some_and(|(d, tmax)| !self.occluded(o, d, tmax))
     }
 
