@@ -124,8 +124,11 @@ fn courtyard_named_slice_runs_and_writes_finite_values() {
     );
 }
 
+/// Every channel of every part of an EXR file: part, name and samples as bits.
+type Channels = Vec<(usize, String, Vec<u64>)>;
+
 /// The samples of every channel of every part of an EXR file, as bits, by part and name.
-fn channel_bits(path: &std::path::Path) -> Vec<(usize, String, Vec<u64>)> {
+fn channel_bits(path: &std::path::Path) -> Channels {
     use exr::prelude::FlatSamples;
     let mut out = Vec::new();
     for (k, part) in crate::support::exr_parts(path).iter().enumerate() {
@@ -164,7 +167,7 @@ fn courtyard_outputs_do_not_depend_on_embrees_instruction_set() {
     }
     let dir = crate::support::temp_dir("courtyard", "isa");
     let scene = scene_path("courtyard/courtyard.toml");
-    let mut first: Option<(String, Vec<(usize, String, Vec<u64>)>)> = None;
+    let mut first: Option<(String, Channels)> = None;
     let mut compared = 0;
     for isa in isas {
         let out = dir.join(format!("{isa}.exr"));
