@@ -5,9 +5,12 @@ use super::SharedArray;
 use embree_sys as sys;
 
 /// Decides whether a candidate hit on a cut-out triangle is rejected (the ray goes on): the
-/// triangle's index among the cut-out ones, the hit's barycentric (u, v), and the candidate
-/// ([`CutRay`]), whose hash only stochastic coverage draws. Must not panic.
-pub type CutTest = dyn Fn(u32, [f32; 2], &CutRay) -> bool + Send + Sync;
+/// triangle's index among the cut-out ones and the candidate ([`CutRay`]: the ray, whose hash
+/// only stochastic coverage draws). Where on the triangle the candidate lies is the test's to
+/// compute from the ray and the triangle: Embree's own (u, v) of the candidate differ in their
+/// last bits with the instruction set Embree picks at run time (SSE, AVX2, AVX-512), and a
+/// coverage read there made the same run give other bits on another machine. Must not panic.
+pub type CutTest = dyn Fn(u32, &CutRay) -> bool + Send + Sync;
 
 /// The ray (origin, direction, as Embree holds them) and the triangle of a candidate hit on a
 /// cut-out triangle: the key of the number in [0, 1) that stochastic coverage compares with α.
@@ -33,6 +36,18 @@ impl CutRay {
                 triangle,
             ],
         }
+    }
+
+    /// The ray's origin, as Embree holds it (the f32 origin the query was made with).
+    #[inline]
+    pub fn origin(&self) -> [f32; 3] {
+        [0, 1, 2].map(|k| f32::from_bits(self.words[k]))
+    }
+
+    /// The ray's direction, as Embree holds it.
+    #[inline]
+    pub fn dir(&self) -> [f32; 3] {
+        [3, 4, 5].map(|k| f32::from_bits(self.words[k]))
     }
 
     /// A number in [0, 1) hashed from the ray and the triangle: the same for the same candidate.
@@ -79,21 +94,21 @@ pub(super) unsafe extern "C" fn cutout_filter(args: *const sys::RTCFilterFunctio
     let (ray, hit) = (args.ray as *const f32, args.hit as *const f32);
     for i in 0..n {
         // SAFETY: `valid` has N entries, the ray N × 12 words and the hit N × (7 + instance
-        // levels) words; the indices below stay within the first 7 fields of each.
+        // levels) words; the indices below stay within the first 7 fields of each. Only the
+        // ray and the primitive are read: the hit's u, v, t and Ng depend on Embree's ISA.
         unsafe {
             if *args.valid.add(i) == 0 {
                 continue;
             }
             let word = |p: *const f32, k: usize| *p.add(k * n + i);
             let prim = word(hit, 5).to_bits();
-            let bary = [word(hit, 3), word(hit, 4)];
             let global = cut.cut.get(prim as usize).copied().unwrap_or(u32::MAX);
             let candidate = CutRay::new(
                 [word(ray, 0), word(ray, 1), word(ray, 2)],
                 [word(ray, 4), word(ray, 5), word(ray, 6)],
                 global,
             );
-            if test(prim, bary, &candidate) {
+            if test(prim, &candidate) {
                 *args.valid.add(i) = 0;
             }
         }

@@ -79,14 +79,41 @@ unsafe impl Sync for Device {}
 
 static DEVICE: OnceLock<Result<Device, String>> = OnceLock::new();
 
+/// The environment variable whose value, if set, is Embree's device configuration string
+/// (`rtcNewDevice`'s, e.g. `isa=sse4.2` or `threads=1,isa=avx2`): how the tests run one scene
+/// under two of Embree's instruction sets and compare the outputs ([`embree_config`]).
+pub const EMBREE_CONFIG_VAR: &str = "FTPD3D_EMBREE_CONFIG";
+
+/// The configuration string the device is created with: [`EMBREE_CONFIG_VAR`]'s value, or none
+/// (Embree's defaults: the widest instruction set the CPU and the library both have).
+pub fn embree_config() -> Option<String> {
+    std::env::var(EMBREE_CONFIG_VAR)
+        .ok()
+        .filter(|c| !c.trim().is_empty())
+}
+
 pub(super) fn device() -> Result<sys::RTCDevice, AccelError> {
     let dev = DEVICE.get_or_init(|| {
-        // SAFETY: a null config string selects Embree's defaults.
-        let raw = unsafe { sys::rtcNewDevice(std::ptr::null()) };
+        let config = embree_config();
+        let c_config = match config.as_deref().map(std::ffi::CString::new) {
+            None => None,
+            Some(Ok(c)) => Some(c),
+            Some(Err(_)) => return Err(format!("{EMBREE_CONFIG_VAR} holds a NUL byte")),
+        };
+        let ptr = c_config.as_ref().map_or(std::ptr::null(), |c| c.as_ptr());
+        // SAFETY: `ptr` is null (Embree's defaults) or a NUL-terminated string that outlives the
+        // call (Embree parses it during the call and keeps no pointer to it).
+        let raw = unsafe { sys::rtcNewDevice(ptr) };
         if raw.is_null() {
             // SAFETY: rtcGetDeviceError accepts null and then reports the device-creation error.
             let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
-            return Err(format!("rtcNewDevice failed with code {code}"));
+            return Err(match config {
+                Some(c) => format!(
+                    "rtcNewDevice failed with code {code} for {EMBREE_CONFIG_VAR}='{c}' \
+                     (an instruction set this CPU or this Embree lacks?)"
+                ),
+                None => format!("rtcNewDevice failed with code {code}"),
+            });
         }
         // SAFETY: raw is a live device; the callback is a plain function that never unwinds.
         unsafe { sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), std::ptr::null_mut()) };

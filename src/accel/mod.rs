@@ -36,7 +36,7 @@ mod triangles;
 
 pub use buffer::SharedArray;
 pub use cutout::{CutRay, CutTest};
-pub use device::{AccelError, embree_memory};
+pub use device::{AccelError, EMBREE_CONFIG_VAR, embree_config, embree_memory};
 pub use huge_pages::vec_with_huge_pages;
 pub use instances::{InstanceXfm, NO_INSTANCE};
 pub use near::{MAX_NEAR, Near};

@@ -317,7 +317,7 @@ pub fn radiance_direction_from<K: Kernel>(
     crate::transport::light::texture_light_sample(scene, &mut ls, x);
     let omega = -ls.wi;
     *rays += 1;
-    if !trace::visible::<K>(scene, x, x + ls.wi * ls.dist) {
+    if !trace::visible::<K>(scene, x, x + ls.wi * ls.dist, ls.surface) {
         return (omega, Rgb::ZERO);
     }
     let weight = if ls.delta {

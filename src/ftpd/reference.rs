@@ -92,7 +92,7 @@ fn delta_light_mirrored(
         let crate::scene::material::Bsdf::Mirror { ks, .. } = &*bsdf else {
             continue;
         };
-        if scene.visible(hit.spawn_origin(wi_image), target) {
+        if scene.visible(hit.spawn_origin(wi_image), target, None) {
             out.push((wi, ks * arriving));
         }
     }
@@ -104,7 +104,7 @@ fn delta_light_mirrored(
 /// the spot's falloff or the sun's irradiance, 0 when occluded; `None` for the other kinds.
 fn delta_light(scene: &Scene, light: &Light, x: DVec3, origin: DVec3) -> Option<(DVec3, Rgb)> {
     let (wi, arriving, target) = delta_light_parts(scene, light, x)?;
-    let visible = scene.visible(origin, target);
+    let visible = scene.visible(origin, target, None);
     Some((wi, if visible { arriving } else { Rgb::ZERO }))
 }
 

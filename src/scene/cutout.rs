@@ -4,10 +4,11 @@
 
 use crate::math::Rgb;
 use crate::scene::geometry::{barycentric, closest_point_on_triangle, interpolate_uv};
+use crate::scene::hit::ray_barycentrics;
 use crate::scene::material::Material;
 use crate::scene::material::{Alpha, AlphaMode};
 use crate::scene::model::{LoadReport, Scene};
-use glam::{DVec3, Vec2};
+use glam::{DVec3, Vec2, Vec3};
 
 impl Scene {
     /// True when some cut-out material's coverage reads a texture, so its cut-out test waits for
@@ -48,16 +49,21 @@ impl Scene {
                 })
             })
             .collect();
-        let table: Vec<(u32, [Vec2; 3])> = cutout
+        // Cut-out triangles are in world space (never instanced), as Embree holds them.
+        let table: Vec<(u32, [Vec2; 3], [Vec3; 3])> = cutout
             .iter()
             .map(|&t| {
                 let uv = self.corner_uvs(t);
-                (self.tri_material[t as usize], uv)
+                let p = self.triangles[t as usize].map(|v| self.positions[v as usize]);
+                (self.tri_material[t as usize], uv, p)
             })
             .collect();
         let textures = self.textures.textures.clone();
-        self.accel.set_cut_test(Box::new(move |k, bary, ray| {
-            table.get(k as usize).is_some_and(|&(m, uv)| {
+        self.accel.set_cut_test(Box::new(move |k, ray| {
+            table.get(k as usize).is_some_and(|&(m, uv, p)| {
+                let o = Vec3::from(ray.origin()).as_dvec3();
+                let d = Vec3::from(ray.dir()).as_dvec3();
+                let bary = ray_barycentrics(o, d, p.map(|q| q.as_dvec3()));
                 alphas[m as usize].cut(&textures, interpolate_uv(uv, bary), || ray.xi())
             })
         }));

@@ -2,7 +2,7 @@
 //! shadow rays. Where a ray leaving a hit starts is [`crate::scene::offset`].
 
 use crate::accel::{NO_INSTANCE, RawHit};
-use crate::scene::geometry::{Aabb, closest_point_on_triangle};
+use crate::scene::geometry::{Aabb, barycentric, closest_point_on_triangle};
 use crate::scene::instance::Instancing;
 use crate::scene::model::Scene;
 use glam::{DVec3, Vec3A};
@@ -23,8 +23,8 @@ pub struct Hit {
     pub material: u32,
     /// Half-width of the region around `p` that may hold the true surface (float error bound).
     pub eps: f64,
-    /// Embree's barycentric coordinates of the hit (weights of the triangle's second and third
-    /// vertex), for texture coordinates and the test for edges ([`Scene::near_edge`]).
+    /// Barycentric coordinates of `p` (weights of the triangle's second and third vertex), for
+    /// texture coordinates, shading normals and the test for edges ([`Scene::near_edge`]).
     pub bary: [f32; 2],
     /// The error bound before the floor `eps` has, which the test for edges uses.
     eps_edge: f64,
@@ -48,6 +48,33 @@ impl Hit {
 /// start off surfaces, which shortcuts geometry: with 64 ulps (7.6 cm at 10⁴) σ of the Cornell box
 /// translated by 10⁴ came out 4 standard errors above the original's.
 const F32_ERROR_ULPS: f64 = 16.0 * f32::EPSILON as f64;
+
+/// Where the ray `o + t d` meets the plane through `a` with normal `n` (any length): the
+/// parameter t (not finite for a ray parallel to the plane) and the point, in f64.
+#[inline(always)]
+fn ray_plane(o: DVec3, d: DVec3, a: DVec3, n: DVec3) -> (f64, DVec3) {
+    let t = (a - o).dot(n) / d.dot(n);
+    (t, o + d * t)
+}
+
+/// The barycentric coordinates (weights of the second and third vertex) of the point of the
+/// triangle `[pa, pb, pc]` that the ray `o + t d` meets, from the ray and the vertices alone, in
+/// f64: the ray's point on the triangle's plane, or the triangle's point closest to it where that
+/// lies off the triangle (a grazing ray, or one through an edge within rounding). Never Embree's
+/// own u, v: those differ in their last bits with the instruction set Embree picks at run time
+/// (SSE, AVX2, AVX-512), and a decision read from them made outputs depend on the machine.
+pub fn ray_barycentrics(o: DVec3, d: DVec3, [pa, pb, pc]: [DVec3; 3]) -> [f32; 2] {
+    let (_, q) = ray_plane(o, d, pa, (pb - pa).cross(pc - pa));
+    barycentrics_near(if q.is_finite() { q } else { o }, [pa, pb, pc])
+}
+
+/// The barycentric coordinates of the triangle's point closest to `q` (a point in or near its
+/// plane), in f64, rounded to f32.
+#[inline(always)]
+fn barycentrics_near(q: DVec3, [pa, pb, pc]: [DVec3; 3]) -> [f32; 2] {
+    let [u, v] = barycentric(closest_point_on_triangle(q, pa, pb, pc), pa, pb, pc);
+    [u as f32, v as f32]
+}
 
 impl Scene {
     /// Float error bound of a point on the scene's f32 geometry (see [`Hit::eps`]).
@@ -82,24 +109,52 @@ impl Scene {
     }
 
     /// The shadow ray from `o` (a point off any surface, e.g. from [`Hit::spawn_origin`]) to the
-    /// point `target` (e.g. a sampled light point), which may lie on a surface: the ray is aimed at
-    /// `target` itself and stops short of it by its error bound. (Keeping a direction measured from
-    /// an un-offset point would make oblique lights occlude themselves.) `None` when `o` and
-    /// `target` coincide or are not finite: nothing is visible then.
+    /// point `target` (e.g. a sampled light point): its unit direction and the distance at which
+    /// it stops. `None` when `o` and `target` coincide or are not finite: nothing is visible then.
+    ///
+    /// A `target` on a surface of unit normal `surface` (an area light's point) is first moved off
+    /// that surface, towards `o`'s side, by the error bound of both ends, and the ray ends there
+    /// (pbrt's spawn-ray-to, both ends off their surfaces). So its end lies as far from the
+    /// surface at every angle: a ray that ended a distance short *along the ray* instead came
+    /// within that distance times the sine of its angle of the surface, less than the f32
+    /// rounding of the ray's origin for a lamp seen a degree from its plane, and the lamp hid its
+    /// own sample. A free `target` (a point light, a far point towards a sun or the sky) has
+    /// nothing to move off: the ray stops its error bound short of it. The ray is aimed at the
+    /// end itself (keeping a direction measured from an un-offset point would make oblique
+    /// lights occlude themselves).
     #[inline]
-    pub fn shadow_ray(&self, o: DVec3, target: DVec3) -> Option<(DVec3, f64)> {
-        let to = target - o;
+    pub fn shadow_ray(
+        &self,
+        o: DVec3,
+        target: DVec3,
+        surface: Option<DVec3>,
+    ) -> Option<(DVec3, f64)> {
+        let (end, short) = match surface {
+            Some(n) => {
+                // The f32 rounding of the ray's origin counts too (a lamp seen from afar).
+                let eps = self.eps_at(o.abs().max(target.abs()));
+                let side = if (o - target).dot(n) >= 0.0 {
+                    eps
+                } else {
+                    -eps
+                };
+                (target + n * side, 0.0)
+            }
+            None => (target, self.eps_at(target)),
+        };
+        let to = end - o;
         let len = to.length();
         if !(len > 0.0) || !len.is_finite() {
             return None;
         }
-        Some((to / len, len - self.eps_at(target)))
+        Some((to / len, len - short))
     }
 
-    /// True when nothing blocks the segment from `o` to `target` (see [`shadow_ray`](Self::shadow_ray)).
+    /// True when nothing blocks the segment from `o` to `target` (on a surface of unit normal
+    /// `surface`, if any; see [`shadow_ray`](Self::shadow_ray)).
     #[inline]
-    pub fn visible(&self, o: DVec3, target: DVec3) -> bool {
-        self.shadow_ray(o, target)
+    pub fn visible(&self, o: DVec3, target: DVec3, surface: Option<DVec3>) -> bool {
+        self.shadow_ray(o, target, surface)
             .is_some_and(|(d, tmax)| !self.occluded(o, d, tmax))
     }
 
@@ -162,7 +217,6 @@ impl Scene {
         shading: Option<[DVec3; 3]>,
         material: u32,
     ) -> Hit {
-        let (u, v) = (raw.u as f64, raw.v as f64);
         let mag = tri_mag.max(o.abs().max_element());
         let eps = F32_ERROR_ULPS * mag + 1e-9 * self.extent();
         // The hit point: the f64 intersection of the ray with the triangle's plane, which is exact to
@@ -170,26 +224,30 @@ impl Scene {
         // Embree's (which traced the f32-rounded ray), so it is taken only when it lies on the
         // triangle (within the error bound); else Embree's f32 barycentrics, which keep the point on
         // the triangle but are off sideways by the f32 rounding of the ray's origin (enough to break
-        // the mirror isometry of pairs 10⁻⁶ rad apart).
+        // the mirror isometry of pairs 10⁻⁶ rad apart). Embree's t only checks that the plane's
+        // point is the one Embree found (to 10⁻³), and its u, v are read only in that grazing
+        // case: both differ in their last bits with Embree's instruction set.
         let dn = d.dot(ng);
-        let t_plane = (pa - o).dot(ng) / dn;
+        let (t_plane, q) = ray_plane(o, d, pa, ng);
         let t_raw = raw.t as f64;
         let consistent =
             t_plane.is_finite() && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent());
-        let p = if dn.abs() > 1e-4 && consistent {
-            o + d * t_plane
-        } else {
-            let q = o + d * t_plane;
-            if t_plane.is_finite()
+        let on_triangle = || {
+            t_plane.is_finite()
                 && t_plane > 0.0
                 && (t_plane - t_raw).abs() <= 1e-3 * (t_raw + self.extent()) + eps / dn.abs()
                 && (closest_point_on_triangle(q, pa, pb, pc) - q).length_squared() <= eps * eps
-            {
-                q
-            } else {
-                (1.0 - u - v) * pa + u * pb + v * pc
-            }
         };
+        let p = if (dn.abs() > 1e-4 && consistent) || on_triangle() {
+            q
+        } else {
+            let (u, v) = (raw.u as f64, raw.v as f64);
+            (1.0 - u - v) * pa + u * pb + v * pc
+        };
+        // Texture coordinates, shading normals and the test for edges read the barycentrics of
+        // `p`, not Embree's.
+        let bary = barycentrics_near(p, [pa, pb, pc]);
+        let (u, v) = (bary[0] as f64, bary[1] as f64);
         let ns = if let Some([na, nb, nc]) = shading {
             let n = (1.0 - u - v) * na + u * nb + v * nc;
             let len = n.length();
@@ -226,7 +284,7 @@ impl Scene {
             ns,
             material,
             eps: eps.max(1e-12),
-            bary: [raw.u, raw.v],
+            bary,
             eps_edge: eps,
         }
     }

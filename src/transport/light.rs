@@ -14,6 +14,9 @@ pub struct LightSample {
     pub wi: DVec3,
     /// Distance to the light point (the shadow ray stops just short of it).
     pub dist: f64,
+    /// The unit normal of the emitter's surface at the light point (area lights; `None` for lights
+    /// that are not surfaces): the shadow ray ends off that surface ([`crate::scene::Scene::shadow_ray`]).
+    pub surface: Option<DVec3>,
     /// Radiance arriving along `-wi` (area light) or `I / d²` (point light).
     pub li: Rgb,
     /// Solid-angle density including the light choice; for a point light the choice probability.
@@ -79,6 +82,7 @@ pub(crate) fn connect_emitter(
     pdf.is_finite().then_some(LightSample {
         wi,
         dist,
+        surface: Some(normal),
         li: emission,
         pdf,
         delta: false,
@@ -137,6 +141,7 @@ pub(crate) fn connect_point(
     Some(LightSample {
         wi: to / dist,
         dist,
+        surface: None,
         li: intensity / falloff(d2, dist, dims),
         pdf: p_choice,
         delta: true,
@@ -206,6 +211,7 @@ impl<S: Shape> Lights<S> {
                     Some(LightSample {
                         wi: sp.cone(*direction, *half_angle, u),
                         dist,
+                        surface: None,
                         li: *radiance,
                         pdf: p_choice / measure,
                         delta: false,
@@ -215,6 +221,7 @@ impl<S: Shape> Lights<S> {
                     Some(LightSample {
                         wi: *direction,
                         dist,
+                        surface: None,
                         li: *irradiance,
                         pdf: p_choice,
                         delta: true,
@@ -225,6 +232,7 @@ impl<S: Shape> Lights<S> {
             Light::Sky { radiance } => Some(LightSample {
                 wi: sp.uniform(u),
                 dist: self.beyond(x),
+                surface: None,
                 li: *radiance,
                 pdf: p_choice * D::PDF_UNIFORM,
                 delta: false,
@@ -235,6 +243,7 @@ impl<S: Shape> Lights<S> {
                 Some(LightSample {
                     wi,
                     dist: self.beyond(x),
+                    surface: None,
                     li: env.map.radiance(wi),
                     pdf: p_choice * pdf,
                     delta: false,

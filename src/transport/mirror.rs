@@ -32,6 +32,10 @@ pub struct VirtualSample {
     pub t_mirror: f64,
     /// The light's point (the shadow ray from the mirror goes there).
     pub target: DVec3,
+    /// The unit normal of the emitter's surface at `target` ([`LightSample::surface`]).
+    ///
+    /// [`LightSample::surface`]: crate::transport::light::LightSample::surface
+    pub surface: Option<DVec3>,
     /// Radiance arriving at the mirror from the light (before the mirror's reflectance).
     pub li: Rgb,
     /// Density of `wi`, including the choice of plane and light.
@@ -75,6 +79,7 @@ pub fn sample_virtual<D: Space>(
         plane: k,
         t_mirror: t,
         target: xr + ls.wi * ls.dist,
+        surface: ls.surface,
         li: ls.li,
         pdf,
         delta: ls.delta,
@@ -108,5 +113,5 @@ pub fn connect_virtual<K: Kernel>(
     let out = mirrors.planes[vs.plane].reflect_dir(vs.wi);
     *rays += 1;
     let o = scene.spawn_origin_from(&hit, out, origin);
-    trace::visible::<K>(scene, o, vs.target).then_some(*ks * vs.li)
+    trace::visible::<K>(scene, o, vs.target, vs.surface).then_some(*ks * vs.li)
 }

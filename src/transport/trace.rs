@@ -18,8 +18,8 @@ pub fn intersect<K: Kernel>(scene: &Scene, o: DVec3, d: DVec3, tmax: f64) -> Opt
 
 /// [`Scene::visible`].
 #[inline]
-pub fn visible<K: Kernel>(scene: &Scene, o: DVec3, target: DVec3) -> bool {
-    let Some((d, tmax)) = scene.shadow_ray(o, target) else {
+pub fn visible<K: Kernel>(scene: &Scene, o: DVec3, target: DVec3, surface: Option<DVec3>) -> bool {
+    let Some((d, tmax)) = scene.shadow_ray(o, target, surface) else {
         return false;
     };
     if K::RECORD && tmax > 0.0 {

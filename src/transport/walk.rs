@@ -647,7 +647,7 @@ impl PathState {
         }
         st.rays += 1;
         let o = v.spawn(view.scene, ls.wi);
-        if !trace::visible::<K>(view.scene, o, hit.p + ls.wi * ls.dist) {
+        if !trace::visible::<K>(view.scene, o, hit.p + ls.wi * ls.dist, ls.surface) {
             return;
         }
         self.add_sampled_light::<K>(v, f, ls.li, ls.wi, ls.pdf, ls.delta);

@@ -17,6 +17,13 @@ pub fn ftpd3d(args: &[&str]) -> Run {
     run(Command::new(env!("CARGO_BIN_EXE_ftpd3d")).args(args))
 }
 
+/// [`ftpd3d`] with the environment variable `var` set to `value`.
+pub fn ftpd3d_with_env(args: &[&str], (var, value): (&str, &str)) -> Run {
+    run(Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .args(args)
+        .env(var, value))
+}
+
 /// A small quiet run of the binary on `scene`: the 8² slice z = 0 in passes of 4 samples with
 /// seed 3, no previews, then `extra` (the flags a test is about, the output, the budget).
 pub fn small_slice(scene: &Path, extra: &[&str]) -> Run {
