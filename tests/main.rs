@@ -21,6 +21,7 @@ mod merge;
 mod mirror;
 mod mis;
 mod outdoor;
+mod output_paths;
 mod pairs;
 mod pinned;
 mod python;
