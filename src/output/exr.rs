@@ -461,3 +461,30 @@ pub fn read_f32_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>, FileErr
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Text in any script is written as UTF-8 and read back as given; an attribute name the
+    /// format cannot hold is an error naming it, not a panic.
+    #[test]
+    fn header_text_in_any_script_round_trips() {
+        let d = std::env::temp_dir().join(format!("ftpd3d-exr-header-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let path = d.join("h.exr");
+        let mut field = Field::new(2, 2, 1);
+        for c in &mut field.cells {
+            c.add_sample(0.25, 1.0, glam::DVec3::splat(0.5));
+        }
+        let scene = "scène/目录/🎉.obj";
+        field.meta.insert("scene".into(), scene.into());
+        write_exr(&path, &field, &[]).unwrap();
+        assert_eq!(read_exr(&path).unwrap().meta["scene"], scene);
+        let mut bad = BTreeMap::new();
+        bad.insert("k".repeat(300), "v".to_string());
+        let e = check_header(&path, &bad).unwrap_err().to_string();
+        assert!(e.contains("at most 255 bytes"), "{e}");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}

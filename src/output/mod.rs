@@ -293,3 +293,56 @@ pub fn f32_of(x: f64) -> f32 {
         0.0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fresh_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("ftpd3d-output-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// A FIFO at the destination is refused before anything is written (it is never opened, so
+    /// nothing blocks) and stays a FIFO; no temporary file is left.
+    #[test]
+    fn a_fifo_is_never_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let d = fresh_dir("fifo");
+        let fifo = d.join("f.exr");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            assert!(std::env::var("CI").is_err(), "mkfifo failed in CI");
+            eprintln!("skipped a_fifo_is_never_replaced: mkfifo failed");
+            return;
+        }
+        let mut called = false;
+        let r = write_atomically(&fifo, |tmp| {
+            called = true;
+            Ok(std::fs::write(tmp, b"x")?)
+        });
+        let e = r.unwrap_err();
+        assert!(format!("{e:#}").contains("FIFO"), "{e:#}");
+        assert!(!called, "nothing is written");
+        let t = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(t.is_fifo());
+        assert_eq!(
+            std::fs::read_dir(&d).unwrap().count(),
+            1,
+            "no temporary left"
+        );
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    /// A file under folders that do not exist yet: they are created (every front end's rule).
+    #[test]
+    fn missing_folders_are_created() {
+        let d = fresh_dir("folders");
+        let deep = d.join("a/b/c.txt");
+        write_atomically(&deep, |tmp| Ok(std::fs::write(tmp, b"x")?)).unwrap();
+        assert_eq!(std::fs::read(&deep).unwrap(), b"x");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}
