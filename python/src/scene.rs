@@ -191,7 +191,7 @@ impl Scene {
             None => Vec::new(),
             Some(sp) => {
                 let (s, _) = py
-                    .detach(|| no_panic(|| Ok(separatrix::of_field(&done.field, &name, sp)?)))
+                    .detach(|| no_panic(|| separatrix::of_field(&done.field, &name, sp)))
                     .map_err(to_py)?;
                 s.arrays()
             }
