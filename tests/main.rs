@@ -23,6 +23,7 @@ mod merge;
 mod mirror;
 mod mis;
 mod outdoor;
+mod output_paths;
 mod pairs;
 mod pinned;
 mod python;

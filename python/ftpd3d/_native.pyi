@@ -61,10 +61,14 @@ class Field:
     def channels(self) -> list[str]:
         """The channel names, in the file's order (the EXR's part 0, then part 1's others)."""
     @property
-    def meta(self) -> dict[str, str]:
+    def meta(self) -> dict[str, Union[str, int, float, bool, Tuple[Union[int, float], ...]]]:
+        """The run's description, each value of its type: int or float, a tuple of numbers (a
+        point, a size), bool (flags), or text (paths, names, the plane)."""
+    @property
+    def header(self) -> dict[str, str]:
         """The run's description as the file's header holds it (key to text)."""
     @property
-    def stats(self) -> dict[str, str]:
+    def stats(self) -> dict[str, Union[int, float, str]]:
         """What the run did: samples, rays, capped, clamped, seconds, passes, stop (empty for a
         field read from a file)."""
     @property

@@ -72,6 +72,38 @@ pub fn to_py(err: anyhow::Error) -> PyErr {
     raise(kind, message, file.as_deref())
 }
 
+/// Runs `f`, turning a panic (a bug: the library returns errors, but a dependency may panic) into
+/// an error, so that no call raises `PanicException`, which `except Exception` does not catch.
+pub fn no_panic<T>(f: impl FnOnce() -> anyhow::Result<T>) -> anyhow::Result<T> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(payload) => {
+            let why = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "no message".into());
+            Err(anyhow::Error::new(InternalError(why)))
+        }
+    }
+}
+
+/// A panic caught by [`no_panic`]: a bug of ftpd3d, raised as `RunError`.
+#[derive(Debug)]
+struct InternalError(String);
+
+impl std::fmt::Display for InternalError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "internal error (a bug of ftpd3d, please report it): {}",
+            self.0
+        )
+    }
+}
+
+impl std::error::Error for InternalError {}
+
 /// The class for the first typed error in the chain, and the missing file's path.
 fn classify(err: &anyhow::Error) -> (Kind, Option<std::path::PathBuf>) {
     for cause in err.chain() {
@@ -86,7 +118,9 @@ fn classify(err: &anyhow::Error) -> (Kind, Option<std::path::PathBuf>) {
                 FileError::Read { path, source } if is_missing(source) => {
                     (Kind::Missing, Some(path.clone()))
                 }
-                FileError::Read { .. } | FileError::Write { .. } => (Kind::File, None),
+                FileError::Read { .. } | FileError::Write { .. } | FileError::NotRegular { .. } => {
+                    (Kind::File, None)
+                }
                 _ if is_io(e) => (Kind::File, None),
                 _ => (Kind::Format, None),
             };
@@ -124,7 +158,7 @@ fn classify(err: &anyhow::Error) -> (Kind, Option<std::path::PathBuf>) {
         if cause.is::<OutputError>() {
             return (Kind::File, None);
         }
-        if cause.is::<RunError>() || cause.is::<AccelError>() {
+        if cause.is::<RunError>() || cause.is::<AccelError>() || cause.is::<InternalError>() {
             return (Kind::Run, None);
         }
     }

@@ -3,7 +3,7 @@
 //! by the writers' own steps, so `r["ftpd"]` holds the very values of the file; the run's
 //! description (`meta`); `write` and `read`.
 
-use crate::errors::{param, to_py};
+use crate::errors::{no_panic, param, to_py};
 use ftpd3d::analysis::separatrix::{self, SepParams};
 use ftpd3d::app;
 use ftpd3d::field::Field as LibField;
@@ -56,7 +56,103 @@ pub struct Field {
     view: OnceLock<Channels>,
     exact: OnceLock<Channels>,
     shape: Vec<usize>,
-    stats: BTreeMap<&'static str, String>,
+    stats: BTreeMap<&'static str, Stat>,
+}
+
+/// One of a run's statistics, of its own type.
+#[derive(Clone, Debug)]
+pub enum Stat {
+    Count(u64),
+    Seconds(f64),
+    Text(String),
+}
+
+/// The description's keys whose values are text even where they read as numbers (a camera named
+/// `1`, a plane `z=0`).
+const TEXT_KEYS: [&str; 16] = [
+    "tool",
+    "embree",
+    "scene",
+    "domain",
+    "plane",
+    "camera",
+    "weighting",
+    "features",
+    "kernel",
+    "pairs",
+    "guide",
+    "schedule",
+    "adaptive",
+    "stop",
+    "merged",
+    "budget.time",
+];
+
+/// The description's keys whose numbers are counts (int); every other number is a float, so a
+/// key's type does not change with its value (an angle of `2` is `2.0`).
+const COUNT_KEYS: [&str; 10] = [
+    "seed",
+    "seeds",
+    "spp",
+    "batches",
+    "max_bounces",
+    "radiance_bounces",
+    "passes",
+    "samples",
+    "remaining.samples",
+    "volume.dims",
+];
+
+/// A value of the description as Python sees it: `true`/`false` as bool, a number as int (the
+/// keys of [`COUNT_KEYS`]) or float, comma-separated numbers as a tuple, anything else (and every
+/// key of [`TEXT_KEYS`]) as the text the header holds.
+fn typed<'py>(py: Python<'py>, key: &str, text: &str) -> PyResult<Bound<'py, PyAny>> {
+    let counts = COUNT_KEYS.contains(&key);
+    let number = |t: &str| -> Option<PyResult<Bound<'py, PyAny>>> {
+        if counts {
+            let u = t.parse::<u64>().ok()?;
+            return Some(
+                u.into_pyobject(py)
+                    .map(|v| v.into_any())
+                    .map_err(Into::into),
+            );
+        }
+        // Only text that looks like a number (not "inf" or "nan" spelt out in a name).
+        let looks = t
+            .bytes()
+            .next()
+            .is_some_and(|b| b.is_ascii_digit() || b == b'-' || b == b'.');
+        let f = t.parse::<f64>().ok().filter(|_| looks)?;
+        Some(
+            f.into_pyobject(py)
+                .map(|v| v.into_any())
+                .map_err(Into::into),
+        )
+    };
+    let as_text = || {
+        text.into_pyobject(py)
+            .map(|v| v.into_any())
+            .map_err(Into::into)
+    };
+    if TEXT_KEYS.contains(&key) {
+        return as_text();
+    }
+    match text {
+        "true" => return Ok(true.into_pyobject(py)?.to_owned().into_any()),
+        "false" => return Ok(false.into_pyobject(py)?.to_owned().into_any()),
+        _ => {}
+    }
+    if let Some(n) = number(text) {
+        return n;
+    }
+    if text.contains(',') {
+        let parts: Option<Vec<_>> = text.split(',').map(|t| number(t.trim())).collect();
+        if let Some(parts) = parts {
+            let items = parts.into_iter().collect::<PyResult<Vec<_>>>()?;
+            return Ok(pyo3::types::PyTuple::new(py, items)?.into_any());
+        }
+    }
+    as_text()
 }
 
 /// `name` with a `'static` lifetime, as the writers take extra arrays' names: names read from
@@ -81,7 +177,7 @@ impl Field {
         lattice: Option<Lattice>,
         extra: Extra,
         name: &Path,
-        stats: BTreeMap<&'static str, String>,
+        stats: BTreeMap<&'static str, Stat>,
     ) -> anyhow::Result<Field> {
         let shape = match lattice {
             None => vec![field.height, field.width],
@@ -271,10 +367,21 @@ impl Field {
         self.names(py)
     }
 
-    /// The run's description as the file's header holds it (`ftpd3d.<key>` attributes of the EXR,
-    /// the VTI's field data), key to text.
+    /// The run's description (`ftpd3d.<key>` attributes of the EXR, the VTI's field data), each
+    /// value of its type: numbers as int or float, lists of numbers (a point, a size) as tuples,
+    /// flags as bool, the rest (paths, names, the plane) as text. `header` has the text.
     #[getter]
     fn meta<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (k, v) in &self.field.meta {
+            d.set_item(k, typed(py, k, v)?)?;
+        }
+        Ok(d)
+    }
+
+    /// The run's description as the file's header holds it, key to text.
+    #[getter]
+    fn header<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         for (k, v) in &self.field.meta {
             d.set_item(k, v)?;
@@ -288,7 +395,11 @@ impl Field {
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         for (k, v) in &self.stats {
-            d.set_item(k, v)?;
+            match v {
+                Stat::Count(n) => d.set_item(k, n)?,
+                Stat::Seconds(s) => d.set_item(k, s)?,
+                Stat::Text(t) => d.set_item(k, t)?,
+            }
         }
         Ok(d)
     }
@@ -307,12 +418,15 @@ impl Field {
 
     /// Writes the field as the command line does, by extension: `.exr` (slices, camera images)
     /// or `.vti` (volumes), with the PNG previews beside it when `png` is true; `.png` writes the
-    /// previews alone (σ at `path`, its gradient at `<name>.grad.png`). Files are written under a
-    /// temporary name and renamed, so a failed write leaves no half-written file.
+    /// previews alone (σ at `path`, its gradient at `<name>.grad.png`). Missing folders are created
+    /// (as the command line does). Files are written under a temporary name and renamed, so a
+    /// failed write leaves no half-written file; a path that is not a regular file (a device, a
+    /// FIFO, a directory) is refused, never replaced.
     #[pyo3(signature = (path, png = false))]
     fn write(&self, py: Python<'_>, path: PathBuf, png: bool) -> PyResult<()> {
         check_extension(&path, self.lattice.is_some())?;
-        py.detach(|| self.write_to(&path, png)).map_err(to_py)
+        py.detach(|| no_panic(|| self.write_to(&path, png)))
+            .map_err(to_py)
     }
 
     /// A new field with the separatrix channels (`separatrix`, `separatrix.strength`, ...)
@@ -329,23 +443,25 @@ impl Field {
     ) -> PyResult<Field> {
         let params = crate::options::sep_params(threshold, scale, tau)?;
         py.detach(|| {
-            let name = self.field.meta.get("domain").cloned().unwrap_or_default();
-            let (sep, _) = separatrix::of_field(&self.field, &name, &params)?;
-            let mut extra: Extra = self
-                .extra
-                .iter()
-                .filter(|(n, _)| !n.starts_with("separatrix"))
-                .cloned()
-                .collect();
-            extra.extend(sep.arrays());
-            Field::new(
-                self.field.clone(),
-                self.progress.clone(),
-                self.lattice,
-                extra,
-                Path::new(&name),
-                self.stats.clone(),
-            )
+            no_panic(|| {
+                let name = self.field.meta.get("domain").cloned().unwrap_or_default();
+                let (sep, _) = separatrix::of_field(&self.field, &name, &params)?;
+                let mut extra: Extra = self
+                    .extra
+                    .iter()
+                    .filter(|(n, _)| !n.starts_with("separatrix"))
+                    .cloned()
+                    .collect();
+                extra.extend(sep.arrays());
+                Field::new(
+                    self.field.clone(),
+                    self.progress.clone(),
+                    self.lattice,
+                    extra,
+                    Path::new(&name),
+                    self.stats.clone(),
+                )
+            })
         })
         .map_err(to_py)
     }
@@ -374,9 +490,11 @@ impl Field {
         let mut all = app::progress_arrays(&self.progress);
         all.extend(self.extra.iter().cloned());
         let made = py
-            .detach(|| match self.lattice {
-                None => two_d_view(&self.field, &self.name, all),
-                Some(l) => volume_channels(&self.field, &self.name, l, &all),
+            .detach(|| {
+                no_panic(|| match self.lattice {
+                    None => two_d_view(&self.field, &self.name, all),
+                    Some(l) => volume_channels(&self.field, &self.name, l, &all),
+                })
             })
             .map_err(to_py)?;
         Ok(self.view.get_or_init(|| made))
@@ -391,7 +509,7 @@ impl Field {
             Some(_) => Vec::new(),
             None => {
                 let view: Vec<String> = self.view(py)?.iter().map(|(n, _)| n.clone()).collect();
-                py.detach(|| two_d_exact(&self.field, &self.name, &view))
+                py.detach(|| no_panic(|| two_d_exact(&self.field, &self.name, &view)))
                     .map_err(to_py)?
             }
         };
@@ -414,7 +532,7 @@ impl Field {
 /// pass's) kept as they were.
 #[pyfunction]
 pub fn read(py: Python<'_>, path: PathBuf) -> PyResult<Field> {
-    py.detach(|| read_file(&path)).map_err(to_py)
+    py.detach(|| no_panic(|| read_file(&path))).map_err(to_py)
 }
 
 fn read_file(path: &Path) -> anyhow::Result<Field> {

@@ -44,6 +44,13 @@ impl Report {
                         tqdm.getattr("tqdm")?.call((), Some(&kw))?.unbind(),
                     ))
                 }
+                Err(e) if required && e.is_instance_of::<pyo3::exceptions::PyImportError>(py) => {
+                    Err(pyo3::exceptions::PyModuleNotFoundError::new_err(format!(
+                        "progress=True shows a tqdm progress bar, but tqdm cannot be imported \
+                         ({e}): pip install tqdm, or pass progress=False or a callable \
+                         f(done, total)"
+                    )))
+                }
                 Err(e) if required => Err(e),
                 Err(_) => Ok(Report::None),
             }
@@ -126,7 +133,9 @@ pub fn run(
                     opts,
                     info,
                 } = input;
-                run_domain(scene, domain, params, opts, info, Start::Fresh, hooks)
+                crate::errors::no_panic(|| {
+                    run_domain(scene, domain, params, opts, info, Start::Fresh, hooks)
+                })
             });
             let mut shown = 0;
             let mut raised: Option<PyErr> = None;

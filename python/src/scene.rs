@@ -5,10 +5,10 @@
 //!
 //! [`run_domain`]: ftpd3d::app::run_domain
 
-use crate::errors::{param, to_py};
+use crate::errors::{no_panic, param, to_py};
 use crate::keywords::RunKeywords;
 use crate::options::{self, LightArgs, Vec3};
-use crate::result::{Extra, Field, Lattice};
+use crate::result::{Extra, Field, Lattice, Stat};
 use crate::run::{self, Report, RunInput};
 use ftpd3d::analysis::separatrix;
 use ftpd3d::app::{self, JobDomain};
@@ -38,6 +38,25 @@ pub enum Sun {
 pub enum Suns {
     Many(Vec<Sun>),
     One(Sun),
+}
+
+/// The forms `sun` takes, as its errors name them.
+const SUN_FORM: &str = "((x, y, z), (r, g, b)) (the direction towards the sun and its \
+                        irradiance), ((x, y, z), (r, g, b), diameter in degrees), or a list of them";
+
+/// The value of keyword `name` as `T`, or a `TypeError` naming the keyword, the `form` it takes
+/// and what was given (rather than PyO3's account of the types it tried).
+fn keyword<'py, T: for<'a> FromPyObject<'a, 'py>>(
+    value: &Bound<'py, PyAny>,
+    name: &str,
+    form: &str,
+) -> PyResult<T> {
+    value.extract::<T>().map_err(|_| {
+        let given = value.repr().map(|r| r.to_string()).unwrap_or_default();
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "Scene() argument '{name}': expected {form}; got {given}"
+        ))
+    })
 }
 
 /// An environment map: its file, or (file, scale) or (file, scale, rotation in degrees).
@@ -132,6 +151,12 @@ impl Scene {
         let domain = resolve(&scene, spec, &args)?;
         let params = domain.params(&mut scene, &args, flatland).map_err(to_py)?;
         let info = app::describe_domain(&scene, &domain, &params, &opts, &self.lights);
+        // The header a write would hold is checked now, so that nothing can fail after the run.
+        ftpd3d::output::exr::check_header(
+            std::path::Path::new(&domain.name()),
+            &info.to_attributes(),
+        )
+        .map_err(|e| to_py(e.into()))?;
         let (w, h, d) = domain.dims();
         let total = opts
             .budget
@@ -166,7 +191,7 @@ impl Scene {
             None => Vec::new(),
             Some(sp) => {
                 let (s, _) = py
-                    .detach(|| separatrix::of_field(&done.field, &name, sp))
+                    .detach(|| no_panic(|| separatrix::of_field(&done.field, &name, sp)))
                     .map_err(to_py)?;
                 s.arrays()
             }
@@ -180,13 +205,13 @@ impl Scene {
         };
         let s = &done.stats;
         let stats = BTreeMap::from([
-            ("samples", s.samples.to_string()),
-            ("rays", s.rays.to_string()),
-            ("capped", s.capped.to_string()),
-            ("clamped", s.clamped.to_string()),
-            ("seconds", s.seconds.to_string()),
-            ("passes", s.passes.to_string()),
-            ("stop", s.stop.to_string()),
+            ("samples", Stat::Count(s.samples)),
+            ("rays", Stat::Count(s.rays)),
+            ("capped", Stat::Count(s.capped)),
+            ("clamped", Stat::Count(s.clamped)),
+            ("seconds", Stat::Seconds(s.seconds)),
+            ("passes", Stat::Count(s.passes.into())),
+            ("stop", Stat::Text(s.stop.to_string())),
         ]);
         py.detach(|| Field::new(done.field, done.progress, lattice, extra, &path, stats))
             .map_err(to_py)
@@ -290,17 +315,32 @@ impl Scene {
     #[new]
     // Python's keyword arguments, one parameter each.
     #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (path, *, point_lights = Vec::new(), sun = None, sky = None, env = None, strict = false, allow_outside_uris = false))]
+    #[pyo3(signature = (path, *, point_lights = None, sun = None, sky = None, env = None, strict = false, allow_outside_uris = false))]
     fn new(
         py: Python<'_>,
         path: PathBuf,
-        point_lights: Vec<(Vec3, Vec3)>,
-        sun: Option<Suns>,
-        sky: Option<Vec3>,
-        env: Option<Env>,
+        point_lights: Option<&Bound<'_, PyAny>>,
+        sun: Option<&Bound<'_, PyAny>>,
+        sky: Option<&Bound<'_, PyAny>>,
+        env: Option<&Bound<'_, PyAny>>,
         strict: bool,
         allow_outside_uris: bool,
     ) -> PyResult<Scene> {
+        let point_lights: Vec<(Vec3, Vec3)> = match point_lights {
+            None => Vec::new(),
+            Some(p) => keyword(p, "point_lights", "[((x, y, z), (r, g, b)), ...]")?,
+        };
+        let sun: Option<Suns> = sun.map(|s| keyword(s, "sun", SUN_FORM)).transpose()?;
+        let sky: Option<Vec3> = sky.map(|s| keyword(s, "sky", "(r, g, b)")).transpose()?;
+        let env: Option<Env> = env
+            .map(|e| {
+                keyword(
+                    e,
+                    "env",
+                    "a file, (file, scale) or (file, scale, rotation in degrees)",
+                )
+            })
+            .transpose()?;
         let suns = match sun {
             None => Vec::new(),
             Some(Suns::One(s)) => vec![s],
@@ -329,8 +369,8 @@ impl Scene {
             ..Default::default()
         };
         let scene = py
-            .detach(|| load_scene_with(&path, &lights, &load))
-            .map_err(|e| to_py(e.into()))?;
+            .detach(|| no_panic(|| Ok(load_scene_with(&path, &lights, &load)?)))
+            .map_err(to_py)?;
         let warnings = scene.report.warnings.clone();
         for w in &warnings {
             warn(py, &format!("{}: {w}", path.display()))?;

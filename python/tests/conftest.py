@@ -54,7 +54,7 @@ def exr_channels(path):
         import ftpd3d
 
         r = ftpd3d.read(path)
-        return {c: r[c] for c in r.channels}, dict(r.meta)
+        return {c: r[c] for c in r.channels}, dict(r.header)
     channels = {}
     with OpenEXR.File(str(path), separate_channels=True) as f:
         for part in f.parts:

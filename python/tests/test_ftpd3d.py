@@ -31,7 +31,7 @@ def assert_same_channels(r, path):
         assert np.array_equal(got, want), f"channel {name} differs"
     for k, v in meta.items():
         if k not in TIMING:
-            assert r.meta.get(k) == v, f"attribute {k}: {r.meta.get(k)!r} != {v!r}"
+            assert r.header.get(k) == v, f"attribute {k}: {r.header.get(k)!r} != {v!r}"
 
 
 @pytest.fixture(scope="module")
@@ -143,7 +143,7 @@ def test_progress_callback_sees_every_sample(scene):
     assert seen, "the callback was called"
     assert seen[-1] == (8 * 8 * 8, 8 * 8 * 8)
     assert [d for d, _ in seen] == sorted(d for d, _ in seen)
-    assert r.stats["samples"] == str(8 * 8 * 8)
+    assert r.stats["samples"] == 8 * 8 * 8
 
 
 def test_a_failing_callback_stops_the_run(scene):
@@ -262,9 +262,11 @@ def test_reading_and_writing_errors(scene, tmp_path):
     r = scene.slice("z=0", res=4, spp=1, progress=False)
     with pytest.raises(ValueError, match=r"\.exr"):
         r.write(tmp_path / "a.vti")
+    # Missing folders are created (test_values.py); a file where a folder should be is an OSError.
+    (tmp_path / "blocker").write_text("a file, not a folder")
     with pytest.raises(OSError) as e:
-        r.write(tmp_path / "no" / "such" / "dir" / "a.exr")
-    assert isinstance(e.value, ftpd3d.Error)
+        r.write(tmp_path / "blocker" / "dir" / "a.exr")
+    assert isinstance(e.value, ftpd3d.Error) and "blocker" in str(e.value)
     with pytest.raises(KeyError, match="ftpd"):
         r["no-such-channel"]
 

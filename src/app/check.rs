@@ -3,7 +3,7 @@
 
 use super::job::{DomainArg, Job};
 use crate::domain::MAX_RES;
-use crate::output::check_writable;
+use crate::output::check_writable_with_previews;
 use crate::scene::load::extension;
 use anyhow::bail;
 
@@ -98,7 +98,7 @@ fn check_files(job: &Job) -> anyhow::Result<()> {
         job.domain,
         DomainArg::Camera { .. } | DomainArg::Volume { .. }
     ) {
-        check_writable(&job.output)?;
+        check_writable_with_previews(&job.output, job.png)?;
     }
     Ok(())
 }

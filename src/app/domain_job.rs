@@ -33,6 +33,10 @@ pub(super) fn run_domain_job(
 ) -> anyhow::Result<RunOutcome> {
     let opts = &job.render;
     let info = describe_domain(scene, domain, params, opts, &job.lights);
+    // The header the EXR will hold is checked now, so that nothing can fail after the run.
+    if !matches!(domain, JobDomain::Volume(_)) {
+        crate::output::exr::check_header(output, &info.to_attributes())?;
+    }
     let start = start_field(job, domain, &info)?;
     announce(job, scene, domain, params, &start)?;
     let write = |f: &Field, p: &Progress, png: bool, more: Arrays| match domain {

@@ -37,7 +37,7 @@ pub use sampling::{DEFAULT_BUDGET, Sampling};
 use crate::domain::slice::resolve_plane;
 use crate::domain::volume::Volume;
 use crate::field::Field;
-use crate::output::check_writable;
+use crate::output::check_writable_with_previews;
 use crate::params::ways_to_light;
 use crate::render::{self, ErrorStats, Progress, RunStats};
 use crate::scene::Scene;
@@ -121,7 +121,7 @@ fn resolve_domains(job: &Job, scene: &Scene) -> anyhow::Result<Vec<(JobDomain, P
             for (k, arg) in slices.iter().enumerate() {
                 let plane = resolve_plane(arg, scene, *window, *res)?;
                 let out = slice_output(&job.output, arg, k, slices.len());
-                check_writable(&out)?;
+                check_writable_with_previews(&out, job.png)?;
                 if !job.flatland {
                     job.estimator.resolve_for_plane(scene, &plane)?;
                 }

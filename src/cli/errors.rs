@@ -55,6 +55,12 @@ pub fn describe(e: &(dyn Error + 'static)) -> String {
                 dir.display()
             ),
             OutputError::IsDirectory { path } => format!("-o {}: is a directory", path.display()),
+            OutputError::NotRegular { path, file, kind } => format!(
+                "-o {}: {}{kind}, not a regular file (the finished file is renamed into place, \
+                 which would replace it): name a regular file or a new one",
+                path.display(),
+                crate::output::preview_of(path, file)
+            ),
             OutputError::NotWritable { path, dir, .. } => format!(
                 "-o {}: directory {} is not writable",
                 path.display(),

@@ -100,7 +100,7 @@ fn format_of_all(inputs: &[PathBuf], output: &Path) -> Result<Format, MergeError
 /// for volumes). Input names in messages are the paths as given.
 pub fn merge_files(inputs: &[PathBuf], output: &Path, png: bool) -> anyhow::Result<Merged> {
     let format = format_of_all(inputs, output)?;
-    output::check_writable(output)?;
+    output::check_writable_with_previews(output, png)?;
     for p in inputs {
         if !p.exists() {
             return Err(MergeError::NoSuchFile { path: p.clone() }.into());

@@ -21,12 +21,34 @@ pub enum OutputError {
     },
     #[error("output {path}: is a directory")]
     IsDirectory { path: PathBuf },
+    /// `file` (the output itself or a preview written beside it) exists and is not a regular
+    /// file: writing the output would replace it (a device node, as root), so it is refused.
+    #[error(
+        "output {}: {}{kind}, not a regular file (the finished file is renamed into place, which \
+         would replace it): name a regular file or a new one",
+        path.display(),
+        preview_of(path, file)
+    )]
+    NotRegular {
+        path: PathBuf,
+        file: PathBuf,
+        kind: &'static str,
+    },
     #[error("output {path}: directory {dir} is not writable")]
     NotWritable {
         path: PathBuf,
         dir: PathBuf,
         source: std::io::Error,
     },
+}
+
+/// `its preview P is ` when `file` is not the output `path` itself, else `is `.
+pub fn preview_of(path: &Path, file: &Path) -> String {
+    if path == file {
+        "is ".to_string()
+    } else {
+        format!("its preview {} is ", file.display())
+    }
 }
 
 /// Why a field file (EXR, VTI) or a PNG cannot be read or written; every variant names the file.
@@ -72,6 +94,14 @@ pub enum FileError {
     /// The encoder of the format refused the data: what it said.
     #[error("{}: writing failed ({detail})", path.display())]
     Encode { path: PathBuf, detail: String },
+    /// The path is not a regular file (a directory, a device, a FIFO): the finished file, renamed
+    /// into place, would replace it, so nothing is written.
+    #[error(
+        "{}: is {kind}, not a regular file; the finished file would replace it, so nothing was \
+         written",
+        path.display()
+    )]
+    NotRegular { path: PathBuf, kind: &'static str },
     /// The finished file could not be renamed from its temporary name into place.
     #[error("{}: cannot move the finished file into place", path.display())]
     Rename {
@@ -91,7 +121,8 @@ impl FileError {
             | FileError::Unfit { path, .. }
             | FileError::Write { path, .. }
             | FileError::Encode { path, .. }
-            | FileError::Rename { path, .. } => Some(path),
+            | FileError::Rename { path, .. }
+            | FileError::NotRegular { path, .. } => Some(path),
             // The attribute's error names the file as text.
             FileError::Info(_) => None,
         }

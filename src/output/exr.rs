@@ -50,7 +50,8 @@ pub fn write_exr(path: &Path, field: &Field, extra: &[(&str, Vec<f64>)]) -> Resu
         .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data)))
         .collect();
     let exact = exact_channels(path, field, &file_order(w, h))?;
-    let image = two_parts(w, h, &field.meta, view, exact);
+    let header = header_attributes(path, &field.meta)?;
+    let image = two_parts(w, h, header, view, exact);
     write_file_atomically(path, |tmp| {
         image.write().to_file(tmp).map_err(|e| match e {
             exr::error::Error::Io(source) => FileError::write(path, source),
@@ -208,21 +209,74 @@ fn exact_u32(
     Ok(chans)
 }
 
+/// The longest attribute name an EXR holds, in bytes (OpenEXR's limit for long names).
+const MAX_NAME_BYTES: usize = 255;
+
+/// Refuses a run description the EXR header cannot hold, naming the file and the attribute:
+/// called before a run ([`crate::app`]) with the description it will write, and by the writer
+/// itself, so that nothing fails after the run. Values are any text (written as UTF-8 bytes, the
+/// encoding OpenEXR and its Python bindings read); an attribute name must be 1 to 255 bytes
+/// without a NUL, and a value must fit the header's 32-bit size.
+pub fn check_header(path: &Path, meta: &BTreeMap<String, String>) -> Result<(), FileError> {
+    header_attributes(path, meta).map(drop)
+}
+
+/// The run's description as `ftpd3d.<key>` text attributes, each name and value as UTF-8 bytes
+/// (see [`check_header`]).
+fn header_attributes(
+    path: &Path,
+    meta: &BTreeMap<String, String>,
+) -> Result<Vec<(Text, Text)>, FileError> {
+    meta.iter()
+        .map(|(k, v)| {
+            let name = format!("ftpd3d.{k}");
+            if name.len() > MAX_NAME_BYTES || name.contains('\0') {
+                return Err(FileError::unfit(
+                    path,
+                    format!(
+                        "header attribute {name:?}: an EXR attribute name is at most \
+                         {MAX_NAME_BYTES} bytes without a NUL character"
+                    ),
+                ));
+            }
+            if i32::try_from(v.len()).is_err() {
+                return Err(FileError::unfit(
+                    path,
+                    format!(
+                        "header attribute {name}: {} bytes, more than an EXR attribute holds",
+                        v.len()
+                    ),
+                ));
+            }
+            Ok((
+                Text::from_slice_unchecked(name.as_bytes()),
+                Text::from_slice_unchecked(v.as_bytes()),
+            ))
+        })
+        .collect()
+}
+
+/// A text attribute as written: UTF-8, or (files of earlier versions, which wrote each character
+/// below 256 as one byte) Latin-1.
+fn attribute_text(t: &Text) -> String {
+    match std::str::from_utf8(t.bytes()) {
+        Ok(s) => s.to_string(),
+        Err(_) => t.to_string(),
+    }
+}
+
 /// The two-part image: `ftpd` (the view, with the run's description as `ftpd3d.<key>` text
-/// attributes) and `exact`.
+/// attributes, [`header_attributes`]) and `exact`.
 fn two_parts(
     w: usize,
     h: usize,
-    meta: &BTreeMap<String, String>,
+    header: Vec<(Text, Text)>,
     view: Channels,
     exact: Channels,
 ) -> Image<Layers<AnyChannels<FlatSamples>>> {
     let mut attrs = LayerAttributes::named("ftpd");
-    for (k, v) in meta {
-        attrs.other.insert(
-            Text::from(format!("ftpd3d.{k}").as_str()),
-            AttributeValue::Text(Text::from(v.as_str())),
-        );
+    for (name, value) in header {
+        attrs.other.insert(name, AttributeValue::Text(value));
     }
     let view = Layer::new(
         (w, h),
@@ -294,8 +348,9 @@ pub fn read_exr(path: &Path) -> Result<Field, FileError> {
     let mut field = Field::new(file.w, file.h, 1);
     read_exact(&mut field, &file)?;
     for (k, v) in image.layer_data.iter().flat_map(|l| &l.attributes.other) {
-        if let (Some(key), AttributeValue::Text(t)) = (k.to_string().strip_prefix("ftpd3d."), v) {
-            field.meta.insert(key.to_string(), t.to_string());
+        if let (Some(key), AttributeValue::Text(t)) = (attribute_text(k).strip_prefix("ftpd3d."), v)
+        {
+            field.meta.insert(key.to_string(), attribute_text(t));
         }
     }
     // Every attribute reads as what it should be, or the file is refused naming it.
@@ -405,4 +460,31 @@ pub fn read_f32_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>, FileErr
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Text in any script is written as UTF-8 and read back as given; an attribute name the
+    /// format cannot hold is an error naming it, not a panic.
+    #[test]
+    fn header_text_in_any_script_round_trips() {
+        let d = std::env::temp_dir().join(format!("ftpd3d-exr-header-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let path = d.join("h.exr");
+        let mut field = Field::new(2, 2, 1);
+        for c in &mut field.cells {
+            c.add_sample(0.25, 1.0, glam::DVec3::splat(0.5));
+        }
+        let scene = "scène/目录/🎉.obj";
+        field.meta.insert("scene".into(), scene.into());
+        write_exr(&path, &field, &[]).unwrap();
+        assert_eq!(read_exr(&path).unwrap().meta["scene"], scene);
+        let mut bad = BTreeMap::new();
+        bad.insert("k".repeat(300), "v".to_string());
+        let e = check_header(&path, &bad).unwrap_err().to_string();
+        assert!(e.contains("at most 255 bytes"), "{e}");
+        let _ = std::fs::remove_dir_all(&d);
+    }
 }

@@ -13,7 +13,7 @@ pub mod plot;
 pub mod png;
 pub mod vti;
 
-pub use error::{FileError, OutputError};
+pub use error::{FileError, OutputError, preview_of};
 
 use crate::field::Field;
 use glam::DVec3;
@@ -46,13 +46,38 @@ pub fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}-{k}.tmp", std::process::id()))
 }
 
+/// What is at `path` when it exists and is not a regular file (nor a link to one): "a directory",
+/// "a character device", "a FIFO (named pipe)", ... Asks for the metadata only, so a FIFO is never
+/// opened and nothing blocks. The rename that puts a finished file in place would replace such a
+/// node (a device, as root), so no writer renames over one.
+pub fn not_regular(path: &Path) -> Option<&'static str> {
+    crate::scene::files::not_regular(path)
+}
+
 /// Runs `write` on a temporary path and renames the result to `path`; removes the temporary file
 /// when writing fails. `write`'s errors come back as they are (the writers of this room name
-/// `path` in them, not the temporary name); a failed rename is [`FileError::Rename`].
+/// `path` in them, not the temporary name); a failed rename is [`FileError::Rename`]. A `path`
+/// that is not a regular file (a device, a FIFO, a directory) is refused before writing and again
+/// before the rename ([`FileError::NotRegular`]): only a regular file or nothing is replaced.
 pub fn write_file_atomically<E: From<FileError>>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<(), E>,
 ) -> Result<(), E> {
+    let refuse = |kind: &'static str| -> E {
+        FileError::NotRegular {
+            path: path.to_path_buf(),
+            kind,
+        }
+        .into()
+    };
+    if let Some(kind) = not_regular(path) {
+        return Err(refuse(kind));
+    }
+    create_parent(path).map_err(|e| {
+        let dir = path.parent().unwrap_or(path).display();
+        let source = std::io::Error::new(e.kind(), format!("cannot create folder {dir}: {e}"));
+        FileError::write(path, source)
+    })?;
     let tmp = temp_path(path);
     if let Ok(mut list) = IN_PROGRESS.lock() {
         list.push(tmp.clone());
@@ -61,6 +86,8 @@ pub fn write_file_atomically<E: From<FileError>>(
     if let Ok(mut list) = IN_PROGRESS.lock() {
         list.retain(|p| p != &tmp);
     }
+    // The path may have changed while the file was written.
+    let result = result.and_then(|()| not_regular(path).map_or(Ok(()), |k| Err(refuse(k))));
     match result {
         Ok(()) => std::fs::rename(&tmp, path).map_err(|source| {
             FileError::Rename {
@@ -87,22 +114,51 @@ pub fn write_atomically(
     })
 }
 
-/// Fails early when `path`'s directory cannot take a new file (before hours of work).
+/// Fails early when `path` cannot take a new file (before hours of work): creates its missing
+/// folders, refuses a `path` that exists and is not a regular file (a directory, a device, a
+/// FIFO: [`not_regular`]) and a folder that cannot take a new file.
 pub fn check_writable(path: &Path) -> Result<(), OutputError> {
-    let dir = match path.parent() {
+    check_writable_as(path, path)
+}
+
+/// [`check_writable`] for `path` and, when `png`, the PNG previews written beside it
+/// (`<name>.png`, `<name>.grad.png`, [`write_previews`]).
+pub fn check_writable_with_previews(path: &Path, png: bool) -> Result<(), OutputError> {
+    check_writable(path)?;
+    if png {
+        for preview in preview_paths(path) {
+            check_writable_as(path, &preview)?;
+        }
+    }
+    Ok(())
+}
+
+/// [`check_writable`] of `file`, a file written for the output `path` (itself or a preview).
+fn check_writable_as(path: &Path, file: &Path) -> Result<(), OutputError> {
+    let dir = match file.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
     let path_buf = path.to_path_buf();
-    std::fs::create_dir_all(&dir).map_err(|source| OutputError::CreateDir {
+    create_parent(file).map_err(|source| OutputError::CreateDir {
         path: path_buf.clone(),
         dir: dir.clone(),
         source,
     })?;
-    if path.is_dir() {
-        return Err(OutputError::IsDirectory { path: path_buf });
+    match not_regular(file) {
+        Some("a directory") if file == path => {
+            return Err(OutputError::IsDirectory { path: path_buf });
+        }
+        Some(kind) => {
+            return Err(OutputError::NotRegular {
+                path: path_buf,
+                file: file.to_path_buf(),
+                kind,
+            });
+        }
+        None => {}
     }
-    let probe = temp_path(path);
+    let probe = temp_path(file);
     std::fs::write(&probe, b"").map_err(|source| OutputError::NotWritable {
         path: path_buf,
         dir: dir.clone(),
@@ -110,6 +166,20 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
     })?;
     let _ = std::fs::remove_file(&probe);
     Ok(())
+}
+
+/// Creates the missing folders above `file`: every writer's rule (the command line's and the
+/// Python module's), so a new output folder needs no step of its own.
+pub fn create_parent(file: &Path) -> std::io::Result<()> {
+    match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => std::fs::create_dir_all(p),
+        _ => Ok(()),
+    }
+}
+
+/// The PNG previews written beside `path`: `<name>.png` and `<name>.grad.png`.
+pub fn preview_paths(path: &Path) -> [PathBuf; 2] {
+    [path.with_extension("png"), path.with_extension("grad.png")]
 }
 
 /// Writes the EXR (with the Sobel gradient of σ as `grad.x`/`grad.y`, per cell) and, when asked,
@@ -205,8 +275,9 @@ pub fn write_previews(
     w: usize,
     h: usize,
 ) -> Result<(), FileError> {
-    png::write_field_preview(&path.with_extension("png"), sigma, valid, w, h)?;
-    png::write_gradient_preview(&path.with_extension("grad.png"), sigma, valid, w, h)
+    let [field, gradient] = preview_paths(path);
+    png::write_field_preview(&field, sigma, valid, w, h)?;
+    png::write_gradient_preview(&gradient, sigma, valid, w, h)
 }
 
 /// Finite f32 for display channels (the field never holds NaN, but f64 → f32 can overflow).
@@ -220,5 +291,58 @@ pub fn f32_of(x: f64) -> f32 {
         f32::MIN
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fresh_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("ftpd3d-output-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// A FIFO at the destination is refused before anything is written (it is never opened, so
+    /// nothing blocks) and stays a FIFO; no temporary file is left.
+    #[test]
+    fn a_fifo_is_never_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let d = fresh_dir("fifo");
+        let fifo = d.join("f.exr");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            assert!(std::env::var("CI").is_err(), "mkfifo failed in CI");
+            eprintln!("skipped a_fifo_is_never_replaced: mkfifo failed");
+            return;
+        }
+        let mut called = false;
+        let r = write_atomically(&fifo, |tmp| {
+            called = true;
+            Ok(std::fs::write(tmp, b"x")?)
+        });
+        let e = r.unwrap_err();
+        assert!(format!("{e:#}").contains("FIFO"), "{e:#}");
+        assert!(!called, "nothing is written");
+        let t = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(t.is_fifo());
+        assert_eq!(
+            std::fs::read_dir(&d).unwrap().count(),
+            1,
+            "no temporary left"
+        );
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    /// A file under folders that do not exist yet: they are created (every front end's rule).
+    #[test]
+    fn missing_folders_are_created() {
+        let d = fresh_dir("folders");
+        let deep = d.join("a/b/c.txt");
+        write_atomically(&deep, |tmp| Ok(std::fs::write(tmp, b"x")?)).unwrap();
+        assert_eq!(std::fs::read(&deep).unwrap(), b"x");
+        let _ = std::fs::remove_dir_all(&d);
     }
 }

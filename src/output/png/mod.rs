@@ -260,9 +260,15 @@ mod tests {
         let p = dir.join("x.png");
         assert!(write_png(&p, 0, 3, &[]).is_err());
         assert!(write_png(&p, 2, 2, &[[0; 3]; 3]).is_err());
-        assert!(write_png(&dir.join("missing/x.png"), 1, 1, &[[0; 3]]).is_err());
+        // Missing folders are created; a file where a folder should be is an error.
+        std::fs::write(dir.join("blocker"), b"").unwrap();
+        assert!(write_png(&dir.join("blocker/x.png"), 1, 1, &[[0; 3]]).is_err());
         assert!(write_png(Path::new("/"), 1, 1, &[[0; 3]]).is_err());
-        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "only the blocker"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
