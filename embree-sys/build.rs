@@ -71,6 +71,8 @@ fn main() {
         .derive_debug(true)
         .layout_tests(true)
         .rust_edition(bindgen::RustEdition::Edition2024)
+        // Only the compiler reads these bindings: no rustfmt process (bindgen's default formatter).
+        .formatter(bindgen::Formatter::None)
         .generate()
         .unwrap_or_else(|e| {
             eprintln!(

@@ -28,7 +28,7 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-target=${CARGO_TARGET_DIR:-$root/target}
+. "$root/scripts/target-dir.sh"
 CARGO_TARGET_DIR=$target cargo build --release --quiet
 candidate=$target/release/ftpd3d
 baseline=${FTPD3D_BASELINE:-}

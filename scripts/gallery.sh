@@ -13,7 +13,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-target=${CARGO_TARGET_DIR:-target}
+. scripts/target-dir.sh
 cargo build --release --quiet --bin ftpd3d --example radiance_png
 bin="$target/release/ftpd3d"
 topng="$target/release/examples/radiance_png"

@@ -24,9 +24,10 @@ else
 fi
 python3 "$root/scripts/heavy_scene.py" "$dir/heavy_$n.obj" "$n" 3 --attributes --materials 300
 cd "$root"
+. scripts/target-dir.sh
 cargo build --release --example load_bench
 for _ in $(seq "${RUNS:-1}"); do
-    /usr/bin/time -v "${CARGO_TARGET_DIR:-$root/target}/release/examples/load_bench" "$dir/heavy_$n.obj" \
+    /usr/bin/time -v "$target/release/examples/load_bench" "$dir/heavy_$n.obj" \
         2>"$dir/time.txt"
     grep -E 'User time|System time|Elapsed|Maximum resident' "$dir/time.txt"
 done

@@ -3,11 +3,14 @@
 # file (examples/output_digest.rs; wall-clock times left out). A refactor must leave the digest
 # unchanged, to the bit:
 #
-#   scripts/same-outputs.sh [BIN]          # runs BIN (default target/release/ftpd3d); digest in target/same-outputs/digest.txt
+#   scripts/same-outputs.sh [BIN]          # runs BIN (default TARGET/release/ftpd3d); digest in TARGET/same-outputs/digest.txt
 #   scripts/same-outputs.sh --check [BIN]  # the same, then compares it with tests/data/same-outputs.digest
 #
-# The outputs go to target/same-outputs/ under that relative name always, because outputs record
-# the paths of their scene and of merged inputs.
+# TARGET is cargo's target directory (scripts/target-dir.sh: ./target, or CARGO_TARGET_DIR); a
+# relative BIN is read from the repository root. Outputs record the paths of their scene and of
+# merged inputs, so the runs start in TARGET/same-outputs.cwd/, where `scenes` and `target` are
+# links to the repository's scenes and to TARGET: every run names its files `scenes/...` and
+# `target/same-outputs/...` wherever the target directory is.
 #
 # The runs cover the slice with each weighting (radiance, unweighted; importance on a camera
 # image, the only domain that has it), an arbitrary plane, a glTF scene and the textured outdoor
@@ -16,16 +19,22 @@
 # tiles, and a resumed run. Each takes well under a second on two cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+root=$PWD
+. scripts/target-dir.sh
 check=0
 if [ "${1:-}" = "--check" ]; then
   check=1
   shift
 fi
-out=target/same-outputs
-bin=${1:-target/release/ftpd3d}
+bin=${1:-$target/release/ftpd3d}
 [ -x "$bin" ] || { echo "same-outputs: no binary at $bin (cargo build --release)" >&2; exit 2; }
-mkdir -p "$out"
-rm -f "$out"/*
+case $bin in /*) ;; *) bin=$root/$bin ;; esac
+mkdir -p "$target/same-outputs" "$target/same-outputs.cwd"
+rm -f "$target/same-outputs"/*
+cd "$target/same-outputs.cwd"
+ln -sfn "$root/scenes" scenes
+ln -sfn "$target" target
+out=target/same-outputs
 s=scenes
 o=$out
 run() { "$bin" "$@" --quiet; }
@@ -57,6 +66,8 @@ run merge "$o/tile0.vti" "$o/tile1.vti" -o "$o/merged_tiles.vti"
 run --scene "$s/stair_wall.obj" --slice z=0 --res 24 --spp 8 --pass-spp 2 --seed 5 --weight unweighted -o "$o/resumed.exr"
 run --scene "$s/stair_wall.obj" --slice z=0 --res 24 --spp 16 --pass-spp 2 --seed 5 --weight unweighted --resume "$o/resumed.exr"
 
+cd "$root"
+out=$target/same-outputs
 digest=$(cargo run --quiet --release --example output_digest -- "$out")
 # One thread and all threads: the same field.
 if ! diff <(echo "$digest" | grep '^slice_radiance.exr ' | cut -d' ' -f2-) \

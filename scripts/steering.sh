@@ -2,10 +2,10 @@
 # Issue 25's steering figures for this tree (docs/performance.md#what-accuracy-costs-in-time):
 # 1. `cargo xtask equal-time`: RMSE² of σ at equal time (--time 10s, rounds interleaved) against
 #    8ae9f4f, Cornell box and stair wall, radiance and unweighted, 48², against cached independent
-#    references (target/equal-time/);
+#    references (equal-time/ in cargo's target directory, scripts/target-dir.sh);
 # 2. `cargo xtask first-command`: the README's first command as written, its wall time and the 95th
 #    percentile of its relative error (reported, and actual against a cached reference in
-#    target/first-command/);
+#    first-command/ of the target directory);
 # 3. `ftpd3d bench --slice z=0 --res 128 --spp 32` on the Cornell box and the stair wall: kernel rays/s over raw
 #    Embree rays/s on the same rays (issue 25 asks for at least 0.6), this tree's release build.
 # The baseline binary is $FTPD3D_BASELINE, or 8ae9f4f built once in a git worktree under the
@@ -36,7 +36,7 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-target=${CARGO_TARGET_DIR:-$root/target}
+. "$root/scripts/target-dir.sh"
 if [ $equal -eq 1 ]; then
   baseline=${FTPD3D_BASELINE:-}
   if [ -z "$baseline" ]; then

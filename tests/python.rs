@@ -1,7 +1,8 @@
 //! The Python module (`python/`): its pytest suite (`python/tests/`), run in a virtual environment
-//! in `target/python-venv` against this build's binary. The package is installed as a user
-//! installs it, `pip install .` through maturin, with the cargo target directory of this build and
-//! its dev profile, so the dependencies shared with the command line compile once. Needs python3
+//! in `python-venv` of cargo's target directory (./target, or `CARGO_TARGET_DIR`) against this
+//! build's binary. The package is installed as a user installs it, `pip install .` through
+//! maturin, with the cargo target directory of this build and its dev profile, so the
+//! dependencies shared with the command line compile once. Needs python3
 //! with venv, and maturin, pytest and numpy importable (the venv sees the system's packages):
 //! `.ci/run` installs them and the test fails there without them; elsewhere it says it skipped.
 
@@ -27,10 +28,17 @@ fn missing(python: &Path) -> Option<String> {
     }
 }
 
+/// Cargo's target directory of this test build (./target, or `CARGO_TARGET_DIR`): the binary
+/// under test is `<target>/<profile>/ftpd3d`.
+fn target_dir() -> PathBuf {
+    let bin = Path::new(env!("CARGO_BIN_EXE_ftpd3d"));
+    bin.ancestors().nth(2).unwrap().to_path_buf()
+}
+
 /// The environment's interpreter, after making the environment when it is not there (with the
 /// system's site packages, so that what `.ci/run` installed is seen).
-fn venv(root: &Path) -> Result<PathBuf, String> {
-    let dir = root.join("target/python-venv");
+fn venv(target: &Path) -> Result<PathBuf, String> {
+    let dir = target.join("python-venv");
     let python = dir.join("bin/python");
     if !python.is_file() {
         let made = Command::new("python3")
@@ -51,7 +59,8 @@ fn venv(root: &Path) -> Result<PathBuf, String> {
 #[test]
 fn pytest_suite() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let python = venv(&root);
+    let target = target_dir();
+    let python = venv(&target);
     let why = match &python {
         Err(e) => Some(e.clone()),
         Ok(p) => missing(p),
@@ -80,7 +89,7 @@ fn pytest_suite() {
             ".",
         ])
         .env("PATH", path)
-        .env("CARGO_TARGET_DIR", root.join("target"))
+        .env("CARGO_TARGET_DIR", &target)
         .env("MATURIN_PEP517_ARGS", "--profile dev")
         .output()
         .unwrap();

@@ -1,7 +1,8 @@
 """Shared fixtures: the repository root, the command line binary the Python module is compared
-with (FTPD3D_BIN, else target/release or target/debug), and an EXR reader independent of ftpd3d
+with (FTPD3D_BIN, else release or debug in cargo's target directory), and an EXR reader independent of ftpd3d
 (OpenEXR 3) where installed."""
 
+import json
 import os
 import pathlib
 import subprocess
@@ -13,12 +14,27 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCENE = str(ROOT / "scenes" / "cornell_mirror.obj")
 
 
+def target_dir():
+    """Cargo's target directory as `cargo metadata` names it (./target, or CARGO_TARGET_DIR)."""
+    try:
+        out = subprocess.run(
+            ["cargo", "metadata", "--format-version", "1", "--no-deps"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return pathlib.Path(json.loads(out.stdout)["target_directory"])
+    except (OSError, subprocess.CalledProcessError, KeyError, ValueError):
+        return ROOT / "target"
+
+
 def cli_binary():
     given = os.environ.get("FTPD3D_BIN")
     if given:
         return given
     for profile in ("release", "debug"):
-        p = ROOT / "target" / profile / "ftpd3d"
+        p = target_dir() / profile / "ftpd3d"
         if p.is_file():
             return str(p)
     return None

@@ -164,7 +164,7 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
         .file_stem()
         .map_or("first".into(), |s| s.to_string_lossy().into_owned());
     let mut out = tree.join(out);
-    let tree_bin = tree.join("target").join("release").join("ftpd3d");
+    let tree_bin = tree_target_dir(&tree)?.join("release").join("ftpd3d");
     let work_dir = match &args.work_dir {
         Some(d) => d.clone(),
         None => crate::target_dir()?.join("first-command"),
@@ -217,6 +217,43 @@ fn prebuild(tree: &Path) -> anyhow::Result<()> {
         bail!("the release build in {} failed ({status})", tree.display());
     }
     Ok(())
+}
+
+/// Cargo's target directory of the checkout `tree`, as `cargo metadata` gives it: `tree/target`,
+/// or `CARGO_TARGET_DIR`, or a configured `build.target-dir` (scripts/target-dir.sh does the same
+/// for the scripts).
+fn tree_target_dir(tree: &Path) -> anyhow::Result<PathBuf> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(cargo)
+        .args(["metadata", "--format-version", "1", "--no-deps"])
+        .current_dir(tree)
+        .output()
+        .context("cargo: cannot start it")?;
+    if !out.status.success() {
+        bail!(
+            "cargo metadata in {} failed: {}",
+            tree.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    target_directory(&String::from_utf8_lossy(&out.stdout))
+        .with_context(|| format!("cargo metadata in {}: no target_directory", tree.display()))
+}
+
+/// The `target_directory` string of `cargo metadata`'s JSON (the xtask has no JSON parser; the
+/// key is unique in that output), with JSON's escapes of `"` and `\` undone.
+fn target_directory(json: &str) -> Option<PathBuf> {
+    let key = "\"target_directory\":\"";
+    let rest = &json[json.find(key)? + key.len()..];
+    let mut path = String::new();
+    let mut chars = rest.chars();
+    loop {
+        match chars.next()? {
+            '"' => return Some(PathBuf::from(path)),
+            '\\' => path.push(chars.next()?),
+            c => path.push(c),
+        }
+    }
 }
 
 /// The cached reference of the command's slice, or computed now with `bin`.
@@ -342,5 +379,21 @@ mod tests {
         assert_eq!(without_output(&budget), ["--slice", "z=0"]);
         assert!(tool_args("cargo test").is_err());
         assert_eq!(first_command("no code"), None);
+    }
+
+    #[test]
+    fn the_target_directory_is_cargos_not_always_target() {
+        let json = r#"{"packages":[],"target_directory":"/t/a \"b\" \\c","version":1}"#;
+        assert_eq!(
+            target_directory(json),
+            Some(PathBuf::from(r#"/t/a "b" \c"#))
+        );
+        assert_eq!(target_directory(r#"{"target_directory":"/t"#), None);
+        // This test runs from <target>/debug/deps/: the directory cargo built it into, which
+        // `cargo metadata` must name too (./target, or CARGO_TARGET_DIR when it is set).
+        let exe = std::env::current_exe().unwrap();
+        let built_in = exe.ancestors().nth(3).unwrap().canonicalize().unwrap();
+        let named = tree_target_dir(&crate::workspace_root()).unwrap();
+        assert_eq!(named.canonicalize().unwrap(), built_in);
     }
 }
