@@ -49,14 +49,7 @@ const SKIP: &[(&str, &str, &str)] = &[
     ),
 ];
 
-const SUBCOMMANDS: &[&str] = &[
-    "bench",
-    "merge",
-    "converge",
-    "separatrices",
-    "help",
-    "view",
-];
+const SUBCOMMANDS: &[&str] = &["bench", "merge", "converge", "separatrices", "help", "view"];
 
 /// What a command of a doc must do.
 #[derive(Debug, PartialEq)]
