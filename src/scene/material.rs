@@ -1,7 +1,7 @@
 //! Materials: a scattering model ([`Bsdf`]) and an emitted radiance. How a [`Bsdf`] is sampled and
 //! evaluated is light transport (`crate::transport::bsdf`).
 //!
-//! OBJ/MTL mapping (the loader's table, also in `docs/guide.md#obj-and-mtl`):
+//! OBJ/MTL mapping (the loader's table, also in `docs/scenes.md#obj-and-mtl`):
 //!
 //! | MTL                                   | material                                              |
 //! |---------------------------------------|-------------------------------------------------------|
