@@ -1055,14 +1055,23 @@ fn an_interrupted_tile_holds_only_its_rows_and_merges() {
             "60s",
             "--tile",
             "1/3",
-            "--quiet",
             "--no-png",
             "-o",
             "t1.exr",
         ])
-        .stderr(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
+    // A signal during set-up quits without writing: wait for the passes to start (the run prints
+    // its budget) under any load, then let it take some.
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut text = String::new();
+    while !text.contains("budget") {
+        let mut line = String::new();
+        let read = std::io::BufRead::read_line(&mut err, &mut line).unwrap();
+        assert!(read > 0, "no start line: {text}");
+        text += &line;
+    }
     std::thread::sleep(std::time::Duration::from_millis(1500));
     let killed = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
@@ -1070,6 +1079,7 @@ fn an_interrupted_tile_holds_only_its_rows_and_merges() {
         .unwrap();
     assert!(killed.success());
     child.wait().unwrap();
+    std::io::Read::read_to_end(&mut err, &mut Vec::new()).unwrap();
     let t1 = read_exr(&dir.join("t1.exr")).unwrap();
     assert_eq!(t1.meta["partial"], "true");
     let rows = 4..8; // tile 1 of 3 of 12 rows
