@@ -36,18 +36,7 @@ use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 /// Commands that cannot run on a test machine: (doc, a piece of the command's text, why).
-const SKIP: &[(&str, &str, &str)] = &[
-    (
-        "docs/performance.md",
-        "scenes/S.obj",
-        "S stands for each scene of the table beside it, not for a file",
-    ),
-    (
-        "docs/performance.md",
-        "forest_1000.glb",
-        "a scene that scripts/forest_gltf.py (Python) writes earlier on the page; only ftpd3d runs here",
-    ),
-];
+const SKIP: &[(&str, &str, &str)] = &[];
 
 const SUBCOMMANDS: &[&str] = &["bench", "merge", "converge", "separatrices", "help", "view"];
 
