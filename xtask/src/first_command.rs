@@ -164,7 +164,11 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
         .file_stem()
         .map_or("first".into(), |s| s.to_string_lossy().into_owned());
     let mut out = tree.join(out);
-    let tree_bin = tree_target_dir(&tree)?.join("release").join("ftpd3d");
+    // Only a run or a reference made with the tree's own build needs it (a `--no-run` with
+    // `--reference-bin` works on a tree that is no cargo checkout).
+    let tree_bin = || -> anyhow::Result<PathBuf> {
+        Ok(tree_target_dir(&tree)?.join("release").join("ftpd3d"))
+    };
     let work_dir = match &args.work_dir {
         Some(d) => d.clone(),
         None => crate::target_dir()?.join("first-command"),
@@ -174,6 +178,7 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
         None
     } else if let Some(spp) = args.spp {
         prebuild(&tree)?;
+        let tree_bin = tree_bin()?;
         std::fs::create_dir_all(&work_dir)
             .with_context(|| format!("{}: cannot create it", work_dir.display()))?;
         out = work_dir.join(format!("{ref_stem}_spp{spp}.exr"));
@@ -196,7 +201,10 @@ pub fn run(args: &FirstCommandArgs) -> anyhow::Result<()> {
     };
     let field =
         ftpd3d::output::exr::read_exr(&out).with_context(|| format!("{}", out.display()))?;
-    let reference_bin = args.reference_bin.clone().unwrap_or(tree_bin);
+    let reference_bin = match &args.reference_bin {
+        Some(b) => b.clone(),
+        None => tree_bin()?,
+    };
     let reference = reference(&work_dir, &ref_stem, &tool, args.ref_spp, &reference_bin)?;
     print!(
         "{}",
