@@ -100,6 +100,16 @@ fn diffuse(name: &str, albedo: f64) -> Material {
     Material::diffuse(name, Rgb::splat(albedo))
 }
 
+/// A black emitter of radiance `le` (the area lamps of the tests below).
+fn emitter(le: f64) -> Material {
+    Material {
+        name: "light".into(),
+        bsdf: Bsdf::Black,
+        emission: Rgb::splat(le),
+        maps: Default::default(),
+    }
+}
+
 /// A 40 × 40 m plane at y = 0 facing +y.
 fn big_plane(material: Material) -> Scene {
     let (p, t) = square(20.0, 0.0, false, 0);
@@ -393,12 +403,7 @@ fn valid_area_light_on_plane_matches_lambert_and_quadrature() {
     let (pe, te) = square(0.25, 1.5, true, 4);
     p.extend(pe);
     t.extend(te);
-    let emitter = Material {
-        name: "light".into(),
-        bsdf: Bsdf::Black,
-        emission: Rgb::splat(le),
-        maps: Default::default(),
-    };
+    let emitter = emitter(le);
     let scene = build(
         "area",
         p,
@@ -477,12 +482,7 @@ fn valid_area_light_at_grazing_angles_matches_lambert_and_quadrature() {
     let (pe, te) = square(0.25, 1.5, true, 4);
     p.extend(pe);
     t.extend(te);
-    let emitter = Material {
-        name: "light".into(),
-        bsdf: Bsdf::Black,
-        emission: Rgb::splat(le),
-        maps: Default::default(),
-    };
+    let emitter = emitter(le);
     let scene = build(
         "grazing",
         p,
