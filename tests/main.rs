@@ -19,6 +19,7 @@ mod guide;
 mod images;
 mod instancing;
 mod layers;
+mod light_scale;
 mod merge;
 mod mirror;
 mod mis;
