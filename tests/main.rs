@@ -37,4 +37,6 @@ mod support;
 mod valid;
 #[cfg(feature = "view")]
 mod view;
+#[cfg(feature = "view")]
+mod view_webdriver;
 mod volume;

@@ -9,9 +9,9 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// A running `ftpd3d view`, killed when dropped.
-struct View {
+pub(crate) struct View {
     child: Child,
-    url: String,
+    pub(crate) url: String,
     port: u16,
     token: String,
 }
@@ -25,7 +25,7 @@ impl Drop for View {
 
 /// Starts `ftpd3d view` with `args` in `dir` and reads the URL from the first line of its stdout
 /// (within 10 s, as the issue asks).
-fn start(dir: &Path, args: &[&str]) -> View {
+pub(crate) fn start(dir: &Path, args: &[&str]) -> View {
     let mut child = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
         .current_dir(dir)
         .arg("view")
@@ -182,7 +182,7 @@ fn listens_on_loopback_only(port: u16) -> bool {
 }
 
 /// Every part's channels of two EXR files: the same names and bit-identical samples.
-fn assert_same_channels(a: &Path, b: &Path) {
+pub(crate) fn assert_same_channels(a: &Path, b: &Path) {
     let (pa, pb) = (exr_parts(a), exr_parts(b));
     assert_eq!(pa.len(), pb.len(), "parts");
     for (la, lb) in pa.iter().zip(&pb) {
@@ -211,7 +211,7 @@ fn assert_same_channels(a: &Path, b: &Path) {
 }
 
 /// Splits a command line as the view prints it (words, single quotes) into its arguments.
-fn words(command: &str) -> Vec<String> {
+pub(crate) fn words(command: &str) -> Vec<String> {
     let mut out = Vec::new();
     let mut cur = String::new();
     let mut quoted = false;
