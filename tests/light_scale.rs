@@ -41,16 +41,22 @@ fn assert_scaled(plain: &ftpd3d::field::Field, scaled: &ftpd3d::field::Field, k:
 #[test]
 fn scaling_every_light_by_a_power_of_two_scales_the_weights_and_keeps_sigma_bit_for_bit() {
     let dir = temp_dir("light_scale", "invariance");
-    // An emissive material (OBJ), a glTF KHR_lights_punctual light, a sidecar's point light.
-    for (scene, k) in [
-        ("cornell_mirror.obj", "2"),
-        ("cornell_point.gltf", "0.25"),
-        ("plane_point.toml", "2"),
+    // An emissive material (OBJ; in flatland, its cross-section), a glTF KHR_lights_punctual
+    // light, a sidecar's point light, and a sidecar's sun and environment map.
+    for (scene, k, flags) in [
+        ("cornell_mirror.obj", "2", &[][..]),
+        ("flat_mirrors.obj", "2", &["--flatland"][..]),
+        ("cornell_point.gltf", "0.25", &[][..]),
+        ("plane_point.toml", "2", &[][..]),
+        ("courtyard/courtyard.toml", "2", &[][..]),
     ] {
         let path = scene_path(scene);
-        let out = |n: &str| dir.join(format!("{scene}.{n}.exr")).display().to_string();
+        let out = |n: &str| {
+            let name = scene.replace('/', "_");
+            dir.join(format!("{name}.{n}.exr")).display().to_string()
+        };
         let run = |extra: &[&str], o: &str| {
-            let r = small_slice(&path, &[extra, &["--spp", "8", "-o", o]].concat());
+            let r = small_slice(&path, &[flags, extra, &["--spp", "8", "-o", o]].concat());
             assert!(r.ok, "{scene}: {}", r.err);
         };
         run(&[], &out("plain"));
