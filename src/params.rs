@@ -181,6 +181,9 @@ impl EstimatorArgs {
 
 /// What would have made a light in the scene's own format, for messages about a scene without.
 pub fn ways_to_light(scene: &Scene) -> &'static str {
+    if scene.file_lights.iter().any(|f| f.scale == 0.0) {
+        return "the run switched its lights off";
+    }
     let ext = scene
         .source
         .extension()

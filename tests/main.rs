@@ -19,6 +19,7 @@ mod guide;
 mod images;
 mod instancing;
 mod layers;
+mod light_scale;
 mod merge;
 mod mirror;
 mod mis;
@@ -36,4 +37,6 @@ mod support;
 mod valid;
 #[cfg(feature = "view")]
 mod view;
+#[cfg(feature = "view")]
+mod view_webdriver;
 mod volume;

@@ -9,9 +9,9 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// A running `ftpd3d view`, killed when dropped.
-struct View {
+pub(crate) struct View {
     child: Child,
-    url: String,
+    pub(crate) url: String,
     port: u16,
     token: String,
 }
@@ -25,7 +25,7 @@ impl Drop for View {
 
 /// Starts `ftpd3d view` with `args` in `dir` and reads the URL from the first line of its stdout
 /// (within 10 s, as the issue asks).
-fn start(dir: &Path, args: &[&str]) -> View {
+pub(crate) fn start(dir: &Path, args: &[&str]) -> View {
     let mut child = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
         .current_dir(dir)
         .arg("view")
@@ -182,7 +182,7 @@ fn listens_on_loopback_only(port: u16) -> bool {
 }
 
 /// Every part's channels of two EXR files: the same names and bit-identical samples.
-fn assert_same_channels(a: &Path, b: &Path) {
+pub(crate) fn assert_same_channels(a: &Path, b: &Path) {
     let (pa, pb) = (exr_parts(a), exr_parts(b));
     assert_eq!(pa.len(), pb.len(), "parts");
     for (la, lb) in pa.iter().zip(&pb) {
@@ -211,7 +211,7 @@ fn assert_same_channels(a: &Path, b: &Path) {
 }
 
 /// Splits a command line as the view prints it (words, single quotes) into its arguments.
-fn words(command: &str) -> Vec<String> {
+pub(crate) fn words(command: &str) -> Vec<String> {
     let mut out = Vec::new();
     let mut cur = String::new();
     let mut quoted = false;
@@ -429,6 +429,66 @@ fn adaptive_save_at_a_pass_boundary_is_the_commands_output() {
         .unwrap();
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_same_channels(&saved_exr, &dir.join("again.exr"));
+}
+
+/// The scene file's lights are state like any flag: the status names them, a URL switches one off
+/// (`light-scale=light%3D0`), which changes the picture, and a save's command carries it and
+/// writes the same file bit for bit.
+#[test]
+fn a_scene_light_switched_off_from_the_url_is_saved_as_its_command() {
+    let dir = temp_dir("view", "lights");
+    let scene = scene_path("cornell_mirror.obj");
+    let v = start(
+        &dir,
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--slice",
+            "z=0",
+            "--res",
+            "12",
+            "--spp",
+            "8",
+            "--batches",
+            "2",
+            "--threads",
+            "2",
+            "--point-light",
+            "0.3,0.5,0.2:3,3,3",
+        ],
+    );
+    let both = v.picture_of("slice=z%3D0");
+    let status = v.status();
+    assert!(
+        status.contains(r#""lights":[{"name":"light","kind":"emissive material","scale":1}]"#),
+        "{status}"
+    );
+    let off = v.picture_of("light-scale=light%3D0");
+    assert_ne!(both, off, "switching the scene's lamp off changed nothing");
+    let status = v.status();
+    assert!(status.contains(r#""scale":0"#), "{status}");
+    assert!(status.contains("light-scale=light%3D0"), "{status}");
+    let (c, saved) = v.post("/save");
+    assert_eq!(c, 200, "{saved}");
+    let command = json_string(&saved, "command");
+    assert!(command.contains("--light-scale light=0"), "{command}");
+    let mut args = words(&command);
+    let o = args.iter().position(|a| a == "-o").unwrap();
+    let saved_exr = dir.join(&args[o + 1]);
+    args[o + 1] = "again.exr".into();
+    let r = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .current_dir(&dir)
+        .args(&args[1..])
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_same_channels(&saved_exr, &dir.join("again.exr"));
+    // A name the scene lacks is the command line's error, on the page.
+    let (c, _) = v.post("/state?light-scale=bulb%3D0");
+    assert_eq!(c, 200);
+    let s = v.wait_stopped();
+    assert!(s.contains("no light named") && s.contains("bulb"), "{s}");
 }
 
 /// The passes of the status's last picture (0 before the first).

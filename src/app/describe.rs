@@ -43,8 +43,20 @@ pub fn describe_domain(
             .collect(),
         sun,
         sky,
+        light_scale: describe_light_scales(scene),
         ..describe_run(scene, params, opts, domain.kind())
     }
+}
+
+/// The scene file's lights the run scaled, `name=factor;…` (see [`RunInfo::light_scale`]).
+fn describe_light_scales(scene: &Scene) -> Option<String> {
+    let scaled: Vec<String> = scene
+        .file_lights
+        .iter()
+        .filter(|f| f.scale != 1.0)
+        .map(|f| format!("{}={}", f.name, f.scale))
+        .collect();
+    (!scaled.is_empty()).then(|| scaled.join(";"))
 }
 
 /// The added suns, and sky or environment map, each `;`-separated in the syntax that adds them

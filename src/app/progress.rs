@@ -56,6 +56,11 @@ pub fn check_resume(
             ("adaptive", Some(_)) => " (this file's passes were adaptive: add --adaptive)".into(),
             ("pairs", Some(p)) => format!(" (add --pairs {p})"),
             ("guide", g) => format!(" (add --guide {})", g.unwrap_or("off")),
+            ("light_scale", Some(l)) => {
+                let flags: Vec<String> =
+                    l.split(';').map(|s| format!("--light-scale {s}")).collect();
+                format!(" (add {})", flags.join(" "))
+            }
             _ => String::new(),
         };
         bail!(

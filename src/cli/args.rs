@@ -6,8 +6,8 @@
 #![allow(rustdoc::invalid_html_tags)]
 
 use super::parse::{
-    parse_cells, parse_duration, parse_env, parse_point_light, parse_size, parse_sky, parse_sun,
-    parse_threads, parse_u64, parse_vec3, parse_volume, parse_window,
+    parse_cells, parse_duration, parse_env, parse_light_scale, parse_point_light, parse_size,
+    parse_sky, parse_sun, parse_threads, parse_u64, parse_vec3, parse_volume, parse_window,
 };
 use super::sep_flags::SepFlags;
 use crate::domain::slice::SliceSpec;
@@ -59,6 +59,11 @@ pub struct EstimatorFlags {
     /// ROT_DEG degrees [default: 0].
     #[arg(long, value_name = "FILE[:SCALE[:ROT_DEG]]", allow_hyphen_values = true, value_parser = parse_env)]
     pub env: Option<crate::scene::Light>,
+    /// Scale a light of the scene file by FACTOR (0 switches it off): an emissive material by its
+    /// name, another light as point1, spot1, sun1, sky1, env1 (its kind and number in the file),
+    /// * for all; repeatable. `--explain` lists the names.
+    #[arg(long, value_name = "NAME=FACTOR", allow_hyphen_values = true, value_parser = parse_light_scale)]
+    pub light_scale: Vec<(String, f64)>,
     /// Shortest run length T, scene units [default: 0.1 × scene diagonal].
     #[arg(long, allow_negative_numbers = true)]
     pub t0: Option<f64>,

@@ -85,6 +85,7 @@ impl ConvergeArgs {
             threads: self.threads,
             load: crate::scene::LoadOptions {
                 allow_outside_uris: self.allow_outside_uris,
+                light_scale: self.estimator.light_scale.clone(),
                 ..Default::default()
             },
             quiet: self.quiet,

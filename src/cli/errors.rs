@@ -98,6 +98,7 @@ pub fn load(e: &LoadError) -> String {
         LoadError::Outside { .. } => e
             .outside_message("--allow-outside-uris")
             .unwrap_or_else(|| e.to_string()),
+        LoadError::UnknownLight { name, .. } => format!("--light-scale {name}: {e}"),
         _ => e.to_string(),
     }
 }

@@ -134,6 +134,22 @@ fn write_contents(out: &mut impl Write, path: &Path, scene: &Scene) -> anyhow::R
         light_kinds(scene),
         crate::app::report::power(scene.lights.total_power())
     )?;
+    if !scene.file_lights.is_empty() {
+        let names: Vec<String> = scene
+            .file_lights
+            .iter()
+            .map(|f| match f.scale {
+                1.0 => format!("{} ({})", f.name, f.kind),
+                0.0 => format!("{} ({}, off)", f.name, f.kind),
+                k => format!("{} ({}, ×{k})", f.name, f.kind),
+            })
+            .collect();
+        writeln!(
+            out,
+            "  by name  {} (--light-scale NAME=FACTOR)",
+            names.join(", ")
+        )?;
+    }
     writeln!(out, "cameras    {}", scene.cameras.len())?;
     if !scene.named_slices.is_empty() {
         let names: Vec<_> = scene

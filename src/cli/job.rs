@@ -57,6 +57,7 @@ impl RunArgs {
             load: crate::scene::load::LoadOptions {
                 strict: self.strict,
                 allow_outside_uris: self.allow_outside_uris,
+                light_scale: self.estimator.light_scale.clone(),
                 ..Default::default()
             },
         })

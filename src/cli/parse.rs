@@ -22,6 +22,23 @@ pub fn parse_point_light(s: &str) -> Result<(DVec3, DVec3), String> {
     Ok((pos, int))
 }
 
+/// Parses `--light-scale NAME=FACTOR` (split at the last `=`: a material name may hold one):
+/// a light's name, or `*`, and a finite factor ≥ 0.
+pub fn parse_light_scale(s: &str) -> Result<(String, f64), String> {
+    let (name, k) = s
+        .rsplit_once('=')
+        .ok_or_else(|| format!("'{s}': expected NAME=FACTOR (e.g. light=0.5, or *=2)"))?;
+    if name.is_empty() {
+        return Err(format!("'{s}': no light name before '='"));
+    }
+    match k.trim().parse::<f64>() {
+        Ok(k) if k.is_finite() && k >= 0.0 => Ok((name.to_string(), k)),
+        _ => Err(format!(
+            "'{s}': the factor must be a finite number ≥ 0 (0 switches the light off)"
+        )),
+    }
+}
+
 /// Parses `--sun x,y,z:r,g,b[:diameter]`: the direction towards the sun (any length), the
 /// irradiance it gives a surface facing it, and its angular diameter in degrees (default
 /// [`crate::scene::DEFAULT_SUN_DIAMETER_DEG`]; 0 for a Dirac delta in direction).

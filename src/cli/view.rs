@@ -41,9 +41,9 @@ const FIXED: [&str; 7] = [
 /// The flags that choose the domain: a URL that gives one of them replaces all of them.
 const DOMAIN: [&str; 6] = ["slice", "slices", "plane", "camera", "eye", "target"];
 
-/// The flags that add to a list (lights): a URL's values replace the command line's, and each of
-/// its values counts.
-const LISTS: [&str; 2] = ["point-light", "sun"];
+/// The flags that add to a list (lights, the scene's lights' scales): a URL's values replace the
+/// command line's, and each of its values counts.
+const LISTS: [&str; 3] = ["point-light", "sun", "light-scale"];
 
 /// The sampling flags: a view runs them as given; [`reproduce_state`] writes its own.
 const SAMPLING: [&str; 8] = [

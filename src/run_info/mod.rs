@@ -28,6 +28,7 @@
 //! | `point_lights` | point lights added to the scene file's | `x,y,z:r,g,b;…` |
 //! | `sun` | suns added to the scene file's | `x,y,z:r,g,b:diameter;…` |
 //! | `sky` | sky or environment map added to the scene file's | `r,g,b` or `file:scale:rotation` |
+//! | `light_scale` | the scene file's lights scaled or switched off (factor 0; absent: none) | `name=factor;…` |
 //! | `flatland` | 2D transport | `true`/`false` (absent: false) |
 //! | `seed`, `seeds` | seed; a merge's distinct seeds | integer; `1,2,3` |
 //! | `tile` | tiles ([`Tile`]) | `i/N`; a partial merge lists several, `0/4,1/4` |
@@ -109,6 +110,9 @@ pub struct RunInfo {
     /// A sky (`r,g,b`) or environment map (`file:scale:rotation in degrees`) added to the scene
     /// file's, `;`-separated.
     pub sky: Option<String>,
+    /// The scene file's lights a run scaled (0: switched off), `name=factor` in the order the
+    /// scene names them ([`crate::scene::dimmer`]), `;`-separated; `None` when it scaled none.
+    pub light_scale: Option<String>,
     /// Directions confined to the slice plane.
     pub flatland: bool,
     pub kernel: Option<String>,
@@ -176,6 +180,7 @@ const KNOWN: &[&str] = &[
     "point_lights",
     "sun",
     "sky",
+    "light_scale",
     "flatland",
     "kernel",
     "pairs",
@@ -227,6 +232,7 @@ pub const ESTIMATE_KEYS: &[&str] = &[
     "point_lights",
     "sun",
     "sky",
+    "light_scale",
     "volume.box",
     "flatland",
 ];
@@ -283,6 +289,7 @@ impl RunInfo {
                 "point_lights" => a.point_lights == b.point_lights,
                 "sun" => a.sun == b.sun,
                 "sky" => a.sky == b.sky,
+                "light_scale" => a.light_scale == b.light_scale,
                 "flatland" => a.flatland == b.flatland,
                 "seed" => a.seed == b.seed,
                 "schedule" => a.schedule == b.schedule,

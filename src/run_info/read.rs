@@ -200,6 +200,7 @@ impl Reader<'_> {
             .unwrap_or_default();
         info.sun = self.text("sun");
         info.sky = self.text("sky");
+        info.light_scale = self.text("light_scale");
         info.flatland = self
             .get("flatland", "true or false", boolean)?
             .unwrap_or(false);

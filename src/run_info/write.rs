@@ -89,6 +89,7 @@ impl RunInfo {
         }
         put("sun", text(&self.sun));
         put("sky", text(&self.sky));
+        put("light_scale", text(&self.light_scale));
         put("flatland", Some(self.flatland.to_string()));
         put("kernel", text(&self.kernel));
         put("pairs", text(&self.pairs));

@@ -198,6 +198,7 @@ impl Scene {
             report,
             cameras: Vec::new(),
             named_slices: Vec::new(),
+            file_lights: Vec::new(),
             extent,
             tri_hit,
             tri_shading,

@@ -94,6 +94,14 @@ pub enum LoadError {
     },
     /// The acceleration structure could not be built.
     Build { file: PathBuf, source: AccelError },
+    /// A light to scale or switch off that the scene file does not have (`known`: the names of
+    /// those it has, [`crate::scene::dimmer`]), or one named twice.
+    UnknownLight {
+        file: PathBuf,
+        name: String,
+        known: Vec<String>,
+        twice: bool,
+    },
 }
 
 impl LoadError {
@@ -157,6 +165,21 @@ impl LoadError {
                 write!(f, "{}: camera #{index}", sidecar.display())
             }
             E::Build { file, .. } => write!(f, "{}: building the scene", file.display()),
+            E::UnknownLight {
+                file, name, twice, ..
+            } if *twice => write!(f, "{}: the light '{name}' is scaled twice", file.display()),
+            E::UnknownLight {
+                file, name, known, ..
+            } => write!(
+                f,
+                "{}: no light named '{name}'; {}",
+                file.display(),
+                if known.is_empty() {
+                    "it has no lights of its own".to_string()
+                } else {
+                    format!("its lights: {} (or * for all)", known.join(", "))
+                }
+            ),
         }
     }
 
@@ -212,7 +235,8 @@ impl LoadError {
             | E::Referenced { file, .. }
             | E::Outside { file, .. }
             | E::Image { file, .. }
-            | E::Build { file, .. } => file,
+            | E::Build { file, .. }
+            | E::UnknownLight { file, .. } => file,
             E::Mesh { sidecar, .. }
             | E::Environment { sidecar, .. }
             | E::Camera { sidecar, .. } => sidecar,

@@ -179,6 +179,18 @@ impl<S: Shape> Light<S> {
     }
 }
 
+/// A light of the scene file as a run names it to switch or scale it
+/// ([`crate::scene::dimmer`]): an emissive material by its name, any other light by its kind and
+/// its number among the file's lights of that kind (`point1`, `spot1`, `sun1`, `sky1`, `env1`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileLight {
+    pub name: String,
+    /// `emissive material`, `point light`, `spot light`, `sun`, `sky`, `environment map`.
+    pub kind: &'static str,
+    /// The factor its emission was scaled by (1: as the file says; 0: off).
+    pub scale: f64,
+}
+
 /// Chooses one of several lights in proportion to its power (3D and flatland alike).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct PowerCdf {
@@ -284,6 +296,13 @@ impl<S: Shape> Lights<S> {
         };
         set.rebuild();
         set
+    }
+
+    /// Changes the lights (keeping every area light where it is: `light_of_prim` indexes them) and
+    /// rebuilds the power table.
+    pub(crate) fn edit(&mut self, f: impl FnOnce(&mut Vec<Light<S>>)) {
+        f(&mut self.lights);
+        self.rebuild();
     }
 
     /// Adds a light that is not a triangle of the scene.

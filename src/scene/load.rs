@@ -11,7 +11,7 @@ use crate::scene::{gltf, obj, sidecar};
 use std::path::Path;
 
 /// How a scene file is read. The default is a tolerant load, as mainstream loaders read files.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct LoadOptions {
     /// Strict loading: refuse, naming the file and line, what the OBJ reader otherwise goes on
     /// past with a warning (faces of fewer than 3 vertices, `usemtl` or `mtllib` without a name,
@@ -26,6 +26,9 @@ pub struct LoadOptions {
     /// their maps, a sidecar's mesh and environment map): a downloaded file must not make the
     /// tool read elsewhere ([`Reach`]); what leaves is a [`LoadError::Outside`].
     pub allow_outside_uris: bool,
+    /// The scene file's own lights scaled by a factor (0: off), by name or `*` for all
+    /// ([`crate::scene::dimmer`]); factors finite and ≥ 0.
+    pub light_scale: Vec<(String, f64)>,
 }
 
 /// Loads a scene by its extension (see the module docs), tolerantly.
@@ -49,6 +52,7 @@ pub fn load_scene_with(
         Some("toml") => load_sidecar(path, options)?,
         _ => load_mesh(path, options, &Reach::of(path, options.allow_outside_uris))?,
     };
+    crate::scene::dimmer::apply(&mut scene, &options.light_scale)?;
     for l in lights {
         if let Light::Env(env) = l {
             scene.report.warnings.extend(env.map.notes.iter().cloned());

@@ -24,7 +24,8 @@
 //! - `shading`, `cutout` — what a hit sees of its material; where cut-outs let rays through
 //! - `offset` — points moved off the surfaces they lie on
 //! - `build` — a scene built from a reader's parts
-//! - `flatland` — a scene prepared for a flatland run
+//! - `flatland`, `dimmer` — a scene prepared for a flatland run; its file's lights by name,
+//!   switched off and scaled
 //! - `obj`, `gltf`, `sidecar` — the readers
 //! - `load` — the reader for a file's extension
 //!
@@ -33,6 +34,7 @@
 
 pub mod build;
 pub mod cutout;
+pub mod dimmer;
 pub mod env;
 pub mod error;
 pub mod features;

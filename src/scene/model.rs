@@ -8,7 +8,7 @@ use crate::scene::features::Features;
 use crate::scene::flat::FlatScene;
 use crate::scene::geometry::{Aabb, interpolate_uv};
 use crate::scene::instance::Instancing;
-use crate::scene::light::LightSet;
+use crate::scene::light::{FileLight, LightSet};
 use crate::scene::material::Material;
 use crate::scene::mirror::Mirrors;
 use crate::scene::texture::TextureSet;
@@ -104,6 +104,9 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Named slice planes from a sidecar file: (name, plane such as `z=0`).
     pub named_slices: Vec<(String, String)>,
+    /// The scene file's own lights by name, with the factors a run scaled them by (empty until
+    /// the loader names them, [`crate::scene::dimmer`]).
+    pub file_lights: Vec<FileLight>,
     /// Diagonal of the bounds (1 for an empty scene), cached: the hit code uses it per ray.
     pub(super) extent: f64,
     /// Per-triangle data the hit code needs on every hit, computed once at load (same indexing

@@ -140,7 +140,7 @@ pub fn save(shared: &Shared, snap: &Snapshot) -> anyhow::Result<Saved> {
 }
 
 /// The run's status as the page shows it (JSON): the state, its generation, samples, p95
-/// relative error, the time to the target error, warnings and errors.
+/// relative error, the time to the target error, warnings and errors, the scene file's lights.
 pub fn status(shared: &Shared, g: &Inner) -> String {
     let mut s = String::from("{");
     let live = shared.samples.load(Ordering::Relaxed);
@@ -167,6 +167,19 @@ pub fn status(shared: &Shared, g: &Inner) -> String {
             .collect::<Vec<_>>()
             .join(",")
     );
+    let lights: Vec<String> = g
+        .lights
+        .iter()
+        .map(|l| {
+            format!(
+                "{{\"name\":{},\"kind\":{},\"scale\":{}}}",
+                json_str(&l.name),
+                json_str(l.kind),
+                num(l.scale)
+            )
+        })
+        .collect();
+    let _ = write!(s, ",\"lights\":[{}]", lights.join(","));
     if let Some(snap) = &g.snapshot {
         let f = &snap.field;
         let cells = (f.width * f.height * f.depth).max(1) as f64;

@@ -10,6 +10,7 @@ use crate::field::Field;
 use crate::ftpd::Params;
 use crate::render::{ErrorStats, Hooks, Progress, RunStats, error_stats};
 use crate::scene::Scene;
+use crate::scene::light::FileLight;
 use crate::scene::load::load_scene_with;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -37,6 +38,9 @@ pub struct Inner {
     pub state: Vec<Pair>,
     /// The run's scene warnings (as the command line prints them).
     pub warnings: Vec<String>,
+    /// The scene file's lights by name, with the current state's scales (kept across changes of
+    /// state until the next scene is loaded, so the page's controls stay put).
+    pub lights: Vec<FileLight>,
     /// Why the current state cannot run (a flag's value, the scene file), as the command line
     /// says it.
     pub error: Option<String>,
@@ -74,6 +78,7 @@ impl Shared {
                 generation: 1,
                 state,
                 warnings: Vec::new(),
+                lights: Vec::new(),
                 error: None,
                 snapshot: None,
                 stopped: None,
@@ -172,6 +177,7 @@ fn prepare(shared: &Shared, generation: u64, state: Vec<Pair>) -> anyhow::Result
                 .iter()
                 .map(|w| w.to_string())
                 .collect();
+            g.lights = scene.file_lights.clone();
         }
     }
     let domain = match &job.domain {
