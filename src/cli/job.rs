@@ -180,6 +180,10 @@ impl RunArgs {
                 None
             },
             adaptive_cap: self.adaptive_cap,
+            gradient_domain: self.gradient_domain.then(|| {
+                self.gradient_alpha
+                    .unwrap_or(crate::gradient_domain::DEFAULT_ALPHA)
+            }),
             seed: self.seed,
             threads: self.threads,
             tile: self.tile,

@@ -1,0 +1,124 @@
+//! The field of a gradient-domain run: the moments reconstructed from the primal sums and the
+//! replayed differences ([`super::solve`]), σ from them (eq. 14), and its standard error from the
+//! spread of the replicates' reconstructions.
+
+use super::solve::System;
+use super::{REPLICATES, Shift, neighbour};
+use crate::ftpd::moments::{CellValue, Moments, sigma_from};
+use crate::math::Rgb;
+use rayon::prelude::*;
+
+/// The reconstructed per-sample moments (E[c], E[cΔ], E[cΔ²]) of every cell from the replicates
+/// `reps` (all of them for the estimate, one for its spread), and per cell whether any sample of
+/// those replicates started in it.
+pub struct Moments3 {
+    pub m: [Vec<f64>; 3],
+    pub sampled: Vec<bool>,
+    /// Σc of the samples that started in the cell or were replayed into it.
+    pub weight: Vec<f64>,
+}
+
+/// Reconstructs the moments of the replicates in `reps` of `shift` over a grid of `dims`.
+pub fn reconstruct(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -> Moments3 {
+    let n = dims.0 * dims.1 * dims.2;
+    let (stride, block, axes) = (shift.stride(), shift.block(), shift.axes);
+    let a2 = shift.alpha * shift.alpha;
+    let mut pn = vec![0.0; n];
+    let mut ps = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    let mut edges = vec![vec![0.0; n]; axes];
+    let mut diffs = [
+        vec![vec![0.0; n]; axes],
+        vec![vec![0.0; n]; axes],
+        vec![vec![0.0; n]; axes],
+    ];
+    for j in 0..n {
+        let cell = &shift.data[j * stride..(j + 1) * stride];
+        for &r in reps {
+            let b = &cell[r * block..(r + 1) * block];
+            let cnt = b[0];
+            if cnt == 0.0 {
+                continue;
+            }
+            pn[j] += cnt;
+            for m in 0..3 {
+                ps[m][j] += b[1 + m];
+            }
+            for a in 0..axes {
+                let Some(nb) = neighbour(dims, j, a) else {
+                    continue;
+                };
+                pn[nb] += cnt;
+                edges[a][j] += cnt;
+                for m in 0..3 {
+                    let s = b[4 + 3 * a + m];
+                    ps[m][nb] += s;
+                    diffs[m][a][j] += s - b[1 + m];
+                }
+            }
+        }
+    }
+    let primal: Vec<f64> = pn.iter().map(|p| a2 * p).collect();
+    let sys = System {
+        dims,
+        primal: &primal,
+        edges: &edges,
+    };
+    let m: [Vec<f64>; 3] = std::array::from_fn(|k| {
+        let prhs: Vec<f64> = ps[k].iter().map(|s| a2 * s).collect();
+        sys.solve(&sys.rhs(&prhs, &diffs[k])).0
+    });
+    Moments3 {
+        m,
+        sampled: pn.iter().map(|&p| p > 0.0).collect(),
+        weight: std::mem::take(&mut ps[0]),
+    }
+}
+
+/// The finished values of every cell of a gradient-domain field: σ of the moments reconstructed
+/// from all samples, and its standard error by the delta method over the [`REPLICATES`]
+/// reconstructions of one replicate each (the units of [`Moments::stderr`], with its corrections
+/// for few units and skewness). `base` gives each cell's own fluence and sample count.
+pub fn values(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> Vec<CellValue> {
+    let all: Vec<usize> = (0..REPLICATES).collect();
+    let mut runs: Vec<Moments3> = (0..=REPLICATES)
+        .into_par_iter()
+        .map(|r| {
+            if r == REPLICATES {
+                reconstruct(shift, dims, &all)
+            } else {
+                reconstruct(shift, dims, &[r])
+            }
+        })
+        .collect();
+    let full = runs.pop().expect("the full reconstruction");
+    (0..base.len())
+        .map(|j| {
+            let (m0, m1, m2) = (full.m[0][j], full.m[1][j], full.m[2][j]);
+            if !(full.sampled[j] && m0 > 0.0 && full.weight[j] > 0.0) {
+                return CellValue::default();
+            }
+            let (q1, q2) = (m1 / m0, m2 / m0);
+            let sigma = sigma_from(q1, q2);
+            if !(sigma.is_finite() && q1.is_finite() && q2.is_finite()) {
+                return CellValue::default();
+            }
+            let mut units = Moments::default();
+            let complete = runs.iter().all(|r| r.sampled[j]);
+            if complete {
+                for r in &runs {
+                    units.add_unit(r.m[0][j], r.m[1][j], r.m[2][j], Rgb::ZERO);
+                }
+            }
+            let stderr = if complete { units.stderr() } else { 0.0 };
+            CellValue {
+                sigma,
+                mean: q1,
+                m2: q2,
+                stderr: if stderr.is_finite() { stderr } else { 0.0 },
+                weight: m0,
+                valid: true,
+                estimated: complete && units.has_estimate() && base[j].n > 0,
+            }
+        })
+        .collect()
+}
