@@ -207,7 +207,7 @@ pub struct RunArgs {
     /// same time, errors that include the correlation between cells.
     #[arg(long)]
     pub gradient_domain: bool,
-    /// --gradient-domain: weight α of each cell's own estimate against its differences [default: 0.2].
+    /// --gradient-domain: weight α of each cell's own estimate against its differences [default: 0.5].
     #[arg(
         long,
         value_name = "ALPHA",

@@ -9,7 +9,7 @@ pub use crate::run_info::fmt_duration;
 /// Mean and 95th percentile of the relative standard error over valid cells with σ > 0 (see
 /// [`render::error_stats`] for the definitions).
 pub fn relative_error_summary(field: &Field) -> (f64, f64) {
-    let e = render::error_stats(&field.cells);
+    let e = render::field_error_stats(field, 0..field.cells.len());
     (e.mean, e.p95)
 }
 

@@ -35,7 +35,7 @@ pub const REPLICATES: usize = 16;
 
 /// Weight α of the primal estimates against the differences (α² per sample, differences 1 per
 /// pair); chosen by measurement (docs/performance.md).
-pub const DEFAULT_ALPHA: f64 = 0.2;
+pub const DEFAULT_ALPHA: f64 = 0.5;
 
 /// The sums of a gradient-domain run, per cell and replicate: the sample count, the sums
 /// (Σc, ΣcΔ, ΣcΔ²) of the cell's own samples, and those of their replays at the upper neighbour
