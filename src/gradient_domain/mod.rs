@@ -107,10 +107,14 @@ impl Shift {
         }
     }
 
-    /// The replicate a cell's QMC group falls in, counting the groups it already has.
+    /// The replicate QMC group `group` of cell `cell`'s pass falls in, counting the groups the
+    /// cell already has: round robin from a phase hashed from the cell, so that a cell's own
+    /// samples and those replayed into it from its lower neighbours fill different replicates and
+    /// every replicate has samples in a cell after a few groups, not after [`REPLICATES`].
     #[inline]
-    pub fn replicate(groups_before: u64, group: u32) -> usize {
-        ((groups_before + group as u64) % REPLICATES as u64) as usize
+    pub fn replicate(cell: usize, groups_before: u64, group: u32) -> usize {
+        let phase = crate::rng::mix64(cell as u64 ^ 0x5eed_0f_5a17);
+        (phase.wrapping_add(groups_before + group as u64) % REPLICATES as u64) as usize
     }
 }
 
@@ -145,7 +149,7 @@ mod tests {
     fn replicates_are_dealt_round_robin_across_passes() {
         let mut seen = [0; REPLICATES];
         for g in 0..3 * REPLICATES as u32 {
-            seen[Shift::replicate(5, g)] += 1;
+            seen[Shift::replicate(7, 5, g)] += 1;
         }
         assert!(seen.iter().all(|&n| n == 3));
     }

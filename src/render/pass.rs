@@ -152,7 +152,7 @@ where
                                         b: sh.cd2,
                                     };
                                 }
-                                let rep = Shift::replicate(groups_before, group);
+                                let rep = Shift::replicate(idx, groups_before, group);
                                 Shift::add(
                                     &mut shifts[k_cell * stride..(k_cell + 1) * stride],
                                     block,
