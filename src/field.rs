@@ -44,6 +44,19 @@ impl Field {
         }
     }
 
+    /// [`Field::values`] and, for a gradient-domain field, the replicates' linearised deviations
+    /// of σ ([`recon::values_and_deviations`]), from which the variance of anything linear in σ
+    /// follows with the correlation between cells.
+    pub fn values_and_deviations(&self) -> (Vec<CellValue>, Option<Vec<Vec<f64>>>) {
+        match &self.shift {
+            Some(s) => {
+                let (v, d) = recon::values_and_deviations(s, self.dims(), &self.cells);
+                (v, Some(d))
+            }
+            None => (self.values(), None),
+        }
+    }
+
     /// A gradient-domain field: one that keeps its replayed neighbours' sums.
     pub fn with_shift(mut self, alpha: f64) -> Field {
         let axes = Shift::axes_of(self.dims());

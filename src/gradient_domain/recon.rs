@@ -79,6 +79,20 @@ pub fn reconstruct(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -
 /// reconstructions of one replicate each (the units of [`Moments::stderr`], with its corrections
 /// for few units and skewness). `base` gives each cell's own fluence and sample count.
 pub fn values(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> Vec<CellValue> {
+    values_and_deviations(shift, dims, base).0
+}
+
+/// [`values`], and per replicate r the linearised deviation of every cell's σ from it,
+/// δᵣ = ∇σ · (Iᵣ − Ī) scaled so that Σᵣ δᵣ(i) δᵣ(j) is the covariance of σ at cells i and j (with
+/// the correction for few units of [`Moments::stderr`], without its skewness factor). Anything
+/// linear in σ (differences, derivative filters) has its variance from the δᵣ filtered alike,
+/// with every correlation the reconstruction puts between cells: this is what the separatrices'
+/// significance reads. 0 at cells without an estimate.
+pub fn values_and_deviations(
+    shift: &Shift,
+    dims: (usize, usize, usize),
+    base: &[Moments],
+) -> (Vec<CellValue>, Vec<Vec<f64>>) {
     let all: Vec<usize> = (0..REPLICATES).collect();
     let mut runs: Vec<Moments3> = (0..=REPLICATES)
         .into_par_iter()
@@ -91,7 +105,9 @@ pub fn values(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> V
         })
         .collect();
     let full = runs.pop().expect("the full reconstruction");
-    (0..base.len())
+    let n = base.len();
+    let mut dev = vec![vec![0.0; n]; REPLICATES];
+    let values = (0..n)
         .map(|j| {
             let (m0, m1, m2) = (full.m[0][j], full.m[1][j], full.m[2][j]);
             if !(full.sampled[j] && m0 > 0.0 && full.weight[j] > 0.0) {
@@ -110,6 +126,17 @@ pub fn values(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> V
                 }
             }
             let stderr = if complete { units.stderr() } else { 0.0 };
+            if complete && units.has_estimate() {
+                let g = sigma_gradient(m0, q1, q2);
+                let r = REPLICATES as f64;
+                let mean: [f64; 3] =
+                    std::array::from_fn(|k| runs.iter().map(|x| x.m[k][j]).sum::<f64>() / r);
+                let scale = ((r - 1.0) / (r - 3.0) / (r * (r - 1.0))).sqrt();
+                for (d, run) in dev.iter_mut().zip(&runs) {
+                    let psi: f64 = (0..3).map(|k| g[k] * (run.m[k][j] - mean[k])).sum();
+                    d[j] = if psi.is_finite() { psi * scale } else { 0.0 };
+                }
+            }
             CellValue {
                 sigma,
                 mean: q1,
@@ -120,5 +147,21 @@ pub fn values(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> V
                 estimated: complete && units.has_estimate() && base[j].n > 0,
             }
         })
-        .collect()
+        .collect();
+    (values, dev)
+}
+
+/// ∂σ/∂(m0, m1, m2) of σ = √q2 + √(q2 − q1²), q1 = m1/m0, q2 = m2/m0 (eq. 14). Where the variance
+/// term v = q2 − q1² is 0 its derivative is unbounded: that term is left out, as the per-cell
+/// error does where v is not resolved ([`Moments::stderr`]).
+fn sigma_gradient(m0: f64, q1: f64, q2: f64) -> [f64; 3] {
+    let v = q2 - q1 * q1;
+    let (dq1, dq2) = if v > 0.0 && q2 > 0.0 {
+        (-q1 / v.sqrt(), 0.5 / q2.sqrt() + 0.5 / v.sqrt())
+    } else if q2 > 0.0 {
+        (0.0, 0.5 / q2.sqrt())
+    } else {
+        (0.0, 0.0)
+    };
+    [-(dq1 * q1 + dq2 * q2) / m0, dq1 / m0, dq2 / m0]
 }
