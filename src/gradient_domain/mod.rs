@@ -108,15 +108,26 @@ impl Shift {
     }
 
     /// The replicate QMC group `group` of cell `cell`'s pass falls in, counting the groups the
-    /// cell already has: round robin from a phase hashed from the cell, so that a cell's own
+    /// cell already has: round robin from a phase of the cell ([`phase`]), so that a cell's own
     /// samples and those replayed into it from its lower neighbours fill different replicates and
     /// every replicate has samples in a cell after a few groups, not after [`REPLICATES`].
     #[inline]
-    pub fn replicate(cell: usize, groups_before: u64, group: u32) -> usize {
-        let phase = crate::rng::mix64(cell as u64 ^ 0x5eed_0f_5a17);
-        (phase.wrapping_add(groups_before + group as u64) % REPLICATES as u64) as usize
+    pub fn replicate(phase: u64, groups_before: u64, group: u32) -> usize {
+        ((phase + groups_before + group as u64) % REPLICATES as u64) as usize
     }
 }
+
+/// The phase of cell `idx`'s replicates: 5i + 11j + 7k. A cell's lower neighbours along x, y and
+/// z start 5, 11 ≡ −5 and 7 replicates before it, so the samples replayed into an inner cell of a
+/// plane from its two lower neighbours and its own cover all 16 replicates after 6 groups each.
+#[inline]
+pub fn phase(dims: (usize, usize, usize), idx: usize) -> u64 {
+    let (w, h, _) = dims;
+    let (i, j, k) = (idx % w, (idx / w) % h, idx / (w * h));
+    (5 * i as u64 + 11 * j as u64 + 7 * k as u64) % REPLICATES as u64
+}
+
+impl Shift {}
 
 /// The upper neighbour of cell `idx` along `axis` in a grid of `dims` (x fastest), if any.
 #[inline]
@@ -146,10 +157,23 @@ mod tests {
     }
 
     #[test]
+    fn an_inner_cell_has_every_replicate_after_six_groups() {
+        let dims = (9, 9, 1);
+        let idx = 4 + 9 * 4;
+        let mut seen = [false; REPLICATES];
+        for src in [idx, idx - 1, idx - 9] {
+            for g in 0..6 {
+                seen[Shift::replicate(phase(dims, src), 0, g)] = true;
+            }
+        }
+        assert!(seen.iter().all(|&s| s), "{seen:?}");
+    }
+
+    #[test]
     fn replicates_are_dealt_round_robin_across_passes() {
         let mut seen = [0; REPLICATES];
         for g in 0..3 * REPLICATES as u32 {
-            seen[Shift::replicate(7, 5, g)] += 1;
+            seen[Shift::replicate(phase((4, 4, 1), 7), 5, g)] += 1;
         }
         assert!(seen.iter().all(|&n| n == 3));
     }

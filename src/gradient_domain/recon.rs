@@ -16,6 +16,9 @@ pub struct Moments3 {
     pub sampled: Vec<bool>,
     /// Σc of the samples that started in the cell or were replayed into it.
     pub weight: Vec<f64>,
+    /// The plain per-sample moments of the samples that started in the cell or were replayed
+    /// into it (their sums over their count): each cell's own estimate, without its neighbours.
+    pub plain: [Vec<f64>; 3],
 }
 
 /// Reconstructs the moments of the replicates in `reps` of `shift` over a grid of `dims`.
@@ -67,10 +70,18 @@ pub fn reconstruct(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -
         let prhs: Vec<f64> = ps[k].iter().map(|s| a2 * s).collect();
         sys.solve(&sys.rhs(&prhs, &diffs[k])).0
     });
+    let plain = std::array::from_fn(|k| {
+        ps[k]
+            .iter()
+            .zip(&pn)
+            .map(|(&s, &p)| if p > 0.0 { s / p } else { 0.0 })
+            .collect()
+    });
     Moments3 {
         m,
         sampled: pn.iter().map(|&p| p > 0.0).collect(),
         weight: std::mem::take(&mut ps[0]),
+        plain,
     }
 }
 
@@ -109,46 +120,104 @@ pub fn values_and_deviations(
     let mut dev = vec![vec![0.0; n]; REPLICATES];
     let values = (0..n)
         .map(|j| {
-            let (m0, m1, m2) = (full.m[0][j], full.m[1][j], full.m[2][j]);
-            if !(full.sampled[j] && m0 > 0.0 && full.weight[j] > 0.0) {
+            if !(full.sampled[j] && full.weight[j] > 0.0) {
                 return CellValue::default();
             }
-            let (q1, q2) = (m1 / m0, m2 / m0);
-            let sigma = sigma_from(q1, q2);
-            if !(sigma.is_finite() && q1.is_finite() && q2.is_finite()) {
-                return CellValue::default();
-            }
-            let mut units = Moments::default();
             let complete = runs.iter().all(|r| r.sampled[j]);
-            if complete {
-                for r in &runs {
-                    units.add_unit(r.m[0][j], r.m[1][j], r.m[2][j], Rgb::ZERO);
+            let rec = Candidate::of(j, complete, &full.m, runs.iter().map(|r| &r.m));
+            let plain = Candidate::of(j, complete, &full.plain, runs.iter().map(|r| &r.plain));
+            // The reconstruction where it is the more precise, the cell's own samples where it
+            // is not (a cell of little weight beside bright ones, whose moments the neighbours'
+            // differences would swamp): either estimates the cell's σ.
+            let pick = match (rec.clone(), plain.clone()) {
+                (Some(a), Some(b))
+                    if b.value.estimated
+                        && !(a.value.estimated && a.value.stderr <= b.value.stderr) =>
+                {
+                    b
                 }
-            }
-            let stderr = if complete { units.stderr() } else { 0.0 };
-            if complete && units.has_estimate() {
-                let g = sigma_gradient(m0, q1, q2);
-                let r = REPLICATES as f64;
-                let mean: [f64; 3] =
-                    std::array::from_fn(|k| runs.iter().map(|x| x.m[k][j]).sum::<f64>() / r);
-                let scale = ((r - 1.0) / (r - 3.0) / (r * (r - 1.0))).sqrt();
-                for (d, run) in dev.iter_mut().zip(&runs) {
-                    let psi: f64 = (0..3).map(|k| g[k] * (run.m[k][j] - mean[k])).sum();
-                    d[j] = if psi.is_finite() { psi * scale } else { 0.0 };
-                }
+                (Some(a), _) => a,
+                (None, Some(b)) => b,
+                (None, None) => return CellValue::default(),
+            };
+            for (d, p) in dev.iter_mut().zip(pick.deviations) {
+                d[j] = p;
             }
             CellValue {
+                estimated: pick.value.estimated && base[j].n > 0,
+                ..pick.value
+            }
+        })
+        .collect();
+    (values, dev)
+}
+
+/// One estimate of a cell's σ (reconstructed or plain) with its replicates' deviations.
+#[derive(Clone)]
+struct Candidate {
+    value: CellValue,
+    deviations: [f64; REPLICATES],
+}
+
+impl Candidate {
+    /// The estimate at cell `j` from the moments `all` of every sample and `reps` of each
+    /// replicate alone (`complete`: every replicate has samples there); `None` where σ is not
+    /// defined (m0 ≤ 0).
+    fn of<'a>(
+        j: usize,
+        complete: bool,
+        all: &[Vec<f64>; 3],
+        reps: impl Iterator<Item = &'a [Vec<f64>; 3]>,
+    ) -> Option<Candidate> {
+        let (m0, m1, m2) = (all[0][j], all[1][j], all[2][j]);
+        if !(m0 > 0.0) {
+            return None;
+        }
+        let (q1, q2) = (m1 / m0, m2 / m0);
+        let sigma = sigma_from(q1, q2);
+        if !(sigma.is_finite() && q1.is_finite() && q2.is_finite()) {
+            return None;
+        }
+        let reps: Vec<[f64; 3]> = reps.map(|m| [m[0][j], m[1][j], m[2][j]]).collect();
+        let mut units = Moments::default();
+        if complete {
+            for m in &reps {
+                units.add_unit(m[0], m[1], m[2], Rgb::ZERO);
+            }
+        }
+        // An error of 0 for σ > 0 is no estimate (the delta method degenerates where the
+        // reconstructed moments leave no variance term): it must not win the choice below.
+        let stderr = if complete && units.has_estimate() {
+            units.stderr()
+        } else {
+            0.0
+        };
+        let estimated = stderr > 0.0 && stderr.is_finite();
+        let mut deviations = [0.0; REPLICATES];
+        if estimated {
+            let g = sigma_gradient(m0, q1, q2);
+            let r = REPLICATES as f64;
+            let mean: [f64; 3] =
+                std::array::from_fn(|k| reps.iter().map(|x| x[k]).sum::<f64>() / r);
+            let scale = ((r - 1.0) / (r - 3.0) / (r * (r - 1.0))).sqrt();
+            for (d, m) in deviations.iter_mut().zip(&reps) {
+                let psi: f64 = (0..3).map(|k| g[k] * (m[k] - mean[k])).sum();
+                *d = if psi.is_finite() { psi * scale } else { 0.0 };
+            }
+        }
+        Some(Candidate {
+            value: CellValue {
                 sigma,
                 mean: q1,
                 m2: q2,
                 stderr: if stderr.is_finite() { stderr } else { 0.0 },
                 weight: m0,
                 valid: true,
-                estimated: complete && units.has_estimate() && base[j].n > 0,
-            }
+                estimated,
+            },
+            deviations,
         })
-        .collect();
-    (values, dev)
+    }
 }
 
 /// ∂σ/∂(m0, m1, m2) of σ = √q2 + √(q2 − q1²), q1 = m1/m0, q2 = m2/m0 (eq. 14). Where the variance

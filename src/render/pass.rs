@@ -4,7 +4,7 @@
 use crate::field::Field;
 use crate::ftpd::Sample;
 use crate::ftpd::moments::{GroupSums, Moments};
-use crate::gradient_domain::{Replayed, Shift, neighbour};
+use crate::gradient_domain::{Replayed, Shift, neighbour, phase};
 use crate::rng::{QMC_GROUP, Sampler};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -114,6 +114,7 @@ where
                     }
                     let mut s = Sampler::new(seed, pass as u64, idx as u64);
                     let groups_before = cell.groups;
+                    let phase = phase(dims, idx);
                     let neighbours: [Option<usize>; 3] =
                         std::array::from_fn(|a| neighbour(dims, idx, a));
                     // Groups of QMC_GROUP samples (the last of a batch may be shorter), numbered
@@ -152,7 +153,7 @@ where
                                         b: sh.cd2,
                                     };
                                 }
-                                let rep = Shift::replicate(idx, groups_before, group);
+                                let rep = Shift::replicate(phase, groups_before, group);
                                 Shift::add(
                                     &mut shifts[k_cell * stride..(k_cell + 1) * stride],
                                     block,
