@@ -15,7 +15,9 @@
 //! over cells j (primal estimates P from nⱼ samples) and neighbour edges e (difference estimates D
 //! from nₑ replayed pairs). The solution is linear in the estimates with weights that are sample
 //! counts, so each cell keeps its expectation (the reconstruction is unbiased); σ is eq. 14 of the
-//! reconstructed moments.
+//! reconstructed moments. Where a cell's replicates say the reconstruction is less precise than
+//! the cell's own samples (with those replayed into it), as at a cell of little weight beside
+//! bright ones whose moments the neighbours' differences swamp, the cell keeps its own estimate.
 //!
 //! Everything stored is a sum, so runs still merge, tile and resume by addition. The samples of a
 //! cell are dealt round-robin by QMC group into [`REPLICATES`] independent replicates, each kept
