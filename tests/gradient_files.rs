@@ -411,6 +411,30 @@ fn mixing_with_ordinary_runs_or_another_alpha_is_refused() {
     plain.meta.insert("seed".into(), "3".into());
     let e = ftpd3d::merge::merge_fields(vec![("g".into(), g), ("p".into(), plain)]).unwrap_err();
     assert!(e.to_string().contains("p: has no gradient.alpha"), "{e}");
+    // The run's first line says what it is.
+    let scene = cornell_path();
+    let r = ftpd3d_in(
+        &dir,
+        &[
+            "--scene",
+            &scene,
+            "--slice",
+            "z=0",
+            "--res",
+            "4",
+            "--spp",
+            "2",
+            "--gradient-domain",
+            "--no-png",
+            "-o",
+            "said.exr",
+        ],
+    );
+    assert!(
+        r.ok && r.err.contains("gradient-domain (α 0.2, 16 replicates)"),
+        "{}",
+        r.err
+    );
     // α must be a number > 0.
     for alpha in ["0", "-1", "NaN"] {
         let r = run(

@@ -130,13 +130,28 @@ pub(crate) fn shift_names(axes: usize) -> Vec<String> {
     names
 }
 
-/// The values of a gradient-domain field's [`Shift`] by name ([`shift_names`]), each one value per
-/// cell in field order; none for an ordinary field. Refuses (naming `path`) sums that do not fit
-/// the grid, which only a field built by hand can have.
-pub(crate) fn shift_values(
+/// One of a gradient-domain field's replayed sums ([`shift_names`]) across the cells.
+pub(crate) struct ShiftColumn<'a> {
+    pub name: String,
+    data: &'a [f64],
+    stride: usize,
+    k: usize,
+}
+
+impl ShiftColumn<'_> {
+    /// The value of cell `j` (field order).
+    pub fn value(&self, j: usize) -> f64 {
+        self.data[j * self.stride + self.k]
+    }
+}
+
+/// Every value of a gradient-domain field's [`Shift`] as a column by name ([`shift_names`]),
+/// read in place; none for an ordinary field. Refuses (naming `path`) sums that do not fit the
+/// grid, which only a field built by hand can have.
+pub(crate) fn shift_columns<'a>(
     path: &Path,
-    field: &Field,
-) -> Result<Vec<(String, Vec<f64>)>, FileError> {
+    field: &'a Field,
+) -> Result<Vec<ShiftColumn<'a>>, FileError> {
     let Some(s) = &field.shift else {
         return Ok(Vec::new());
     };
@@ -154,11 +169,15 @@ pub(crate) fn shift_values(
             ),
         ));
     }
-    let stride = s.stride();
     Ok(shift_names(s.axes)
         .into_iter()
         .enumerate()
-        .map(|(k, name)| (name, (0..cells).map(|j| s.data[j * stride + k]).collect()))
+        .map(|(k, name)| ShiftColumn {
+            name,
+            data: &s.data,
+            stride: s.stride(),
+            k,
+        })
         .collect())
 }
 

@@ -33,7 +33,7 @@
 use crate::field::Field;
 use crate::ftpd::Weighting;
 use crate::ftpd::moments::Moments;
-use crate::output::exact::{EXACT, EXACT_COMP, ExactArrays, read_exact, read_shift, shift_values};
+use crate::output::exact::{EXACT, EXACT_COMP, ExactArrays, read_exact, read_shift, shift_columns};
 use crate::output::{FileError, f32_of, write_file_atomically};
 use crate::run_info::DomainKind;
 use exr::prelude::*;
@@ -207,10 +207,11 @@ fn exact_u32(
             per(&|c| get(c).to_bits() as u32),
         );
     }
-    for (name, v) in shift_values(path, field)? {
-        let bits = |f: &dyn Fn(u64) -> u32| order.iter().map(|&k| f(v[k].to_bits())).collect();
-        u32ch(&format!("exact.{name}.hi"), bits(&|b| (b >> 32) as u32));
-        u32ch(&format!("exact.{name}.lo"), bits(&|b| b as u32));
+    for c in shift_columns(path, field)? {
+        let bits =
+            |f: &dyn Fn(u64) -> u32| order.iter().map(|&k| f(c.value(k).to_bits())).collect();
+        u32ch(&format!("exact.{}.hi", c.name), bits(&|b| (b >> 32) as u32));
+        u32ch(&format!("exact.{}.lo", c.name), bits(&|b| b as u32));
     }
     Ok(chans)
 }

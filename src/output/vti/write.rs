@@ -6,7 +6,7 @@ use super::{comment_escape, gradient_magnitude};
 use crate::field::Field;
 use crate::ftpd::Weighting;
 use crate::ftpd::moments::{CellValue, Moments};
-use crate::output::exact::{EXACT, EXACT_COMP, shift_values};
+use crate::output::exact::{EXACT, EXACT_COMP, shift_columns};
 use crate::output::{FileError, f32_of, write_file_atomically};
 use glam::DVec3;
 use std::collections::BTreeMap;
@@ -89,13 +89,11 @@ pub fn vti_arrays(
 }
 
 /// What the arrays are computed from besides the sums: the finalised values, the gradient
-/// magnitude, whether the run was radiance-weighted (else `fluence` is zeros), and a
-/// gradient-domain run's replayed sums by name.
+/// magnitude, and whether the run was radiance-weighted (else `fluence` is zeros).
 struct Derived {
     vals: Vec<CellValue>,
     grad: Vec<f32>,
     radiance: bool,
-    shift: Vec<(String, Vec<f64>)>,
 }
 
 impl Derived {
@@ -108,12 +106,11 @@ impl Derived {
             vals,
             grad,
             radiance: info.weighting == Some(Weighting::Radiance),
-            shift: shift_values(path, field)?,
         })
     }
 
-    /// The arrays of the file: the view, the exact sums, then `extra` (each checked to hold one
-    /// value per voxel of the `n`).
+    /// The arrays of the file: the view, the exact sums (a gradient-domain run's replayed sums
+    /// among them), then `extra` (each checked to hold one value per voxel of the `n`).
     fn arrays<'a>(
         &'a self,
         path: &Path,
@@ -123,8 +120,9 @@ impl Derived {
     ) -> Result<Vec<Array<'a>>, FileError> {
         let mut arrays = view_arrays(&field.cells, &self.vals, &self.grad, self.radiance);
         arrays.extend(exact_arrays(&field.cells));
-        for (name, values) in &self.shift {
-            arrays.push(f64_array(format!("exact.{name}"), |i| values[i]));
+        // A gradient-domain run's replayed sums, read in place as the file is streamed.
+        for c in shift_columns(path, field)? {
+            arrays.push(f64_array(format!("exact.{}", c.name), move |i| c.value(i)));
         }
         for (name, values) in extra {
             if values.len() != n {
