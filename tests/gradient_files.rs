@@ -52,8 +52,11 @@ fn run_ok(dir: &Path, extra: &[&str]) {
     assert!(r.ok, "{extra:?}: {}", r.err);
 }
 
-/// Every sum of a field as bits: each cell's accumulator, then its replayed sums with α and axes.
-fn bits(f: &Field) -> (Vec<[u64; 28]>, Option<(u64, usize, Vec<u64>)>) {
+/// A field's sums as bits: each cell's accumulator, then its replayed sums with α and axes.
+type Bits = (Vec<[u64; 28]>, Option<(u64, usize, Vec<u64>)>);
+
+/// Every sum of a field as bits.
+fn bits(f: &Field) -> Bits {
     (
         f.cells.iter().map(|c| c.bit_pattern()).collect(),
         f.shift.as_ref().map(|s| {
