@@ -516,3 +516,49 @@ fn volumes_keep_merge_and_round_trip_their_replayed_sums() {
         "volume written again",
     );
 }
+
+/// The memory a volume needs is checked before the run with the gradient-domain sums and their
+/// reconstruction counted, and the run's volume line says so.
+#[test]
+fn gradient_domain_volumes_count_their_memory() {
+    let dir = temp_dir("gradient_files", "memory");
+    let (ordinary, gradient) = (app::bytes_per_voxel(false), app::bytes_per_voxel(true));
+    assert_eq!(ordinary, ftpd3d::output::vti::bytes_per_voxel());
+    // The stored sums alone: 16 replicates × 13 f64.
+    assert!(gradient >= ordinary + REPLICATES * 13 * 8, "{gradient}");
+    // A grid that fits as an ordinary volume and not as a gradient-domain one is refused, with
+    // the bytes each voxel needs.
+    let size = glam::DVec3::splat(2.0);
+    let res = ftpd3d::domain::VolumeRes::Longest(100);
+    let avail = 1_000_000 * ordinary as u64 * 2;
+    assert!(app::check_volume_memory_at(res, size, avail, true, ordinary).is_ok());
+    let e = app::check_volume_memory_at(res, size, avail, true, gradient)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(&format!("({gradient} bytes each)")), "{e}");
+    let scene = cornell_path();
+    let r = ftpd3d_in(
+        &dir,
+        &[
+            "--scene",
+            &scene,
+            "--volume",
+            "4",
+            "--weight",
+            "unweighted",
+            "--spp",
+            "1",
+            "--gradient-domain",
+            "--no-png",
+            "-o",
+            "v.vti",
+        ],
+    );
+    assert!(r.ok, "{}", r.err);
+    let need = app::report::human_bytes(app::volume_bytes_at([4, 4, 4], gradient) as f64);
+    assert!(
+        r.err.contains("volume 4x4x4 voxels") && r.err.contains(&format!("; memory {need} of")),
+        "{}",
+        r.err
+    );
+}
