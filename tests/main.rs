@@ -16,6 +16,7 @@ mod geometry;
 mod gltf;
 mod gltf_ext;
 mod gradient_domain;
+mod gradient_files;
 mod guide;
 mod images;
 mod instancing;

@@ -201,13 +201,20 @@ pub fn domain_line(
     angle_deg: f64,
 ) -> String {
     format!(
-        "{name} → {} {}{tile_note}, budget {}, passes: {}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+        "{name} → {} {}{tile_note}, budget {}, passes: {}{}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
         grid_text(dims),
         if dims.2 > 1 { "voxels" } else { "cells" },
         budget_text(opts),
         Schedule::of(opts).key(),
         match opts.adaptive {
             Some(a) => format!(", adaptive (at most {}x the uniform share)", a.max_share),
+            None => String::new(),
+        },
+        match opts.gradient_domain {
+            Some(alpha) => format!(
+                ", gradient-domain (α {alpha}, {} replicates)",
+                crate::gradient_domain::REPLICATES
+            ),
             None => String::new(),
         },
         params.weighting,

@@ -39,6 +39,17 @@ pub const REPLICATES: usize = 16;
 /// pair); chosen by measurement (docs/performance.md).
 pub const DEFAULT_ALPHA: f64 = 0.5;
 
+/// Bytes a cell of a gradient-domain grid with `axes` axes needs besides an ordinary one's, at
+/// most: its replicates' sums ([`Shift::stride`] f64), and what finishing the field holds at once
+/// when all [`REPLICATES`] + 1 reconstructions ([`recon::values`]) run together: each keeps per
+/// cell the sample counts, primal sums, edge weights and difference sums (5 + 4·axes f64), the
+/// finished moments and the arrays of the solve in progress (11 f64), and one flag.
+pub const fn bytes_per_cell(axes: usize) -> usize {
+    let stored = REPLICATES * (1 + 3 * (1 + axes)) * size_of::<f64>();
+    let per_reconstruction = (5 + 4 * axes + 11) * size_of::<f64>() + size_of::<bool>();
+    stored + (REPLICATES + 1) * per_reconstruction
+}
+
 /// The sums of a gradient-domain run, per cell and replicate: the sample count, the sums
 /// (Σc, ΣcΔ, ΣcΔ²) of the cell's own samples, and those of their replays at the upper neighbour
 /// along each axis (zero where the cell has none).
