@@ -154,12 +154,15 @@ mod tests {
                 .unwrap();
             k.swap(c, p);
             b.swap(c, p);
-            for i in c + 1..n {
-                let f = k[i][c] / k[c][c];
-                for j in c..n {
-                    k[i][j] -= f * k[c][j];
+            let (top, rest) = k.split_at_mut(c + 1);
+            let pivot = &top[c];
+            let bc = b[c];
+            for (row, bi) in rest.iter_mut().zip(&mut b[c + 1..]) {
+                let f = row[c] / pivot[c];
+                for (x, p) in row[c..].iter_mut().zip(&pivot[c..]) {
+                    *x -= f * p;
                 }
-                b[i] -= f * b[c];
+                *bi -= f * bc;
             }
         }
         let mut x = vec![0.0; n];
