@@ -2,6 +2,7 @@
 //! merge by addition (see [`crate::ftpd::moments::Moments::merge`]).
 
 use crate::ftpd::moments::{CellValue, Moments};
+use crate::gradient_domain::{Shift, recon};
 use crate::run_info::{InfoError, RunInfo};
 use std::collections::BTreeMap;
 
@@ -13,6 +14,9 @@ pub struct Field {
     pub height: usize,
     pub depth: usize,
     pub cells: Vec<Moments>,
+    /// The replayed neighbours' sums of a gradient-domain run ([`crate::gradient_domain`]): the
+    /// field's values are then reconstructed from them ([`Field::values`]).
+    pub shift: Option<Shift>,
     /// The description of the run (scene, plane, parameters, seed, versions, ...) as the file's
     /// attributes hold it: set with [`Field::set_info`], read with [`Field::info`] (the typed
     /// [`RunInfo`]); the attributes as such are what the writers store.
@@ -26,20 +30,50 @@ impl Field {
             height,
             depth,
             cells: vec![Moments::default(); width * height * depth],
+            shift: None,
             meta: BTreeMap::new(),
         }
     }
 
+    /// The finished value of every cell: each cell's own sums, or in a gradient-domain run the
+    /// reconstruction from every cell's and its neighbours' ([`recon::values`]).
     pub fn values(&self) -> Vec<CellValue> {
-        self.cells.iter().map(Moments::finalize).collect()
+        match &self.shift {
+            Some(s) => recon::values(s, self.dims(), &self.cells),
+            None => self.cells.iter().map(Moments::finalize).collect(),
+        }
+    }
+
+    /// [`Field::values`] and, for a gradient-domain field, the replicates' linearised deviations
+    /// of σ ([`recon::values_and_deviations`]), from which the variance of anything linear in σ
+    /// follows with the correlation between cells.
+    pub fn values_and_deviations(&self) -> (Vec<CellValue>, Option<Vec<Vec<f64>>>) {
+        match &self.shift {
+            Some(s) => {
+                let (v, d) = recon::values_and_deviations(s, self.dims(), &self.cells);
+                (v, Some(d))
+            }
+            None => (self.values(), None),
+        }
+    }
+
+    /// A gradient-domain field: one that keeps its replayed neighbours' sums.
+    pub fn with_shift(mut self, alpha: f64) -> Field {
+        let axes = Shift::axes_of(self.dims());
+        self.shift = Some(Shift::new(self.cells.len(), axes, alpha));
+        self
+    }
+
+    pub fn dims(&self) -> (usize, usize, usize) {
+        (self.width, self.height, self.depth)
     }
 
     pub fn sigma(&self) -> Vec<f64> {
-        self.cells.iter().map(|c| c.finalize().sigma).collect()
+        self.values().iter().map(|v| v.sigma).collect()
     }
 
     pub fn valid(&self) -> Vec<bool> {
-        self.cells.iter().map(|c| c.finalize().valid).collect()
+        self.values().iter().map(|v| v.valid).collect()
     }
 
     /// The run's description, typed; `file` names the field in errors.

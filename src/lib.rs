@@ -10,6 +10,8 @@
 //! - [`kernel`]: the four compile-time kernels and the space of directions;
 //! - [`transport`]: walks, BSDFs and lights, written once for 3D and flatland;
 //! - [`ftpd`]: one sample of the estimator and the moments it adds to;
+//! - [`gradient_domain`]: neighbours' differences from replayed samples, and the field
+//!   reconstructed from them;
 //! - [`domain`]: where samples start (slices, planes, volumes, camera images, tiles);
 //! - [`params`]: estimator settings as given, resolved against a scene and a domain;
 //! - [`run_info`], [`field`]: a run's typed description and the field of sums it describes;
@@ -38,6 +40,7 @@ pub mod cli;
 pub mod domain;
 pub mod field;
 pub mod ftpd;
+pub mod gradient_domain;
 pub mod kernel;
 pub mod math;
 pub mod merge;

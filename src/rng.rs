@@ -165,6 +165,7 @@ impl Uniform for Sampler {
 }
 
 /// A uniform random number source for one sample stream.
+#[derive(Clone)]
 pub struct Sampler {
     rng: Pcg64Mcg,
     /// The low word of the stream's key, hashed into the scramble seeds of its groups only when a

@@ -19,15 +19,15 @@ use ftpd3d::scene::load::load_scene;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-struct Setup {
-    scene: Scene,
-    plane: Plane,
-    params: Params,
+pub(crate) struct Setup {
+    pub(crate) scene: Scene,
+    pub(crate) plane: Plane,
+    pub(crate) params: Params,
 }
 
 /// The Cornell box with a mirror, slice z = 0 at `res` cells, radiance weighting, default
 /// parameters: a scene whose error varies strongly over the slice (mirror, light, shadows).
-fn cornell(res: usize) -> Setup {
+pub(crate) fn cornell(res: usize) -> Setup {
     let scene = load_scene(&scene_path("cornell_mirror.obj")).unwrap();
     let params = EstimatorArgs {
         weighting: Weighting::Radiance,
@@ -67,16 +67,20 @@ fn pool() -> rayon::ThreadPool {
 
 impl Setup {
     /// The description `run_job` gives a run (what a resume is checked against).
-    fn info(&self, o: &RenderOptions) -> RunInfo {
+    pub(crate) fn info(&self, o: &RenderOptions) -> RunInfo {
         RunInfo {
             plane: Some(render::plane_info(&self.plane)),
             ..render::describe_run(&self.scene, &self.params, o, DomainKind::Slice)
         }
     }
 
-    /// A new field so described.
-    fn field(&self, o: &RenderOptions) -> Field {
+    /// A new field so described (keeping its replayed neighbours' sums in a gradient-domain run,
+    /// as the command line's fresh fields do).
+    pub(crate) fn field(&self, o: &RenderOptions) -> Field {
         let mut f = Field::new(self.plane.width, self.plane.height, 1);
+        if let Some(alpha) = o.gradient_domain {
+            f = f.with_shift(alpha);
+        }
         f.set_info(&self.info(o));
         f
     }

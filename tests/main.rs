@@ -15,6 +15,8 @@ mod gallery;
 mod geometry;
 mod gltf;
 mod gltf_ext;
+mod gradient_domain;
+mod gradient_files;
 mod guide;
 mod images;
 mod instancing;

@@ -81,6 +81,7 @@ fn noisy_plane(w: usize, h: usize, seed: u64, slope: [f64; 2]) -> Grid {
         stderr,
         valid: vec![true; w * h],
         cell: [1.0; 3],
+        deviations: None,
     }
 }
 
@@ -1212,4 +1213,95 @@ fn separatrices_subcommand_writes_files_an_independent_reader_opens() {
         "0",
     ]);
     assert!(!run.ok && run.err.contains("--sep-scale"), "{}", run.err);
+}
+
+/// A gradient-domain field's errors are correlated between neighbouring cells, and the filters'
+/// variances then come from the replicates' deviations ([`Grid::deviations`]), not from the
+/// cells' own variances. Synthetic test: σ = 1 plus noise Σᵣ gᵣ δᵣ with gᵣ standard normal and
+/// δᵣ smooth (3×3 box of white noise), so that Σᵣ δᵣ δᵣᵀ is exactly the noise's covariance.
+/// The grid is cut into 10×10 tiles, each with its own δᵣ and gᵣ, and only tile centres, whose
+/// filter supports (7×7) lie inside their tile, are counted: they are independent, so the count
+/// beyond Z is binomial with the normal tail as its probability, as in
+/// [`false_alarm_rate_matches_the_normal_tail`]. With the deviations dropped (cells taken as
+/// independent, each with its own variance), the same field exceeds Z = 3 far more often.
+#[test]
+fn correlated_errors_keep_the_false_alarm_rate() {
+    let (tile, tiles, reps) = (10usize, 21usize, 16usize);
+    let w = tile * tiles;
+    let params = SepParams {
+        scale: Some(1.0),
+        z: 3.0,
+        tau: Some(0.0),
+    };
+    let (mut with, mut without) = (Vec::new(), Vec::new());
+    for seed in 0..6u64 {
+        let mut rng = Normal(7000 + seed);
+        let mut dev = vec![vec![0.0; w * w]; reps];
+        let mut sigma = vec![1.0; w * w];
+        for tj in 0..tiles {
+            for ti in 0..tiles {
+                for d in dev.iter_mut() {
+                    // White noise on the tile and a ring around it, boxed 3×3, kept on the tile.
+                    let p = tile + 2;
+                    let white: Vec<f64> = (0..p * p).map(|_| rng.next()).collect();
+                    let g = rng.next();
+                    for j in 0..tile {
+                        for i in 0..tile {
+                            let mut s = 0.0;
+                            for dj in 0..3 {
+                                for di in 0..3 {
+                                    s += white[(i + di) + p * (j + dj)];
+                                }
+                            }
+                            let c = (ti * tile + i) + w * (tj * tile + j);
+                            let v = 0.02 * s / 3.0;
+                            d[c] = v;
+                            sigma[c] += g * v;
+                        }
+                    }
+                }
+            }
+        }
+        let stderr: Vec<f64> = (0..w * w)
+            .map(|c| dev.iter().map(|d| d[c] * d[c]).sum::<f64>().sqrt())
+            .collect();
+        let grid = |deviations| Grid {
+            dims: [w, w, 1],
+            sigma: sigma.clone(),
+            stderr: stderr.clone(),
+            valid: vec![true; w * w],
+            cell: [1.0; 3],
+            deviations,
+        };
+        let a = extract(&grid(Some(dev.clone())), &params).unwrap();
+        let b = extract(&grid(None), &params).unwrap();
+        for tj in 0..tiles {
+            for ti in 0..tiles {
+                let c = (ti * tile + tile / 2) + w * (tj * tile + tile / 2);
+                if a.defined[c] {
+                    with.push(a.z[c]);
+                    without.push(b.z[c]);
+                }
+            }
+        }
+    }
+    let n = with.len() as u64;
+    assert!(n > 2000, "{n} tile centres");
+    for zt in [1.0, 2.0, 3.0] {
+        let p = 2.0 * normal_upper_tail(zt);
+        let k = with.iter().filter(|&&v| v >= zt).count() as u64;
+        let (below, above) = (binomial_lower_tail(n, p, k), binomial_upper_tail(n, p, k));
+        eprintln!("correlated: Z = {zt}: {k} of {n} (normal tail {p:.5})");
+        assert!(
+            below.min(above) >= ALPHA / 6.0,
+            "z ≥ {zt}: {k} of {n} against the normal tail {p} (P(≤ k) {below:.1e}, P(≥ k) {above:.1e})"
+        );
+    }
+    let p3 = 2.0 * normal_upper_tail(3.0);
+    let k = without.iter().filter(|&&v| v >= 3.0).count() as u64;
+    eprintln!("taken as independent: Z = 3: {k} of {n}");
+    assert!(
+        binomial_upper_tail(n, p3, k) < ALPHA,
+        "independent cells' z: {k} of {n}"
+    );
 }

@@ -189,6 +189,8 @@ impl SamplingArgs {
             target_error: self.target_error,
             adaptive: self.adaptive,
             adaptive_cap,
+            // Not offered from Python (yet): an ordinary run.
+            gradient_domain: None,
             seed,
             threads,
             tile,

@@ -65,7 +65,7 @@ pub(super) fn run_domain_job(
         samples: None,
     };
     let run = run_domain(scene, domain, params, opts, info, start, hooks)?;
-    let error = render::error_stats(&run.field.cells);
+    let error = render::field_error_stats(&run.field, 0..run.field.cells.len());
     if let Some(w) = blank_warning(job, scene, domain, params, &run) {
         eprintln!("{w}");
     }

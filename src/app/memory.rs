@@ -26,9 +26,27 @@ pub fn available_memory() -> (u64, bool) {
 /// Memory a volume of `dims` voxels needs ([`output::vti::bytes_per_voxel`] each), without
 /// overflowing however large the request.
 pub fn volume_bytes(dims: [usize; 3]) -> u128 {
+    volume_bytes_at(dims, output::vti::bytes_per_voxel())
+}
+
+/// Bytes a voxel of a run needs: [`output::vti::bytes_per_voxel`], and in a gradient-domain run
+/// (`gradient`) its replayed sums and reconstruction too
+/// ([`crate::gradient_domain::bytes_per_cell`]).
+pub fn bytes_per_voxel(gradient: bool) -> usize {
+    output::vti::bytes_per_voxel()
+        + if gradient {
+            crate::gradient_domain::bytes_per_cell(3)
+        } else {
+            0
+        }
+}
+
+/// Memory a volume of `dims` voxels of `per_voxel` bytes each needs, without overflowing however
+/// large the request.
+pub fn volume_bytes_at(dims: [usize; 3], per_voxel: usize) -> u128 {
     dims.iter()
         .fold(1u128, |a, &d| a.saturating_mul(d as u128))
-        .saturating_mul(output::vti::bytes_per_voxel() as u128)
+        .saturating_mul(per_voxel as u128)
 }
 
 /// The voxel counts of `res` over a box of `size`, refused (naming `--volume` and the largest grid
@@ -40,7 +58,25 @@ pub fn check_volume_memory(
     available: u64,
     measured: bool,
 ) -> anyhow::Result<[usize; 3]> {
+    check_volume_memory_at(
+        res,
+        size,
+        available,
+        measured,
+        output::vti::bytes_per_voxel(),
+    )
+}
+
+/// [`check_volume_memory`] for voxels of `per_voxel` bytes ([`bytes_per_voxel`]).
+pub fn check_volume_memory_at(
+    res: VolumeRes,
+    size: glam::DVec3,
+    available: u64,
+    measured: bool,
+    per_voxel: usize,
+) -> anyhow::Result<[usize; 3]> {
     let dims = Volume::dims_for(res, size);
+    let volume_bytes = |d: [usize; 3]| volume_bytes_at(d, per_voxel);
     let need = volume_bytes(dims);
     let fits = |d: [usize; 3]| volume_bytes(d) <= available as u128;
     if !fits(dims) {
@@ -96,7 +132,7 @@ pub fn check_volume_memory(
             dims[1],
             dims[2],
             human_bytes(need as f64),
-            output::vti::bytes_per_voxel()
+            per_voxel
         );
     }
     if let Some(d) = dims.iter().find(|&&d| d > i32::MAX as usize) {

@@ -25,7 +25,10 @@ pub use job::{
     slice_output,
 };
 pub use lights::{LightError, environment, point_light, sky, sun};
-pub use memory::{FALLBACK_MEMORY_BYTES, available_memory, check_volume_memory, volume_bytes};
+pub use memory::{
+    FALLBACK_MEMORY_BYTES, available_memory, bytes_per_voxel, check_volume_memory,
+    check_volume_memory_at, volume_bytes, volume_bytes_at,
+};
 pub use progress::{
     RESUME_KEYS, check_resume, mark_progress, progress_arrays, read_progress, write_progress,
     write_progress_with, write_volume_progress, write_volume_progress_with,
@@ -146,11 +149,13 @@ fn resolve_domains(job: &Job, scene: &Scene) -> anyhow::Result<Vec<(JobDomain, P
             job.estimator.resolve_for_box(scene, &bbox)?;
             // Refused before anything is allocated (the resumed file included).
             let (available, measured) = available_memory();
-            let dims = check_volume_memory(*res, bbox.max - bbox.min, available, measured)?;
+            let per_voxel = bytes_per_voxel(job.render.gradient_domain.is_some());
+            let size = bbox.max - bbox.min;
+            let dims = check_volume_memory_at(*res, size, available, measured, per_voxel)?;
             let volume = Volume::new(&bbox, dims)?;
             say(
                 job,
-                volume_line(&volume, &bbox, volume_bytes(dims), available),
+                volume_line(&volume, &bbox, volume_bytes_at(dims, per_voxel), available),
             );
             domains.push((JobDomain::Volume(volume), job.output.clone()));
         }

@@ -61,6 +61,10 @@ pub fn check_resume(
                     l.split(';').map(|s| format!("--light-scale {s}")).collect();
                 format!(" (add {})", flags.join(" "))
             }
+            ("gradient.alpha", Some(alpha)) => gradient_hint(alpha),
+            ("gradient.alpha", None) => {
+                " (this file's run was not gradient-domain: leave out --gradient-domain)".into()
+            }
             _ => String::new(),
         };
         bail!(
@@ -72,6 +76,18 @@ pub fn check_resume(
         );
     }
     Ok(())
+}
+
+/// How a command matches a gradient-domain file of α `alpha` (as the file writes it).
+fn gradient_hint(alpha: &str) -> String {
+    let default = crate::gradient_domain::DEFAULT_ALPHA;
+    if alpha.parse::<f64>().ok() == Some(default) {
+        " (this file's run was gradient-domain: add --gradient-domain)".into()
+    } else {
+        format!(
+            " (this file's run was gradient-domain: add --gradient-domain --gradient-alpha {alpha})"
+        )
+    }
 }
 
 /// `64x48` for a 2D grid, `6x6x6` for a volume.

@@ -31,6 +31,18 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
     } else {
         String::new()
     };
+    let reconstructed = match &field.shift {
+        Some(s) => format!(
+            "\nfield reconstructed from each cell's samples and its neighbours' replayed \
+             differences (gradient domain, screened Poisson in L2, α {}); its standard errors \
+             come from {} independent replicates and include the correlation between cells \
+             (each sample above was also traced at {} neighbours)",
+            s.alpha,
+            crate::gradient_domain::REPLICATES,
+            s.axes
+        ),
+        None => String::new(),
+    };
     format!(
         "stopped after {} passes ({}): {} samples in {:.2} s{earlier}, {:.3e} samples/s, \
          {:.3e} rays/s; relative error mean {:.4}, p95 {:.4}{unestimated}; {} walks hit the \
@@ -46,14 +58,15 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
         stats.capped,
         params.max_bounces,
         stats.clamped
-    ) + &cost_of_accuracy(
-        total,
-        stats.samples_per_second(),
-        error.p95,
-        params.weighting,
-    )
-    .map(|c| format!("\n{c}"))
-    .unwrap_or_default()
+    ) + &reconstructed
+        + &cost_of_accuracy(
+            total,
+            stats.samples_per_second(),
+            error.p95,
+            params.weighting,
+        )
+        .map(|c| format!("\n{c}"))
+        .unwrap_or_default()
 }
 
 /// What more accuracy costs, projected from this run: `None` without an error or a rate.
@@ -188,13 +201,20 @@ pub fn domain_line(
     angle_deg: f64,
 ) -> String {
     format!(
-        "{name} → {} {}{tile_note}, budget {}, passes: {}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
+        "{name} → {} {}{tile_note}, budget {}, passes: {}{}{}, weighting {}, T ∈ [{:.4}, {:.4}], θmax {}°",
         grid_text(dims),
         if dims.2 > 1 { "voxels" } else { "cells" },
         budget_text(opts),
         Schedule::of(opts).key(),
         match opts.adaptive {
             Some(a) => format!(", adaptive (at most {}x the uniform share)", a.max_share),
+            None => String::new(),
+        },
+        match opts.gradient_domain {
+            Some(alpha) => format!(
+                ", gradient-domain (α {alpha}, {} replicates)",
+                crate::gradient_domain::REPLICATES
+            ),
             None => String::new(),
         },
         params.weighting,

@@ -66,7 +66,12 @@ pub fn run_domain(
     let (mut field, mut progress) = match start {
         Start::Fresh => {
             let (w, h, d) = domain.dims();
-            (Field::new(w, h, d), Progress::default())
+            let field = Field::new(w, h, d);
+            let field = match opts.gradient_domain {
+                Some(alpha) => field.with_shift(alpha),
+                None => field,
+            };
+            (field, Progress::default())
         }
         Start::Resumed(field, progress) => (field, progress),
     };

@@ -35,6 +35,8 @@ pub struct Sampling {
     pub adaptive: Option<bool>,
     /// Adaptive runs: at most this many times the uniform share per cell and pass.
     pub adaptive_cap: Option<u32>,
+    /// A gradient-domain run with this α ([`crate::gradient_domain`]).
+    pub gradient_domain: Option<f64>,
     pub seed: u64,
     /// Worker threads; 0 = all cores.
     pub threads: usize,
@@ -55,6 +57,7 @@ impl Default for Sampling {
             target_error: None,
             adaptive: None,
             adaptive_cap: None,
+            gradient_domain: None,
             seed: d.seed,
             threads: d.threads,
             tile: None,
@@ -98,6 +101,7 @@ impl Sampling {
                 max_share: self.adaptive_cap.unwrap_or(Adaptive::default().max_share),
             }),
             tile: self.tile,
+            gradient_domain: self.gradient_domain,
         }
     }
 }

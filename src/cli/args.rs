@@ -207,6 +207,19 @@ pub struct RunArgs {
         allow_negative_numbers = true
     )]
     pub adaptive_cap: Option<u32>,
+    /// Replay every sample at the cell's upper neighbours and reconstruct the field from the
+    /// cells and their differences (screened Poisson, L2): smoother fields and gradients for the
+    /// same time, errors that include the correlation between cells.
+    #[arg(long)]
+    pub gradient_domain: bool,
+    /// --gradient-domain: weight α of each cell's own estimate against its differences [default: 0.5].
+    #[arg(
+        long,
+        value_name = "ALPHA",
+        requires = "gradient_domain",
+        allow_negative_numbers = true
+    )]
+    pub gradient_alpha: Option<f64>,
     /// Write the field so far (marked partial, resumable) to the output every DURATION, at pass
     /// boundaries.
     #[arg(long, value_name = "DURATION", allow_hyphen_values = true, value_parser = parse_duration)]

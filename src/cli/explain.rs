@@ -39,6 +39,19 @@ pub fn command(args: &RunArgs) -> anyhow::Result<()> {
         flatland,
         &job.load,
     )?;
+    if let Some(alpha) = job.render.gradient_domain {
+        writeln!(
+            out,
+            "gradient   every sample traced again at the cell's upper neighbour along each axis \
+             (the same random numbers, the start one cell over): {}× the paths per sample; the \
+             field is reconstructed from cells and differences (screened Poisson, α {alpha})",
+            if matches!(job.domain, DomainArg::Volume { .. }) {
+                4
+            } else {
+                3
+            }
+        )?;
+    }
     if let Some(sp) = &job.separatrices {
         let or_default =
             |v: Option<f64>, d: &str| v.map_or_else(|| d.to_string(), |x| x.to_string());

@@ -34,6 +34,7 @@ impl RunArgs {
         let weight = self.weight.unwrap_or(default_weight);
         check_weight(&domain, weight)?;
         self.check_adaptive_cap()?;
+        self.check_gradient_alpha()?;
         Ok(Job {
             scene,
             domain,
@@ -153,6 +154,17 @@ impl RunArgs {
         Ok(())
     }
 
+    /// --gradient-alpha weighs each cell's own estimate in the reconstruction: a number > 0 (at
+    /// 0 a grid's moments are known only up to a constant).
+    fn check_gradient_alpha(&self) -> anyhow::Result<()> {
+        match self.gradient_alpha {
+            Some(a) if !(a.is_finite() && a > 0.0) => {
+                anyhow::bail!("--gradient-alpha {a}: give a number > 0 (default 0.2)")
+            }
+            _ => Ok(()),
+        }
+    }
+
     fn separatrices(&self) -> anyhow::Result<Option<SepParams>> {
         if !self.separatrices {
             if self.sep.given() {
@@ -181,6 +193,10 @@ impl RunArgs {
                 None
             },
             adaptive_cap: self.adaptive_cap,
+            gradient_domain: self.gradient_domain.then(|| {
+                self.gradient_alpha
+                    .unwrap_or(crate::gradient_domain::DEFAULT_ALPHA)
+            }),
             seed: self.seed,
             threads: self.threads,
             tile: self.tile,

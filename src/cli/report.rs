@@ -9,7 +9,7 @@ pub use crate::run_info::fmt_duration;
 /// Mean and 95th percentile of the relative standard error over valid cells with σ > 0 (see
 /// [`render::error_stats`] for the definitions).
 pub fn relative_error_summary(field: &Field) -> (f64, f64) {
-    let e = render::error_stats(&field.cells);
+    let e = render::field_error_stats(field, 0..field.cells.len());
     (e.mean, e.p95)
 }
 
@@ -19,7 +19,7 @@ pub fn merge_summary(files: usize, field: &Field) -> String {
     let get = |k: &str| m.get(k).map_or("?", String::as_str);
     let (rel_mean, rel_p95) = relative_error_summary(field);
     format!(
-        "merged {files} files: {}, seeds {}, parts {}, {} spp; relative error mean {:.3}, p95 {:.3}",
+        "merged {files} files: {}, seeds {}, parts {}, {} spp{}; relative error mean {:.3}, p95 {:.3}",
         match field.depth {
             1 => format!("{}x{} cells", field.width, field.height),
             d => format!("{}x{}x{d} voxels", field.width, field.height),
@@ -27,6 +27,10 @@ pub fn merge_summary(files: usize, field: &Field) -> String {
         get("seeds"),
         get("parts"),
         get("spp"),
+        match m.get("gradient.alpha") {
+            Some(a) => format!(", gradient-domain (α {a})"),
+            None => String::new(),
+        },
         rel_mean,
         rel_p95
     )

@@ -4,7 +4,9 @@
 //!
 //! What may differ between the inputs, and what may not:
 //! - The run must be the same: scene, domain (plane or camera and their geometry), resolution,
-//!   weighting, t0, t1, angle, bounce cap, feature set and extra point lights ([`MUST_MATCH`]).
+//!   weighting, t0, t1, angle, bounce cap, feature set, extra point lights, and for
+//!   gradient-domain runs α and the replicates ([`MUST_MATCH`]; an ordinary field does not merge
+//!   with a gradient-domain one).
 //!   A mismatch is refused with the file and key named.
 //! - Seeds and tiles may differ. What a field holds is recorded as *parts*: a seed and the rows of
 //!   the grid it sampled (`seed@r0-r1`, rows from the bottom). A fresh run is one part (its seed,
@@ -220,6 +222,11 @@ pub fn merge_fields(inputs: Vec<(String, Field)>) -> Result<Merged, MergeError> 
         for (c, o) in field.cells.iter_mut().zip(&f.cells) {
             c.merge(o);
         }
+        // Both gradient-domain with the same α and replicates ([`check_same_run`]): their
+        // replayed sums add like the cells'.
+        if let (Some(s), Some(o)) = (field.shift.as_mut(), f.shift.as_ref()) {
+            s.merge(o);
+        }
     }
 
     let mut warnings = Vec::new();
@@ -269,6 +276,7 @@ fn estimate_of(one: &RunInfo) -> RunInfo {
         sun: one.sun.clone(),
         sky: one.sky.clone(),
         flatland: one.flatland,
+        gradient: one.gradient,
         tool: Some(format!("ftpd3d {}", env!("CARGO_PKG_VERSION"))),
         ..RunInfo::default()
     }

@@ -22,7 +22,30 @@ pub fn check_same_run(a_name: &str, a: &Field, b_name: &str, b: &Field) -> Resul
             other_grid: grid(a),
         });
     }
-    check_same_info(a_name, &a.info(a_name)?, b_name, &b.info(b_name)?)
+    check_same_info(a_name, &a.info(a_name)?, b_name, &b.info(b_name)?)?;
+    check_same_shift(a_name, a, b_name, b)
+}
+
+/// Checks that `a` and `b`, which describe the same run, hold the same kind of sums: both ordinary,
+/// or both gradient-domain with the same α and layout (fields read from files always do, as their
+/// description decides what is read; a field built in memory is checked here too).
+fn check_same_shift(a_name: &str, a: &Field, b_name: &str, b: &Field) -> Result<(), MergeError> {
+    let kind = |f: &Field| {
+        f.shift
+            .as_ref()
+            .map(|s| (s.alpha.to_bits(), s.axes, s.data.len()))
+    };
+    if kind(a) == kind(b) {
+        return Ok(());
+    }
+    let alpha = |f: &Field| f.shift.as_ref().map(|s| s.alpha.to_string());
+    Err(MergeError::Differs {
+        file: b_name.to_string(),
+        key: "gradient.alpha",
+        value: alpha(b),
+        other: a_name.to_string(),
+        other_value: alpha(a),
+    })
 }
 
 /// [`check_same_run`] of two descriptions.

@@ -1,10 +1,13 @@
 //! The exact accumulator as files keep it: every sum of a cell's [`Moments`] by name, bit for bit
 //! (EXR as hi/lo u32 pairs, VTI as Float64), and the one way both readers fill a field from them,
-//! so that fields read back merge and resume bit for bit.
+//! so that fields read back merge and resume bit for bit. A gradient-domain field keeps its
+//! replayed neighbours' sums ([`Shift`]) the same way ([`shift_names`]).
 
 use crate::field::Field;
 use crate::ftpd::moments::Moments;
+use crate::gradient_domain::{REPLICATES, Shift};
 use crate::output::FileError;
+use std::path::Path;
 
 /// How an exact sum is read from and written to a cell's accumulator.
 pub(crate) type Getter = fn(&Moments) -> f64;
@@ -106,5 +109,95 @@ pub(crate) fn read_exact(field: &mut Field, file: &impl ExactArrays) -> Result<(
             }
         }
     }
+    Ok(())
+}
+
+/// The name of every value a cell of a gradient-domain field keeps besides its [`Moments`]
+/// ([`Shift`]), in the order of [`Shift::data`]: per replicate `rNN` (00 to 15), `shift.rNN.n`
+/// (its samples), `shift.rNN.w`, `shift.rNN.wd`, `shift.rNN.wd2` (their ΣP, ΣPΔ, ΣPΔ²), then for
+/// each axis `a` of `axes` (`x`, `y`, and `z` in a volume) `shift.rNN.a.w`, `.wd`, `.wd2` (the sums
+/// of the same samples replayed at the upper neighbour along it).
+pub(crate) fn shift_names(axes: usize) -> Vec<String> {
+    let sums = ["w", "wd", "wd2"];
+    let mut names = Vec::with_capacity(REPLICATES * (1 + 3 * (1 + axes)));
+    for r in 0..REPLICATES {
+        names.push(format!("shift.r{r:02}.n"));
+        names.extend(sums.iter().map(|s| format!("shift.r{r:02}.{s}")));
+        for axis in ["x", "y", "z"].iter().take(axes) {
+            names.extend(sums.iter().map(|s| format!("shift.r{r:02}.{axis}.{s}")));
+        }
+    }
+    names
+}
+
+/// One of a gradient-domain field's replayed sums ([`shift_names`]) across the cells.
+pub(crate) struct ShiftColumn<'a> {
+    pub name: String,
+    data: &'a [f64],
+    stride: usize,
+    k: usize,
+}
+
+impl ShiftColumn<'_> {
+    /// The value of cell `j` (field order).
+    pub fn value(&self, j: usize) -> f64 {
+        self.data[j * self.stride + self.k]
+    }
+}
+
+/// Every value of a gradient-domain field's [`Shift`] as a column by name ([`shift_names`]),
+/// read in place; none for an ordinary field. Refuses (naming `path`) sums that do not fit the
+/// grid, which only a field built by hand can have.
+pub(crate) fn shift_columns<'a>(
+    path: &Path,
+    field: &'a Field,
+) -> Result<Vec<ShiftColumn<'a>>, FileError> {
+    let Some(s) = &field.shift else {
+        return Ok(Vec::new());
+    };
+    let cells = field.cells.len();
+    if s.axes != Shift::axes_of(field.dims()) || s.data.len() != cells * s.stride() {
+        return Err(FileError::unfit(
+            path,
+            format!(
+                "gradient-domain sums of {} values over {} axes for a {}x{}x{} grid",
+                s.data.len(),
+                s.axes,
+                field.width,
+                field.height,
+                field.depth
+            ),
+        ));
+    }
+    Ok(shift_names(s.axes)
+        .into_iter()
+        .enumerate()
+        .map(|(k, name)| ShiftColumn {
+            name,
+            data: &s.data,
+            stride: s.stride(),
+            k,
+        })
+        .collect())
+}
+
+/// Gives a field read from a file its gradient-domain sums when its description says it is one
+/// (`gradient.alpha`, read from `field.meta` with errors naming `path`); every sum must be there.
+pub(crate) fn read_shift(
+    path: &Path,
+    field: &mut Field,
+    file: &impl ExactArrays,
+) -> Result<(), FileError> {
+    let Some(g) = field.info(&path.display().to_string())?.gradient else {
+        return Ok(());
+    };
+    let mut shift = Shift::new(field.cells.len(), Shift::axes_of(field.dims()), g.alpha);
+    let stride = shift.stride();
+    for (k, name) in shift_names(shift.axes).iter().enumerate() {
+        for (j, x) in file.sums(name)?.into_iter().enumerate() {
+            shift.data[j * stride + k] = x;
+        }
+    }
+    field.shift = Some(shift);
     Ok(())
 }

@@ -26,13 +26,14 @@
 //! |------------------------------|------|----------------------------------------------------------|
 //! | `samples`, `batches`, `groups` | u32 | the exact counts (groups: the independent groups of samples the standard error is taken over) |
 //! | `exact.<sum>.hi/.lo`         | u32  | the exact f64 bits of every sum (ΣP, ΣPΔ, ΣPΔ², their compensations, fluence, product sums over groups `sum.w.w` … `sum.wd2.wd2`, triple product sums `sum3.w.w.w` … `sum3.wd2.wd2.wd2`) |
+//! | `exact.shift.rNN.<sum>.hi/.lo` | u32 | gradient-domain runs only (`ftpd3d.gradient.alpha`): per replicate `r00` … `r15` the samples (`n`), their sums (`w`, `wd`, `wd2`) and those of their replays at the upper neighbour along `x` and `y` (`x.w` … `y.wd2`), as f64 bits ([`crate::gradient_domain::Shift`]) |
 //!
 //! Image rows run top to bottom, so the first row is the plane's largest v.
 
 use crate::field::Field;
 use crate::ftpd::Weighting;
 use crate::ftpd::moments::Moments;
-use crate::output::exact::{EXACT, EXACT_COMP, ExactArrays, read_exact};
+use crate::output::exact::{EXACT, EXACT_COMP, ExactArrays, read_exact, read_shift, shift_columns};
 use crate::output::{FileError, f32_of, write_file_atomically};
 use crate::run_info::DomainKind;
 use exr::prelude::*;
@@ -206,6 +207,12 @@ fn exact_u32(
             per(&|c| get(c).to_bits() as u32),
         );
     }
+    for c in shift_columns(path, field)? {
+        let bits =
+            |f: &dyn Fn(u64) -> u32| order.iter().map(|&k| f(c.value(k).to_bits())).collect();
+        u32ch(&format!("exact.{}.hi", c.name), bits(&|b| (b >> 32) as u32));
+        u32ch(&format!("exact.{}.lo", c.name), bits(&|b| b as u32));
+    }
     Ok(chans)
 }
 
@@ -355,6 +362,7 @@ pub fn read_exr(path: &Path) -> Result<Field, FileError> {
     }
     // Every attribute reads as what it should be, or the file is refused naming it.
     field.info(&path.display().to_string())?;
+    read_shift(path, &mut field, &file)?;
     Ok(field)
 }
 

@@ -1,6 +1,6 @@
 //! Adaptive allocation: how a pass's samples are spread over the cells by their estimated error.
 
-use crate::ftpd::moments::Moments;
+use crate::ftpd::moments::{CellValue, Moments};
 use rayon::prelude::*;
 
 /// Adaptive allocation of one pass: how many units (of the schedule's per-pass samples; each unit
@@ -34,13 +34,26 @@ use rayon::prelude::*;
 /// and the standard error comes from sums over those groups, so it does not depend on how many
 /// units a cell gets.
 pub fn allocate(cells: &[Moments], unit: u32, budget: u64, max_share: u32) -> Vec<u32> {
+    let values: Vec<CellValue> = cells.par_iter().map(Moments::finalize).collect();
+    allocate_by(cells, &values, unit, budget, max_share)
+}
+
+/// [`allocate`] by the cells' finished `values` (a gradient-domain field's reconstructed ones,
+/// whose errors include the neighbours' share); `cells` gives their sample and batch counts.
+pub fn allocate_by(
+    cells: &[Moments],
+    values: &[CellValue],
+    unit: u32,
+    budget: u64,
+    max_share: u32,
+) -> Vec<u32> {
     let unit = unit.max(1) as f64;
     let kmax = max_share.max(1) as f64;
     // (a², n, k) of cells with an estimate; None: uniform share.
     let est: Vec<Option<(f64, f64, f64)>> = cells
         .par_iter()
-        .map(|m| {
-            let v = m.finalize();
+        .zip(values)
+        .map(|(m, &v)| {
             if !v.valid || m.batches < 2 || !v.estimated {
                 return None;
             }

@@ -6,7 +6,7 @@ use crate::domain::volume::Volume;
 use crate::domain::{CameraView, Plane};
 use crate::ftpd::{self, Params};
 use crate::run_info::{
-    CameraInfo, CellCount, DomainKind, PlaneInfo, RunInfo, VolumeInfo, fmt_duration,
+    CameraInfo, CellCount, DomainKind, GradientInfo, PlaneInfo, RunInfo, VolumeInfo, fmt_duration,
 };
 use crate::scene::Scene;
 
@@ -50,6 +50,10 @@ pub fn describe_run(
         ),
         features: Some(scene.features.to_string()),
         flatland: params.flat.is_some(),
+        gradient: opts.gradient_domain.map(|alpha| GradientInfo {
+            alpha,
+            replicates: crate::gradient_domain::REPLICATES,
+        }),
         kernel: Some(ftpd::kernel_for(params).to_string()),
         pairs: Some(params.design.to_string()),
         guide: params.guide.then(|| "on".into()),

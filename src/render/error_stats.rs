@@ -1,7 +1,8 @@
 //! The relative standard error over a field: what a target error is checked against and what the
 //! adaptive allocation reads.
 
-use crate::ftpd::moments::Moments;
+use crate::field::Field;
+use crate::ftpd::moments::{CellValue, Moments};
 use rayon::prelude::*;
 
 /// Relative standard error over a field (stderr / σ per cell).
@@ -26,11 +27,15 @@ pub struct ErrorStats {
 /// Relative error of one cell: `Some(stderr/σ)` (∞ without an estimate), `None` when the cell is
 /// not counted (σ undefined or 0).
 fn cell_relerr(m: &Moments) -> Option<f64> {
-    let v = m.finalize();
+    value_relerr(&m.finalize(), m.batches)
+}
+
+/// [`cell_relerr`] of a finished value whose cell has `batches` batches.
+fn value_relerr(v: &CellValue, batches: u64) -> Option<f64> {
     if !(v.valid && v.sigma > 0.0) {
         return None;
     }
-    if m.batches < 2 || !v.estimated {
+    if batches < 2 || !v.estimated {
         return Some(f64::INFINITY);
     }
     let r = v.stderr / v.sigma;
@@ -38,7 +43,26 @@ fn cell_relerr(m: &Moments) -> Option<f64> {
 }
 
 pub fn error_stats(cells: &[Moments]) -> ErrorStats {
-    let mut rel: Vec<f64> = cells.par_iter().filter_map(cell_relerr).collect();
+    percentiles(cells.par_iter().filter_map(cell_relerr).collect())
+}
+
+/// [`error_stats`] of the cells `range` of a field as it is finished ([`Field::values`]): a
+/// gradient-domain field's reconstructed values and their errors, else each cell's own.
+pub fn field_error_stats(field: &Field, range: std::ops::Range<usize>) -> ErrorStats {
+    match field.shift {
+        None => error_stats(&field.cells[range]),
+        Some(_) => {
+            let values = field.values();
+            percentiles(
+                range
+                    .filter_map(|k| value_relerr(&values[k], field.cells[k].batches))
+                    .collect(),
+            )
+        }
+    }
+}
+
+fn percentiles(mut rel: Vec<f64>) -> ErrorStats {
     let n = rel.len();
     if n == 0 {
         return ErrorStats::default();

@@ -48,7 +48,7 @@ mod schedule;
 
 pub use allocate::allocate;
 pub use describe::{camera_info, describe_run, plane_info, volume_info};
-pub use error_stats::{ErrorStats, error_stats};
+pub use error_stats::{ErrorStats, error_stats, field_error_stats};
 pub use eta::{CALIBRATION_SECONDS, Eta, estimate_time};
 pub use options::{Adaptive, Budget, RenderOptions, RunStats, StopReason};
 pub use pass::CHUNK;

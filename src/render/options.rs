@@ -68,6 +68,9 @@ pub struct RenderOptions {
     /// Sample only this stripe of the grid ([`Tile::cells`]); the other cells stay empty and are
     /// never visited, so tiles merge by addition into the full run.
     pub tile: Option<Tile>,
+    /// A gradient-domain run with this α: a fresh field keeps its replayed neighbours' sums
+    /// ([`crate::gradient_domain`]).
+    pub gradient_domain: Option<f64>,
 }
 
 impl Default for RenderOptions {
@@ -82,6 +85,7 @@ impl Default for RenderOptions {
             pass_spp: None,
             adaptive: None,
             tile: None,
+            gradient_domain: None,
         }
     }
 }

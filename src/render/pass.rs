@@ -4,6 +4,7 @@
 use crate::field::Field;
 use crate::ftpd::Sample;
 use crate::ftpd::moments::{GroupSums, Moments};
+use crate::gradient_domain::{Replayed, Shift, neighbour, phase};
 use crate::rng::{QMC_GROUP, Sampler};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -67,22 +68,40 @@ where
         samples,
     } = *job;
     let first = cells.start;
+    let dims = field.dims();
+    // A gradient-domain run replays every sample at the cell's upper neighbours
+    // ([`crate::gradient_domain`]) and keeps their sums per replicate beside the cell's own.
+    let layout = field
+        .shift
+        .as_ref()
+        .map(|s| (s.stride(), s.block(), s.axes));
+    let stride = layout.map_or(1, |l| l.0);
+    let mut none = Vec::new();
+    let shift_data: &mut [f64] = match field.shift.as_mut() {
+        Some(s) => &mut s.data[cells.start * stride..cells.end * stride],
+        None => {
+            none.resize(cells.len(), 0.0);
+            &mut none
+        }
+    };
+    let field_cells = &mut field.cells[cells.clone()];
     pool.install(|| {
-        field.cells[cells.clone()]
+        field_cells
             .par_chunks_mut(CHUNK)
+            .zip(shift_data.par_chunks_mut(CHUNK * stride))
             .enumerate()
             // Every chunk its own stealable job. Rayon's default cuts the chunks into a few runs
             // per thread (about four in all on two threads) and runs each run whole once taken,
             // so a thread whose runs were cheap sat idle until the other finished: 9-14 % of
             // the two cores' time on the Cornell box at 48² (docs/performance.md).
             .with_max_len(1)
-            .map(|(ci, chunk)| {
+            .map(|(ci, (chunk, shifts))| {
                 if stop.is_some_and(|s| s.load(Relaxed)) {
                     return false;
                 }
                 let (mut r, mut cap, mut cl, mut n) = (0u64, 0u64, 0u64, 0u64);
-                for (k, cell) in chunk.iter_mut().enumerate() {
-                    let idx = first + ci * CHUNK + k;
+                for (k_cell, cell) in chunk.iter_mut().enumerate() {
+                    let idx = first + ci * CHUNK + k_cell;
                     if done.is_some_and(|d| d[idx]) {
                         continue;
                     }
@@ -94,6 +113,10 @@ where
                         continue;
                     }
                     let mut s = Sampler::new(seed, pass as u64, idx as u64);
+                    let groups_before = cell.groups;
+                    let phase = phase(dims, idx);
+                    let neighbours: [Option<usize>; 3] =
+                        std::array::from_fn(|a| neighbour(dims, idx, a));
                     // Groups of QMC_GROUP samples (the last of a batch may be shorter), numbered
                     // over the pass: each is its own scrambled sequence and one independent unit
                     // of the standard error.
@@ -104,10 +127,41 @@ where
                         for i in 0..spp {
                             let k = i % QMC_GROUP;
                             s.begin_sample(group, k);
+                            let replay = layout.map(|_| s.clone());
                             let smp = kernel(idx, &mut s);
                             r += smp.rays as u64;
                             cap += u64::from(smp.capped);
                             cl += smp.clamped as u64;
+                            if let (Some((stride, block, axes)), Some(replay)) = (layout, replay) {
+                                let mut rec = Replayed {
+                                    base: GroupSums {
+                                        c: smp.c,
+                                        a: smp.cd,
+                                        b: smp.cd2,
+                                    },
+                                    ..Replayed::default()
+                                };
+                                for (a, nb) in neighbours.iter().enumerate().take(axes) {
+                                    let Some(nb) = *nb else { continue };
+                                    let sh = kernel(nb, &mut replay.clone());
+                                    r += sh.rays as u64;
+                                    cap += u64::from(sh.capped);
+                                    cl += sh.clamped as u64;
+                                    rec.shifted[a] = GroupSums {
+                                        c: sh.c,
+                                        a: sh.cd,
+                                        b: sh.cd2,
+                                    };
+                                }
+                                let rep = Shift::replicate(phase, groups_before, group);
+                                Shift::add(
+                                    &mut shifts[k_cell * stride..(k_cell + 1) * stride],
+                                    block,
+                                    rep,
+                                    axes,
+                                    &rec,
+                                );
+                            }
                             sums.add(b.add_unit_to_sums(smp.c, smp.cd, smp.cd2, smp.weight));
                             if k + 1 == QMC_GROUP || i + 1 == spp {
                                 b.add_group(&sums);

@@ -2,8 +2,8 @@
 //! requested, each pass sized by the schedule (or the adaptive allocation) and run over the grid
 //! by [`super::pass`]. The guarantees are in the module documentation of [`crate::render`].
 
-use super::allocate::allocate;
-use super::error_stats::error_stats;
+use super::allocate::{allocate, allocate_by};
+use super::error_stats::field_error_stats;
 use super::pass::{CHUNK, Counters, PassJob, PassSizes, run_pass};
 use super::{InFlight, Progress, RenderOptions, RunError, RunStats, Schedule, StopReason};
 use crate::field::Field;
@@ -196,7 +196,7 @@ impl<'a> Driver<'a> {
         }
         if let Some(target) = budget.target_error
             && pass >= 2
-            && error_stats(&field.cells[self.active.clone()]).p95 <= target
+            && field_error_stats(field, self.active.clone()).p95 <= target
         {
             return Some(StopReason::TargetError);
         }
@@ -222,12 +222,22 @@ impl<'a> Driver<'a> {
                     .cap_total
                     .map_or(self.cells, |c| c.saturating_sub(self.taken).div_ceil(unit));
                 let mut units = vec![0; field.cells.len()];
-                units[self.active.clone()].copy_from_slice(&allocate(
-                    &field.cells[self.active.clone()],
-                    self.unit,
-                    left.min(self.cells),
-                    a.max_share,
-                ));
+                let active = self.active.clone();
+                units[active.clone()].copy_from_slice(&match field.shift {
+                    None => allocate(
+                        &field.cells[active],
+                        self.unit,
+                        left.min(self.cells),
+                        a.max_share,
+                    ),
+                    Some(_) => allocate_by(
+                        &field.cells[active.clone()],
+                        &field.values()[active],
+                        self.unit,
+                        left.min(self.cells),
+                        a.max_share,
+                    ),
+                });
                 Some(units)
             }
             _ => None,
@@ -279,7 +289,7 @@ impl<'a> Driver<'a> {
         self.last_pass = Some(t_pass.elapsed().as_secs_f64());
         self.clock(progress);
         if self.opts.progress && !self.bar.is_hidden() {
-            let e = error_stats(&field.cells[self.active.clone()]);
+            let e = field_error_stats(field, self.active.clone());
             self.bar.set_message(format!(
                 "pass {}, relative error p95 {:.3}",
                 progress.passes, e.p95

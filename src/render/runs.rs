@@ -40,6 +40,9 @@ pub fn run_domain(
 ) -> Result<(Field, RunStats), RunError> {
     let (w, h, d) = domain.dims();
     let mut field = Field::new(w, h, d);
+    if let Some(alpha) = opts.gradient_domain {
+        field = field.with_shift(alpha);
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()?;

@@ -30,6 +30,7 @@
 //! | `sky` | sky or environment map added to the scene file's | `r,g,b` or `file:scale:rotation` |
 //! | `light_scale` | the scene file's lights scaled or switched off (factor 0; absent: none) | `name=factor;…` |
 //! | `flatland` | 2D transport | `true`/`false` (absent: false) |
+//! | `gradient.alpha`, `gradient.replicates` | [`GradientInfo`]: a gradient-domain run ([`crate::gradient_domain`]; absent: an ordinary run) | a number > 0; `16` |
 //! | `seed`, `seeds` | seed; a merge's distinct seeds | integer; `1,2,3` |
 //! | `tile` | tiles ([`Tile`]) | `i/N`; a partial merge lists several, `0/4,1/4` |
 //! | `parts`, `merged` | a merge's parts ([`Part`]) and inputs | `seed@r0-r1;…`; `a.exr;b.exr` |
@@ -49,7 +50,8 @@ mod values;
 mod write;
 
 pub use values::{
-    CameraInfo, CellCount, DomainKind, Part, PlaneInfo, Remaining, VolumeInfo, fmt_parts,
+    CameraInfo, CellCount, DomainKind, GradientInfo, Part, PlaneInfo, Remaining, VolumeInfo,
+    fmt_parts,
 };
 pub use write::{fmt_duration, fmt_vec};
 
@@ -115,6 +117,9 @@ pub struct RunInfo {
     pub light_scale: Option<String>,
     /// Directions confined to the slice plane.
     pub flatland: bool,
+    /// A gradient-domain run: the field keeps its replayed neighbours' sums and is reconstructed
+    /// from them (absent: an ordinary run).
+    pub gradient: Option<GradientInfo>,
     pub kernel: Option<String>,
     /// The deflection pairs of a sample ([`crate::ftpd::Design`] as text); a merge of fields of
     /// different designs lists them.
@@ -182,6 +187,8 @@ const KNOWN: &[&str] = &[
     "sky",
     "light_scale",
     "flatland",
+    "gradient.alpha",
+    "gradient.replicates",
     "kernel",
     "pairs",
     "guide",
@@ -235,6 +242,8 @@ pub const ESTIMATE_KEYS: &[&str] = &[
     "light_scale",
     "volume.box",
     "flatland",
+    "gradient.alpha",
+    "gradient.replicates",
 ];
 
 /// What a resumed run must share with its file beyond [`ESTIMATE_KEYS`]: which random streams,
@@ -291,6 +300,8 @@ impl RunInfo {
                 "sky" => a.sky == b.sky,
                 "light_scale" => a.light_scale == b.light_scale,
                 "flatland" => a.flatland == b.flatland,
+                "gradient.alpha" => by(&a.gradient, &b.gradient, |g| g.alpha.to_bits()),
+                "gradient.replicates" => by(&a.gradient, &b.gradient, |g| g.replicates),
                 "seed" => a.seed == b.seed,
                 "schedule" => a.schedule == b.schedule,
                 "adaptive" => a.adaptive == b.adaptive,

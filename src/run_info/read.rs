@@ -2,8 +2,8 @@
 //! once, its errors naming the attribute and the file.
 
 use super::{
-    CameraInfo, CellCount, DomainKind, InfoError, KNOWN, Part, PlaneInfo, Remaining, RunInfo,
-    VolumeInfo,
+    CameraInfo, CellCount, DomainKind, GradientInfo, InfoError, KNOWN, Part, PlaneInfo, Remaining,
+    RunInfo, VolumeInfo,
 };
 use crate::domain::Tile;
 use crate::ftpd::Weighting;
@@ -25,6 +25,9 @@ fn boolean(s: &str) -> Option<bool> {
         _ => None,
     }
 }
+
+/// What `gradient.replicates` must be: [`crate::gradient_domain::REPLICATES`].
+const REPLICATES_TEXT: &str = "16 (the replicates of a gradient-domain run)";
 
 /// The values of an attribute that an earlier merge joined with `; ` where its inputs differed.
 fn joined(s: &str) -> impl Iterator<Item = &str> {
@@ -204,10 +207,40 @@ impl Reader<'_> {
         info.flatland = self
             .get("flatland", "true or false", boolean)?
             .unwrap_or(false);
+        info.gradient = self.gradient()?;
         info.kernel = self.text("kernel");
         info.pairs = self.text("pairs");
         info.guide = self.text("guide");
         Ok(())
+    }
+
+    /// A gradient-domain run's α (finite, > 0) and replicates (those this version deals samples
+    /// into: another count would give the replicates' sums another meaning).
+    fn gradient(&self) -> Result<Option<GradientInfo>, InfoError> {
+        let Some(alpha) = self.get("gradient.alpha", "a number > 0", |s| {
+            s.parse::<f64>().ok().filter(|a| a.is_finite() && *a > 0.0)
+        })?
+        else {
+            if self.map.contains_key("gradient.replicates") {
+                return Err(InfoError::Missing {
+                    file: self.file.to_string(),
+                    key: "gradient.alpha",
+                    with: "gradient.replicates",
+                });
+            }
+            return Ok(None);
+        };
+        let replicates = self.need(
+            "gradient.replicates",
+            "gradient.alpha",
+            REPLICATES_TEXT,
+            |s| {
+                s.parse()
+                    .ok()
+                    .filter(|&r| r == crate::gradient_domain::REPLICATES)
+            },
+        )?;
+        Ok(Some(GradientInfo { alpha, replicates }))
     }
 
     /// Which streams and cells the samples come from: seed(s), tiles, a merge's parts and inputs.
@@ -308,6 +341,8 @@ mod tests {
             ("spp", "8-16"),
             ("parts", "1@0-4;2@0-2"),
             ("flatland", "false"),
+            ("gradient.alpha", "0.25"),
+            ("gradient.replicates", "16"),
             ("future.key", "kept"),
         ] {
             m.insert(k.to_string(), v.to_string());
@@ -316,6 +351,8 @@ mod tests {
         assert_eq!(info.t0, Some(0.15));
         assert_eq!(info.spp, Some(CellCount::Range(8, 16)));
         assert_eq!(info.tiles.len(), 2);
+        let g = info.gradient.unwrap();
+        assert_eq!((g.alpha, g.replicates), (0.25, 16));
         assert_eq!(info.to_attributes(), m);
         // An earlier merge joined differing progress values: read as the merge now totals them.
         m.insert("elapsed".into(), "1.5; 2".into());
@@ -332,6 +369,28 @@ mod tests {
             "a.exr: attribute 't1' = 'long' is not a number"
         );
         m.insert("t1".into(), "2e0".into());
+        // A gradient-domain run's α and replicates: another count is another layout of sums.
+        for (key, value, expected) in [
+            ("gradient.alpha", "0", "a number > 0"),
+            ("gradient.alpha", "NaN", "a number > 0"),
+            ("gradient.replicates", "8", REPLICATES_TEXT),
+        ] {
+            let mut bad = m.clone();
+            bad.insert(key.into(), value.into());
+            let e = RunInfo::from_attributes(&bad, "a.exr").unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                format!("a.exr: attribute '{key}' = '{value}' is not {expected}")
+            );
+        }
+        assert!(REPLICATES_TEXT.starts_with(&format!("{} ", crate::gradient_domain::REPLICATES)));
+        let mut lone = m.clone();
+        lone.remove("gradient.alpha");
+        let e = RunInfo::from_attributes(&lone, "a.exr").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "a.exr: attribute 'gradient.alpha' is missing, while 'gradient.replicates' is there"
+        );
         m.remove("plane.u");
         let e = RunInfo::from_attributes(&m, "a.exr").unwrap_err();
         assert_eq!(

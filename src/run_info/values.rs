@@ -53,6 +53,14 @@ pub struct VolumeInfo {
     pub spacing: DVec3,
 }
 
+/// A gradient-domain run's reconstruction ([`crate::gradient_domain`]): its weight α of the
+/// cells' own estimates, and the replicates its samples were dealt into.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GradientInfo {
+    pub alpha: f64,
+    pub replicates: usize,
+}
+
 /// Samples (or batches) per cell: a cap, no cap, or the range a merged field holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CellCount {

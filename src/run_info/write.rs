@@ -91,6 +91,10 @@ impl RunInfo {
         put("sky", text(&self.sky));
         put("light_scale", text(&self.light_scale));
         put("flatland", Some(self.flatland.to_string()));
+        if let Some(g) = &self.gradient {
+            put("gradient.alpha", Some(g.alpha.to_string()));
+            put("gradient.replicates", Some(g.replicates.to_string()));
+        }
         put("kernel", text(&self.kernel));
         put("pairs", text(&self.pairs));
         put("guide", text(&self.guide));

@@ -8,7 +8,7 @@ use crate::app::{self, DomainArg, Job, JobDomain, Start};
 use crate::cli::view::{Pair, state_args};
 use crate::field::Field;
 use crate::ftpd::Params;
-use crate::render::{ErrorStats, Hooks, Progress, RunStats, error_stats};
+use crate::render::{ErrorStats, Hooks, Progress, RunStats, field_error_stats};
 use crate::scene::Scene;
 use crate::scene::light::FileLight;
 use crate::scene::load::load_scene_with;
@@ -227,7 +227,7 @@ fn run_generation(shared: &Shared, generation: u64, run: Arc<Prepared>) -> anyho
             generation,
             field: f.clone(),
             progress: p.clone(),
-            error: error_stats(&f.cells),
+            error: field_error_stats(f, 0..f.cells.len()),
             run: run.clone(),
         };
         let mut g = shared.lock();

@@ -187,6 +187,33 @@ impl Bank {
         separable(data, self.dims, f)
     }
 
+    /// The covariance of the filter outputs of orders `p` and `q` at every cell: from a
+    /// gradient-domain grid's replicate deviations when it has them (cells correlated), else
+    /// Σ_i Kp(i) Kq(i) var_i (cells independent).
+    pub(super) fn covariance_of(
+        &self,
+        grid: &Grid,
+        var: &[f64],
+        p: [usize; 3],
+        q: [usize; 3],
+    ) -> Vec<f64> {
+        match &grid.deviations {
+            None => self.covariance(var, p, q),
+            Some(devs) => {
+                let mut out = vec![0.0; var.len()];
+                for d in devs {
+                    let fp = self.apply(d, p);
+                    let fq = if p == q { None } else { Some(self.apply(d, q)) };
+                    let fq = fq.as_ref().unwrap_or(&fp);
+                    for ((o, a), b) in out.iter_mut().zip(&fp).zip(fq) {
+                        *o += a * b;
+                    }
+                }
+                out
+            }
+        }
+    }
+
     /// Σ_i Kp(i) Kq(i) var_i at every cell, for the kernels of orders `p` and `q`.
     pub(super) fn covariance(&self, var: &[f64], p: [usize; 3], q: [usize; 3]) -> Vec<f64> {
         let prods: Vec<AxisFilter> = (0..self.ndim)
@@ -210,7 +237,7 @@ impl Bank {
         let mut cov = Vec::new();
         for (i, &p) in orders.iter().enumerate() {
             for &q in &orders[i..] {
-                cov.push(self.covariance(var, p, q));
+                cov.push(self.covariance_of(grid, var, p, q));
             }
         }
         (vals, cov)

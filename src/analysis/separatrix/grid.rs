@@ -13,6 +13,10 @@ pub struct Grid {
     pub valid: Vec<bool>,
     /// Cell size along each axis in scene units (1 for pixels).
     pub cell: [f64; 3],
+    /// A gradient-domain field's replicate deviations of σ
+    /// ([`crate::gradient_domain::recon::values_and_deviations`]): filter covariances are then
+    /// Σᵣ (F_p δᵣ)(F_q δᵣ), with the correlation between cells, instead of Σᵢ F_p(i) F_q(i) seᵢ².
+    pub deviations: Option<Vec<Vec<f64>>>,
 }
 
 impl Grid {
@@ -21,7 +25,7 @@ impl Grid {
     /// as its standard error, not the 0 its output stores: unknown is not exact, and such cells'
     /// σ can be far off.
     pub fn of_field(field: &Field, cell: [f64; 3]) -> Grid {
-        let vals = field.values();
+        let (vals, deviations) = field.values_and_deviations();
         let ok = |x: f64| x.is_finite();
         Grid {
             dims: [field.width, field.height, field.depth],
@@ -42,6 +46,7 @@ impl Grid {
                 .map(|v| v.valid && ok(v.sigma) && ok(v.stderr))
                 .collect(),
             cell,
+            deviations,
         }
     }
 

@@ -55,7 +55,7 @@ pub(super) fn default_scale(grid: &Grid, tau: f64, z: f64) -> f64 {
         } else {
             ([2, 0, 0], s * s)
         };
-        let v = bank.covariance(&var, o, o);
+        let v = bank.covariance_of(grid, &var, o, o);
         let se: Vec<f64> = v
             .iter()
             .zip(&grid.valid)

@@ -23,6 +23,7 @@
 //! | `valid`                        | UInt8         | 1 where σ is defined (ΣP > 0)                   |
 //! | `samples`, `batches`, `groups` | UInt32        | samples taken; batches (passes) that sampled it; independent groups of samples (for the standard error) |
 //! | `exact.<sum>`                  | Float64       | the raw f64 sums, bit for bit: `exact.sum.w`, `exact.sum.wd`, `exact.sum.wd2`, `exact.sum.fluence.R/G/B`, the product sums over groups `exact.sum.w.w` … `exact.sum.wd2.wd2`, the triple product sums `exact.sum3.w.w.w` … `exact.sum3.wd2.wd2.wd2` |
+//! | `exact.shift.rNN.<sum>`        | Float64       | gradient-domain runs only (`gradient.alpha` in the description): per replicate `r00` … `r15` the samples (`n`), their sums (`w`, `wd`, `wd2`) and those of their replays at the upper neighbour along `x`, `y` and `z` (`x.w` … `z.wd2`), bit for bit ([`crate::gradient_domain::Shift`]) |
 //!
 //! With `samples`, `batches` and `groups`, the `exact.*` arrays are each voxel's whole accumulator, so
 //! [`read_vti`] gives back the field exactly and volumes merge by addition like EXR fields.

@@ -5,7 +5,7 @@ use super::base64::{b64_decode, b64_len};
 use super::{Vti, comment_unescape};
 use crate::field::Field;
 use crate::output::FileError;
-use crate::output::exact::{ExactArrays, read_exact};
+use crate::output::exact::{ExactArrays, read_exact, read_shift};
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -40,6 +40,7 @@ pub fn read_vti(path: &Path) -> Result<Vti, FileError> {
     }
     // Every attribute reads as what it should be, or the file is refused naming it.
     field.info(&path.display().to_string())?;
+    read_shift(path, &mut field, &file)?;
     Ok(Vti {
         field,
         origin: grid.origin,

@@ -6,7 +6,7 @@ use super::{comment_escape, gradient_magnitude};
 use crate::field::Field;
 use crate::ftpd::Weighting;
 use crate::ftpd::moments::{CellValue, Moments};
-use crate::output::exact::{EXACT, EXACT_COMP};
+use crate::output::exact::{EXACT, EXACT_COMP, shift_columns};
 use crate::output::{FileError, f32_of, write_file_atomically};
 use glam::DVec3;
 use std::collections::BTreeMap;
@@ -109,8 +109,8 @@ impl Derived {
         })
     }
 
-    /// The arrays of the file: the view, the exact sums, then `extra` (each checked to hold one
-    /// value per voxel of the `n`).
+    /// The arrays of the file: the view, the exact sums (a gradient-domain run's replayed sums
+    /// among them), then `extra` (each checked to hold one value per voxel of the `n`).
     fn arrays<'a>(
         &'a self,
         path: &Path,
@@ -120,6 +120,10 @@ impl Derived {
     ) -> Result<Vec<Array<'a>>, FileError> {
         let mut arrays = view_arrays(&field.cells, &self.vals, &self.grad, self.radiance);
         arrays.extend(exact_arrays(&field.cells));
+        // A gradient-domain run's replayed sums, read in place as the file is streamed.
+        for c in shift_columns(path, field)? {
+            arrays.push(f64_array(format!("exact.{}", c.name), move |i| c.value(i)));
+        }
         for (name, values) in extra {
             if values.len() != n {
                 return Err(FileError::unfit(

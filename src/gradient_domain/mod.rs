@@ -1,0 +1,193 @@
+//! Gradient-domain estimation (paper eqs. 10-14 over cells, differences from correlated samples).
+//!
+//! Every sample of a cell is replayed at the cell's upper neighbour along each axis: the same
+//! random numbers (the start point's place in its cell, run length, directions, walk decisions),
+//! the start point moved by one cell spacing ("random replay", the simplest shift mapping of
+//! gradient-domain rendering). Walks from the two points follow each other wherever the scene does
+//! not split them, so the difference of the two samples is small except where the transport
+//! changes, and it estimates the difference of the two cells' moments m0 = E[c], m1 = E[cΔ],
+//! m2 = E[cΔ²] with far less noise than two independent cells would. The replayed sample is also
+//! an unbiased sample of the neighbour's own moments (its start point is uniform in that cell), so
+//! it adds to the neighbour's primal estimate: nothing traced is wasted.
+//!
+//! The field is then the screened Poisson reconstruction of the moments in the L2 norm
+//! ([`recon`]): per moment, the values I minimising Σ α²·nⱼ (Iⱼ − Pⱼ)² + Σₑ nₑ (I_b − I_a − Dₑ)²
+//! over cells j (primal estimates P from nⱼ samples) and neighbour edges e (difference estimates D
+//! from nₑ replayed pairs). The solution is linear in the estimates with weights that are sample
+//! counts, so each cell keeps its expectation (the reconstruction is unbiased); σ is eq. 14 of the
+//! reconstructed moments. Where a cell's replicates say the reconstruction is less precise than
+//! the cell's own samples (with those replayed into it), as at a cell of little weight beside
+//! bright ones whose moments the neighbours' differences swamp, the cell keeps its own estimate.
+//!
+//! Everything stored is a sum, so runs still merge, tile and resume by addition. The samples of a
+//! cell are dealt round-robin by QMC group into [`REPLICATES`] independent replicates, each kept
+//! apart: the reconstruction of each replicate alone gives the spread of the reconstructed moments
+//! with every correlation between cells included, which the standard errors of σ and of anything
+//! linear in the field (differences, filters) are computed from.
+
+pub mod recon;
+pub mod solve;
+
+use crate::ftpd::moments::GroupSums;
+
+/// Independent replicates the samples are dealt into (by QMC group, round robin): the units of the
+/// reconstructed field's standard error. 16 replicates give the error estimate 15 degrees of
+/// freedom (its own relative spread about 18 %), at 16 × (1 + 3·(1 + axes)) sums per cell.
+pub const REPLICATES: usize = 16;
+
+/// Weight α of the primal estimates against the differences (α² per sample, differences 1 per
+/// pair); chosen by measurement (docs/performance.md).
+pub const DEFAULT_ALPHA: f64 = 0.5;
+
+/// Bytes a cell of a gradient-domain grid with `axes` axes needs besides an ordinary one's, at
+/// most: its replicates' sums ([`Shift::stride`] f64), and what finishing the field holds at once
+/// when all [`REPLICATES`] + 1 reconstructions ([`recon::values`]) run together: each keeps per
+/// cell the sample counts, primal sums, edge weights and difference sums (5 + 4·axes f64), the
+/// finished moments and the arrays of the solve in progress (11 f64), and one flag.
+pub const fn bytes_per_cell(axes: usize) -> usize {
+    let stored = REPLICATES * (1 + 3 * (1 + axes)) * size_of::<f64>();
+    let per_reconstruction = (5 + 4 * axes + 11) * size_of::<f64>() + size_of::<bool>();
+    stored + (REPLICATES + 1) * per_reconstruction
+}
+
+/// The sums of a gradient-domain run, per cell and replicate: the sample count, the sums
+/// (Σc, ΣcΔ, ΣcΔ²) of the cell's own samples, and those of their replays at the upper neighbour
+/// along each axis (zero where the cell has none).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shift {
+    /// α of the reconstruction.
+    pub alpha: f64,
+    /// Axes with neighbours: 2 for planes and images, 3 for volumes.
+    pub axes: usize,
+    /// Cell-major, [`Shift::stride`] values per cell: per replicate, [n, B0, B1, B2, S₀0, S₀1,
+    /// S₀2, S₁0, …] with B the cell's own sums and Sₐ those of its replays along axis a.
+    pub data: Vec<f64>,
+}
+
+/// A replicate's sums for one cell as [`Shift::add`] takes them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Replayed {
+    pub base: GroupSums,
+    pub shifted: [GroupSums; 3],
+}
+
+impl Shift {
+    pub fn new(cells: usize, axes: usize, alpha: f64) -> Shift {
+        let mut s = Shift {
+            alpha,
+            axes,
+            data: Vec::new(),
+        };
+        s.data = vec![0.0; cells * s.stride()];
+        s
+    }
+
+    /// The axes of a grid of `dims`: 3 for a volume (depth > 1), else 2.
+    pub fn axes_of(dims: (usize, usize, usize)) -> usize {
+        if dims.2 > 1 { 3 } else { 2 }
+    }
+
+    /// Values per replicate of a cell: the count and 3 sums for the cell and each axis.
+    pub fn block(&self) -> usize {
+        1 + 3 * (1 + self.axes)
+    }
+
+    /// Values per cell.
+    pub fn stride(&self) -> usize {
+        REPLICATES * self.block()
+    }
+
+    /// Adds one sample of replicate `rep` (its own sums and its replays) to a cell's values.
+    #[inline]
+    pub fn add(cell: &mut [f64], block: usize, rep: usize, axes: usize, s: &Replayed) {
+        let b = &mut cell[rep * block..(rep + 1) * block];
+        b[0] += 1.0;
+        b[1] += s.base.c;
+        b[2] += s.base.a;
+        b[3] += s.base.b;
+        for a in 0..axes {
+            let o = 4 + 3 * a;
+            b[o] += s.shifted[a].c;
+            b[o + 1] += s.shifted[a].a;
+            b[o + 2] += s.shifted[a].b;
+        }
+    }
+
+    /// Adds the sums of `o` (same grid and axes, checked by the caller).
+    pub fn merge(&mut self, o: &Shift) {
+        for (a, b) in self.data.iter_mut().zip(&o.data) {
+            *a += b;
+        }
+    }
+
+    /// The replicate QMC group `group` of cell `cell`'s pass falls in, counting the groups the
+    /// cell already has: round robin from a phase of the cell ([`phase`]), so that a cell's own
+    /// samples and those replayed into it from its lower neighbours fill different replicates and
+    /// every replicate has samples in a cell after a few groups, not after [`REPLICATES`].
+    #[inline]
+    pub fn replicate(phase: u64, groups_before: u64, group: u32) -> usize {
+        ((phase + groups_before + group as u64) % REPLICATES as u64) as usize
+    }
+}
+
+/// The phase of cell `idx`'s replicates: 5i + 11j + 7k. A cell's lower neighbours along x, y and
+/// z start 5, 11 ≡ −5 and 7 replicates before it, so the samples replayed into an inner cell of a
+/// plane from its two lower neighbours and its own cover all 16 replicates after 6 groups each.
+#[inline]
+pub fn phase(dims: (usize, usize, usize), idx: usize) -> u64 {
+    let (w, h, _) = dims;
+    let (i, j, k) = (idx % w, (idx / w) % h, idx / (w * h));
+    (5 * i as u64 + 11 * j as u64 + 7 * k as u64) % REPLICATES as u64
+}
+
+impl Shift {}
+
+/// The upper neighbour of cell `idx` along `axis` in a grid of `dims` (x fastest), if any.
+#[inline]
+pub fn neighbour(dims: (usize, usize, usize), idx: usize, axis: usize) -> Option<usize> {
+    let (w, h, d) = dims;
+    let (i, j, k) = (idx % w, (idx / w) % h, idx / (w * h));
+    match axis {
+        0 => (i + 1 < w).then_some(idx + 1),
+        1 => (j + 1 < h).then_some(idx + w),
+        _ => (k + 1 < d).then_some(idx + w * h),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn neighbours_stop_at_the_upper_edges() {
+        let dims = (3, 2, 2);
+        assert_eq!(neighbour(dims, 0, 0), Some(1));
+        assert_eq!(neighbour(dims, 2, 0), None);
+        assert_eq!(neighbour(dims, 2, 1), Some(5));
+        assert_eq!(neighbour(dims, 5, 1), None);
+        assert_eq!(neighbour(dims, 5, 2), Some(11));
+        assert_eq!(neighbour(dims, 11, 2), None);
+    }
+
+    #[test]
+    fn an_inner_cell_has_every_replicate_after_six_groups() {
+        let dims = (9, 9, 1);
+        let idx = 4 + 9 * 4;
+        let mut seen = [false; REPLICATES];
+        for src in [idx, idx - 1, idx - 9] {
+            for g in 0..6 {
+                seen[Shift::replicate(phase(dims, src), 0, g)] = true;
+            }
+        }
+        assert!(seen.iter().all(|&s| s), "{seen:?}");
+    }
+
+    #[test]
+    fn replicates_are_dealt_round_robin_across_passes() {
+        let mut seen = [0; REPLICATES];
+        for g in 0..3 * REPLICATES as u32 {
+            seen[Shift::replicate(phase((4, 4, 1), 7), 5, g)] += 1;
+        }
+        assert!(seen.iter().all(|&n| n == 3));
+    }
+}

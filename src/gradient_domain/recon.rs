@@ -1,0 +1,236 @@
+//! The field of a gradient-domain run: the moments reconstructed from the primal sums and the
+//! replayed differences ([`super::solve`]), σ from them (eq. 14), and its standard error from the
+//! spread of the replicates' reconstructions.
+
+use super::solve::System;
+use super::{REPLICATES, Shift, neighbour};
+use crate::ftpd::moments::{CellValue, Moments, sigma_from};
+use crate::math::Rgb;
+use rayon::prelude::*;
+
+/// The reconstructed per-sample moments (E[c], E[cΔ], E[cΔ²]) of every cell from the replicates
+/// `reps` (all of them for the estimate, one for its spread), and per cell whether any sample of
+/// those replicates started in it.
+pub struct Moments3 {
+    pub m: [Vec<f64>; 3],
+    pub sampled: Vec<bool>,
+    /// Σc of the samples that started in the cell or were replayed into it.
+    pub weight: Vec<f64>,
+    /// The plain per-sample moments of the samples that started in the cell or were replayed
+    /// into it (their sums over their count): each cell's own estimate, without its neighbours.
+    pub plain: [Vec<f64>; 3],
+}
+
+/// Reconstructs the moments of the replicates in `reps` of `shift` over a grid of `dims`.
+pub fn reconstruct(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -> Moments3 {
+    let n = dims.0 * dims.1 * dims.2;
+    let (stride, block, axes) = (shift.stride(), shift.block(), shift.axes);
+    let a2 = shift.alpha * shift.alpha;
+    let mut pn = vec![0.0; n];
+    let mut ps = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    let mut edges = vec![vec![0.0; n]; axes];
+    let mut diffs = [
+        vec![vec![0.0; n]; axes],
+        vec![vec![0.0; n]; axes],
+        vec![vec![0.0; n]; axes],
+    ];
+    for j in 0..n {
+        let cell = &shift.data[j * stride..(j + 1) * stride];
+        for &r in reps {
+            let b = &cell[r * block..(r + 1) * block];
+            let cnt = b[0];
+            if cnt == 0.0 {
+                continue;
+            }
+            pn[j] += cnt;
+            for m in 0..3 {
+                ps[m][j] += b[1 + m];
+            }
+            for a in 0..axes {
+                let Some(nb) = neighbour(dims, j, a) else {
+                    continue;
+                };
+                pn[nb] += cnt;
+                edges[a][j] += cnt;
+                for m in 0..3 {
+                    let s = b[4 + 3 * a + m];
+                    ps[m][nb] += s;
+                    diffs[m][a][j] += s - b[1 + m];
+                }
+            }
+        }
+    }
+    let primal: Vec<f64> = pn.iter().map(|p| a2 * p).collect();
+    let sys = System {
+        dims,
+        primal: &primal,
+        edges: &edges,
+    };
+    let m: [Vec<f64>; 3] = std::array::from_fn(|k| {
+        let prhs: Vec<f64> = ps[k].iter().map(|s| a2 * s).collect();
+        sys.solve(&sys.rhs(&prhs, &diffs[k])).0
+    });
+    let plain = std::array::from_fn(|k| {
+        ps[k]
+            .iter()
+            .zip(&pn)
+            .map(|(&s, &p)| if p > 0.0 { s / p } else { 0.0 })
+            .collect()
+    });
+    Moments3 {
+        m,
+        sampled: pn.iter().map(|&p| p > 0.0).collect(),
+        weight: std::mem::take(&mut ps[0]),
+        plain,
+    }
+}
+
+/// The finished values of every cell of a gradient-domain field: σ of the moments reconstructed
+/// from all samples, and its standard error by the delta method over the [`REPLICATES`]
+/// reconstructions of one replicate each (the units of [`Moments::stderr`], with its corrections
+/// for few units and skewness). `base` gives each cell's own fluence and sample count.
+pub fn values(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> Vec<CellValue> {
+    values_and_deviations(shift, dims, base).0
+}
+
+/// [`values`], and per replicate r the linearised deviation of every cell's σ from it,
+/// δᵣ = ∇σ · (Iᵣ − Ī) scaled so that Σᵣ δᵣ(i) δᵣ(j) is the covariance of σ at cells i and j (with
+/// the correction for few units of [`Moments::stderr`], without its skewness factor). Anything
+/// linear in σ (differences, derivative filters) has its variance from the δᵣ filtered alike,
+/// with every correlation the reconstruction puts between cells: this is what the separatrices'
+/// significance reads. 0 at cells without an estimate.
+pub fn values_and_deviations(
+    shift: &Shift,
+    dims: (usize, usize, usize),
+    base: &[Moments],
+) -> (Vec<CellValue>, Vec<Vec<f64>>) {
+    let all: Vec<usize> = (0..REPLICATES).collect();
+    let mut runs: Vec<Moments3> = (0..=REPLICATES)
+        .into_par_iter()
+        .map(|r| {
+            if r == REPLICATES {
+                reconstruct(shift, dims, &all)
+            } else {
+                reconstruct(shift, dims, &[r])
+            }
+        })
+        .collect();
+    let full = runs.pop().expect("the full reconstruction");
+    let n = base.len();
+    let mut dev = vec![vec![0.0; n]; REPLICATES];
+    let values = (0..n)
+        .map(|j| {
+            if !(full.sampled[j] && full.weight[j] > 0.0) {
+                return CellValue::default();
+            }
+            let complete = runs.iter().all(|r| r.sampled[j]);
+            let rec = Candidate::of(j, complete, &full.m, runs.iter().map(|r| &r.m));
+            let plain = Candidate::of(j, complete, &full.plain, runs.iter().map(|r| &r.plain));
+            // The reconstruction where it is the more precise, the cell's own samples where it
+            // is not (a cell of little weight beside bright ones, whose moments the neighbours'
+            // differences would swamp): either estimates the cell's σ.
+            let pick = match (rec.clone(), plain.clone()) {
+                (Some(a), Some(b))
+                    if b.value.estimated
+                        && !(a.value.estimated && a.value.stderr <= b.value.stderr) =>
+                {
+                    b
+                }
+                (Some(a), _) => a,
+                (None, Some(b)) => b,
+                (None, None) => return CellValue::default(),
+            };
+            for (d, p) in dev.iter_mut().zip(pick.deviations) {
+                d[j] = p;
+            }
+            CellValue {
+                estimated: pick.value.estimated && base[j].n > 0,
+                ..pick.value
+            }
+        })
+        .collect();
+    (values, dev)
+}
+
+/// One estimate of a cell's σ (reconstructed or plain) with its replicates' deviations.
+#[derive(Clone)]
+struct Candidate {
+    value: CellValue,
+    deviations: [f64; REPLICATES],
+}
+
+impl Candidate {
+    /// The estimate at cell `j` from the moments `all` of every sample and `reps` of each
+    /// replicate alone (`complete`: every replicate has samples there); `None` where σ is not
+    /// defined (m0 ≤ 0).
+    fn of<'a>(
+        j: usize,
+        complete: bool,
+        all: &[Vec<f64>; 3],
+        reps: impl Iterator<Item = &'a [Vec<f64>; 3]>,
+    ) -> Option<Candidate> {
+        let (m0, m1, m2) = (all[0][j], all[1][j], all[2][j]);
+        if !(m0 > 0.0) {
+            return None;
+        }
+        let (q1, q2) = (m1 / m0, m2 / m0);
+        let sigma = sigma_from(q1, q2);
+        if !(sigma.is_finite() && q1.is_finite() && q2.is_finite()) {
+            return None;
+        }
+        let reps: Vec<[f64; 3]> = reps.map(|m| [m[0][j], m[1][j], m[2][j]]).collect();
+        let mut units = Moments::default();
+        if complete {
+            for m in &reps {
+                units.add_unit(m[0], m[1], m[2], Rgb::ZERO);
+            }
+        }
+        // An error of 0 for σ > 0 is no estimate (the delta method degenerates where the
+        // reconstructed moments leave no variance term): it must not win the choice below.
+        let stderr = if complete && units.has_estimate() {
+            units.stderr()
+        } else {
+            0.0
+        };
+        let estimated = stderr > 0.0 && stderr.is_finite();
+        let mut deviations = [0.0; REPLICATES];
+        if estimated {
+            let g = sigma_gradient(m0, q1, q2);
+            let r = REPLICATES as f64;
+            let mean: [f64; 3] =
+                std::array::from_fn(|k| reps.iter().map(|x| x[k]).sum::<f64>() / r);
+            let scale = ((r - 1.0) / (r - 3.0) / (r * (r - 1.0))).sqrt();
+            for (d, m) in deviations.iter_mut().zip(&reps) {
+                let psi: f64 = (0..3).map(|k| g[k] * (m[k] - mean[k])).sum();
+                *d = if psi.is_finite() { psi * scale } else { 0.0 };
+            }
+        }
+        Some(Candidate {
+            value: CellValue {
+                sigma,
+                mean: q1,
+                m2: q2,
+                stderr: if stderr.is_finite() { stderr } else { 0.0 },
+                weight: m0,
+                valid: true,
+                estimated,
+            },
+            deviations,
+        })
+    }
+}
+
+/// ∂σ/∂(m0, m1, m2) of σ = √q2 + √(q2 − q1²), q1 = m1/m0, q2 = m2/m0 (eq. 14). Where the variance
+/// term v = q2 − q1² is 0 its derivative is unbounded: that term is left out, as the per-cell
+/// error does where v is not resolved ([`Moments::stderr`]).
+fn sigma_gradient(m0: f64, q1: f64, q2: f64) -> [f64; 3] {
+    let v = q2 - q1 * q1;
+    let (dq1, dq2) = if v > 0.0 && q2 > 0.0 {
+        (-q1 / v.sqrt(), 0.5 / q2.sqrt() + 0.5 / v.sqrt())
+    } else if q2 > 0.0 {
+        (0.0, 0.5 / q2.sqrt())
+    } else {
+        (0.0, 0.0)
+    };
+    [-(dq1 * q1 + dq2 * q2) / m0, dq1 / m0, dq2 / m0]
+}
