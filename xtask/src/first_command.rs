@@ -308,7 +308,7 @@ fn report(
 ) -> anyhow::Result<String> {
     let info = field.info(&out.display().to_string())?;
     let spp = crate::equal_time::samples_per_cell(field);
-    let reported = field_error_stats(&field, 0..field.cells.len());
+    let reported = field_error_stats(field, 0..field.cells.len());
     let acc = accuracy(field, reference);
     let wall = cost.map_or("n/a".into(), |c| format!("{:.1}", c.wall));
     let cpu = cost
