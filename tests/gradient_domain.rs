@@ -6,10 +6,20 @@
 use crate::support::bin::ftpd3d;
 use crate::support::files::temp_dir;
 use ftpd3d::output::exr::read_channel;
+use ftpd3d::output::vti::read_vti;
 use std::path::Path;
 
-/// `ftpd` and `ftpd.stderr` of an EXR, and its valid cells.
+/// `ftpd` and `ftpd.stderr` of an EXR (as written), or σ and its error of a VTI volume (as read
+/// back), and the valid cells.
 fn field(path: &Path) -> (Vec<f64>, Vec<f64>, Vec<bool>) {
+    if path.extension().is_some_and(|e| e == "vti") {
+        let v = read_vti(path).unwrap().field.values();
+        return (
+            v.iter().map(|c| c.sigma).collect(),
+            v.iter().map(|c| c.stderr).collect(),
+            v.iter().map(|c| c.valid).collect(),
+        );
+    }
     let get = |name: &str| -> Vec<f64> {
         let (_, _, v) = read_channel(path, name).unwrap();
         v.into_iter().map(f64::from).collect()
@@ -24,7 +34,15 @@ fn field(path: &Path) -> (Vec<f64>, Vec<f64>, Vec<bool>) {
 /// where the plain run has one.
 fn z_scores(name: &str, args: &[&str], spp: u32, ref_spp: u32) -> (Vec<f64>, usize) {
     let dir = temp_dir("gradient_domain", name);
-    let (gd, plain) = (dir.join("gd.exr"), dir.join("plain.exr"));
+    let ext = if args.contains(&"--volume") {
+        "vti"
+    } else {
+        "exr"
+    };
+    let (gd, plain) = (
+        dir.join(format!("gd.{ext}")),
+        dir.join(format!("plain.{ext}")),
+    );
     let run = |out: &Path, extra: &[&str]| {
         let mut a: Vec<&str> = args.to_vec();
         a.extend_from_slice(extra);
@@ -106,5 +124,32 @@ fn reconstructed_flatland_stair_wall_agrees_with_an_independent_long_run() {
     ];
     let (z, cells) = z_scores("flat_stair", &args, 192, 2048);
     assert!(cells > 200, "{cells} cells");
+    assert_calibrated(&z, cells);
+}
+
+#[test]
+fn reconstructed_camera_image_agrees_with_an_independent_long_run() {
+    // Pixel neighbours: the replayed sample starts along the neighbouring pixel's ray.
+    let args = [
+        "--scene",
+        "scenes/cornell_mirror.obj",
+        "--eye",
+        "0,1,3",
+        "--target",
+        "0,1,0",
+        "--size",
+        "32,32",
+    ];
+    let (z, cells) = z_scores("camera", &args, 192, 2048);
+    assert!(cells > 900, "{cells} pixels");
+    assert_calibrated(&z, cells);
+}
+
+#[test]
+fn reconstructed_volume_agrees_with_an_independent_long_run() {
+    // Six neighbours: each voxel's samples are replayed along x, y and z.
+    let args = ["--scene", "scenes/cornell_mirror.obj", "--volume", "10"];
+    let (z, cells) = z_scores("volume", &args, 192, 2048);
+    assert!(cells > 900, "{cells} voxels");
     assert_calibrated(&z, cells);
 }

@@ -197,7 +197,7 @@ fn tiles_merge_into_the_full_gradient_domain_run_bit_for_bit() {
     args.extend(["-o", "merged.exr"]);
     let r = ftpd3d_in(&dir, &args);
     assert!(r.ok, "{}", r.err);
-    assert!(r.err.contains("gradient-domain (α 0.2)"), "{}", r.err);
+    assert!(r.err.contains("gradient-domain (α 0.5)"), "{}", r.err);
     let (full, merged) = (read(&dir, "full.exr"), read(&dir, "merged.exr"));
     assert_same(&merged, &full, "tiles merged = the full run");
     assert_eq!(merged.meta["gradient.alpha"], DEFAULT_ALPHA.to_string());
@@ -386,22 +386,22 @@ fn mixing_with_ordinary_runs_or_another_alpha_is_refused() {
     run_ok(&dir, &["--seed", "1", "-o", "g.exr"]);
     run_ok(
         &dir,
-        &["--seed", "2", "--gradient-alpha", "0.5", "-o", "g05.exr"],
+        &["--seed", "2", "--gradient-alpha", "0.3", "-o", "g03.exr"],
     );
     let r = run(&dir, &["--seed", "3", "-o", "plain.exr"]);
     assert!(r.ok, "{}", r.err);
     for (inputs, want) in [
         (
             ["g.exr", "plain.exr"],
-            "plain.exr: has no gradient.alpha, while g.exr has gradient.alpha = 0.2",
+            "plain.exr: has no gradient.alpha, while g.exr has gradient.alpha = 0.5",
         ),
         (
             ["plain.exr", "g.exr"],
-            "g.exr: gradient.alpha = 0.2, while plain.exr has no gradient.alpha",
+            "g.exr: gradient.alpha = 0.5, while plain.exr has no gradient.alpha",
         ),
         (
-            ["g.exr", "g05.exr"],
-            "g05.exr: gradient.alpha = 0.5 differs from g.exr's 0.2",
+            ["g.exr", "g03.exr"],
+            "g03.exr: gradient.alpha = 0.3 differs from g.exr's 0.5",
         ),
     ] {
         let r = ftpd3d_in(&dir, &["merge", inputs[0], inputs[1], "-o", "m.exr"]);
@@ -434,7 +434,7 @@ fn mixing_with_ordinary_runs_or_another_alpha_is_refused() {
         ],
     );
     assert!(
-        r.ok && r.err.contains("gradient-domain (α 0.2, 16 replicates)"),
+        r.ok && r.err.contains("gradient-domain (α 0.5, 16 replicates)"),
         "{}",
         r.err
     );

@@ -122,6 +122,8 @@ impl<'py> RunKeywords<'py> {
             pass_spp: k.get("pass_spp", None)?,
             adaptive: k.get("adaptive", None)?,
             adaptive_cap: k.get("adaptive_cap", None)?,
+            gradient_domain: k.get("gradient_domain", false)?,
+            gradient_alpha: k.get("gradient_alpha", None)?,
             seed: k.get("seed", run_default.seed as i64)?,
             threads: k.get("threads", 0)?,
             tile: k.get("tile", None)?,

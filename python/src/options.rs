@@ -127,6 +127,8 @@ pub struct SamplingArgs {
     pub pass_spp: Option<i64>,
     pub adaptive: Option<bool>,
     pub adaptive_cap: Option<i64>,
+    pub gradient_domain: bool,
+    pub gradient_alpha: Option<f64>,
     pub seed: i64,
     pub threads: i64,
     pub tile: Option<String>,
@@ -174,6 +176,18 @@ impl SamplingArgs {
                 "adaptive_cap=0: a cell must be allowed at least the uniform share",
             ));
         }
+        if let Some(a) = self.gradient_alpha {
+            if !self.gradient_domain {
+                return Err(param(
+                    "gradient_alpha applies to gradient-domain runs: add gradient_domain=True",
+                ));
+            }
+            if !(a > 0.0 && a.is_finite()) {
+                return Err(param(format!(
+                    "gradient_alpha={a}: the weight of a cell's own estimate must be a number > 0"
+                )));
+            }
+        }
         let tile = match &self.tile {
             None => None,
             Some(t) => Some(
@@ -189,8 +203,10 @@ impl SamplingArgs {
             target_error: self.target_error,
             adaptive: self.adaptive,
             adaptive_cap,
-            // Not offered from Python (yet): an ordinary run.
-            gradient_domain: None,
+            gradient_domain: self.gradient_domain.then(|| {
+                self.gradient_alpha
+                    .unwrap_or(ftpd3d::gradient_domain::DEFAULT_ALPHA)
+            }),
             seed,
             threads,
             tile,

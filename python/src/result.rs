@@ -90,8 +90,9 @@ const TEXT_KEYS: [&str; 16] = [
 
 /// The description's keys whose numbers are counts (int); every other number is a float, so a
 /// key's type does not change with its value (an angle of `2` is `2.0`).
-const COUNT_KEYS: [&str; 10] = [
+const COUNT_KEYS: [&str; 11] = [
     "seed",
+    "gradient.replicates",
     "seeds",
     "spp",
     "batches",

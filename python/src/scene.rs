@@ -430,7 +430,7 @@ impl Scene {
     // What help() shows: the defaults keywords::RunKeywords reads, as Python values (a test holds
     // them equal).
     #[pyo3(
-        text_signature = "(self, slice='z=0', *, res=256, window=None, flatland=False, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, slice='z=0', *, res=256, window=None, flatland=False, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, gradient_domain=False, gradient_alpha=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
     fn slice<'py>(
         &self,
@@ -456,7 +456,7 @@ impl Scene {
     #[pyo3(signature = (slice = "z=0".to_string(), *, res = app::DEFAULT_RES as i64, window = None,
         **options))]
     #[pyo3(
-        text_signature = "(self, slice='z=0', *, res=256, window=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, slice='z=0', *, res=256, window=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, gradient_domain=False, gradient_alpha=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
     fn flatland<'py>(
         &self,
@@ -477,7 +477,7 @@ impl Scene {
         fov = app::DEFAULT_FOV_DEG,
         size = (app::DEFAULT_IMAGE_SIZE.0 as i64, app::DEFAULT_IMAGE_SIZE.1 as i64), **options))]
     #[pyo3(
-        text_signature = "(self, name=None, *, eye=None, target=None, up=None, fov=40.0, size=(512, 512), spp=None, time=None, target_error=None, seed=1, weighting='importance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, name=None, *, eye=None, target=None, up=None, fov=40.0, size=(512, 512), spp=None, time=None, target_error=None, seed=1, weighting='importance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, gradient_domain=False, gradient_alpha=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn camera<'py>(
@@ -522,7 +522,7 @@ impl Scene {
     /// and estimator keywords of `slice`.
     #[pyo3(signature = (res, *, r#box = None, **options))]
     #[pyo3(
-        text_signature = "(self, res, *, box=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
+        text_signature = "(self, res, *, box=None, spp=None, time=None, target_error=None, seed=1, weighting='radiance', t0=None, t1=None, angle=2.0, max_bounces=32, radiance_bounces=None, pairs=None, guide=False, batches=8, pass_spp=None, adaptive=None, adaptive_cap=None, gradient_domain=False, gradient_alpha=None, threads=0, tile=None, separatrices=False, sep_threshold=3.0, sep_scale=None, sep_tau=None, progress=None)"
     )]
     fn volume<'py>(
         &self,

@@ -87,6 +87,10 @@ def test_other_domains_and_options_match_the_command_line(scene, cli, tmp_path):
             lambda: scene.flatland("z=0", res=16, spp=8, pairs="1,1,1,1", **same),
         ),
         (
+            ["--slice", "z=0", "--res", 16, "--spp", 64, "--gradient-domain", "--gradient-alpha", 0.3],
+            lambda: scene.slice("z=0", res=16, spp=64, gradient_domain=True, gradient_alpha=0.3, **same),
+        ),
+        (
             ["--slice", "z=0", "--res", 16, "--target-error", 0.3, "--time", 30],
             lambda: scene.slice("z=0", res=16, target_error=0.3, time=30, **same),
         ),
