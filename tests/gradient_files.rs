@@ -6,8 +6,8 @@
 
 use crate::driver::{Setup, cornell};
 use crate::support::{
-    Run, assert_resume_keeps, exr_parts, ftpd3d_in, run_on_1_and_2_threads, scene_path,
-    small_slice, temp_dir,
+    Run, assert_resume_keeps, cornell_12_in, exr_parts, ftpd3d_in, run_on_1_and_2_threads,
+    scene_path, small_slice, temp_dir,
 };
 use ftpd3d::app;
 use ftpd3d::field::Field;
@@ -26,25 +26,9 @@ fn cornell_path() -> String {
 }
 
 /// A gradient-domain run of the 12² slice z = 0 of the Cornell box, radiance-weighted, 8 samples
-/// in 4 passes, plus `extra` flags, in `dir`.
+/// in 4 passes, plus `extra` flags, in `dir` ([`cornell_12_in`]).
 fn run(dir: &Path, extra: &[&str]) -> Run {
-    let scene = cornell_path();
-    let mut args = vec![
-        "--scene",
-        scene.as_str(),
-        "--slice",
-        "z=0",
-        "--res",
-        "12",
-        "--spp",
-        "8",
-        "--batches",
-        "4",
-        "--quiet",
-        "--no-png",
-    ];
-    args.extend_from_slice(extra);
-    ftpd3d_in(dir, &args)
+    cornell_12_in(dir, extra)
 }
 
 fn run_ok(dir: &Path, extra: &[&str]) {

@@ -2,7 +2,7 @@
 //! bit for bit, mismatched or repeated parts are refused, and the Slurm examples work with a
 //! stand-in `sbatch` and, where there is one, on a real Slurm cluster.
 
-use crate::support::{Run, VtiImage, ftpd3d_in, read_vti, scene_path, temp_dir};
+use crate::support::{Run, VtiImage, cornell_12_in, ftpd3d_in, read_vti, scene_path, temp_dir};
 use ftpd3d::field::Field;
 use ftpd3d::ftpd::moments::Moments;
 use ftpd3d::output::exr::{read_channel, read_exr, write_exr};
@@ -18,23 +18,7 @@ fn cornell() -> String {
 
 /// A small slice of the Cornell box, radiance-weighted (fluence sums too), plus `extra` flags.
 fn run(dir: &Path, extra: &[&str]) {
-    let scene = cornell();
-    let mut args = vec![
-        "--scene",
-        scene.as_str(),
-        "--slice",
-        "z=0",
-        "--res",
-        "12",
-        "--spp",
-        "8",
-        "--batches",
-        "4",
-        "--quiet",
-        "--no-png",
-    ];
-    args.extend_from_slice(extra);
-    let Run { ok, err, .. } = ftpd3d_in(dir, &args);
+    let Run { ok, err, .. } = cornell_12_in(dir, extra);
     assert!(ok, "{extra:?}: {err}");
 }
 

@@ -181,6 +181,26 @@ fn listens_on_loopback_only(port: u16) -> bool {
     !listening.is_empty() && listening.iter().all(|a| a == &format!("0100007F{suffix}"))
 }
 
+/// Runs a save's `command` again in `dir` with its output renamed `again`, and checks that it
+/// writes the saved file bit for bit (every channel); returns the saved file's path.
+pub(crate) fn rerun_saved(dir: &Path, command: &str, again: &str) -> std::path::PathBuf {
+    let mut args = words(command);
+    assert_eq!(args[0], "ftpd3d", "{command}");
+    let o = args.iter().position(|a| a == "-o").unwrap();
+    let saved = dir.join(&args[o + 1]);
+    assert!(saved.is_file(), "{}", saved.display());
+    args[o + 1] = again.into();
+    let r = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
+        .current_dir(dir)
+        .args(&args[1..])
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_same_channels(&saved, &dir.join(again));
+    saved
+}
+
 /// Every part's channels of two EXR files: the same names and bit-identical samples.
 pub(crate) fn assert_same_channels(a: &Path, b: &Path) {
     let (pa, pb) = (exr_parts(a), exr_parts(b));
@@ -363,20 +383,7 @@ fn serves_token_holders_the_field_and_saves_what_the_command_line_writes() {
     assert_eq!(c, 200, "{saved}");
     assert!(saved.contains("\"exact\":true"), "{saved}");
     let command = json_string(&saved, "command");
-    let mut args = words(&command);
-    assert_eq!(args[0], "ftpd3d", "{command}");
-    let o = args.iter().position(|a| a == "-o").unwrap();
-    let saved_exr = dir.join(&args[o + 1]);
-    assert!(saved_exr.is_file(), "{}", saved_exr.display());
-    args[o + 1] = "again.exr".into();
-    let r = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .current_dir(&dir)
-        .args(&args[1..])
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_same_channels(&saved_exr, &dir.join("again.exr"));
+    rerun_saved(&dir, &command, "again.exr");
 
     // SIGTERM ends it within 5 s.
     sigterm(&v.child);
@@ -417,18 +424,7 @@ fn adaptive_save_at_a_pass_boundary_is_the_commands_output() {
     let command = json_string(&saved, "command");
     assert!(command.contains("--adaptive"), "{command}");
     assert!(saved.contains("\"exact\":true"), "{saved}");
-    let mut args = words(&command);
-    let o = args.iter().position(|a| a == "-o").unwrap();
-    let saved_exr = dir.join(&args[o + 1]);
-    args[o + 1] = "again.exr".into();
-    let r = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .current_dir(&dir)
-        .args(&args[1..])
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_same_channels(&saved_exr, &dir.join("again.exr"));
+    rerun_saved(&dir, &command, "again.exr");
 }
 
 /// The scene file's lights are state like any flag: the status names them, a URL switches one off
@@ -472,18 +468,7 @@ fn a_scene_light_switched_off_from_the_url_is_saved_as_its_command() {
     assert_eq!(c, 200, "{saved}");
     let command = json_string(&saved, "command");
     assert!(command.contains("--light-scale light=0"), "{command}");
-    let mut args = words(&command);
-    let o = args.iter().position(|a| a == "-o").unwrap();
-    let saved_exr = dir.join(&args[o + 1]);
-    args[o + 1] = "again.exr".into();
-    let r = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .current_dir(&dir)
-        .args(&args[1..])
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_same_channels(&saved_exr, &dir.join("again.exr"));
+    rerun_saved(&dir, &command, "again.exr");
     // A name the scene lacks is the command line's error, on the page.
     let (c, _) = v.post("/state?light-scale=bulb%3D0");
     assert_eq!(c, 200);

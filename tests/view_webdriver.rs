@@ -5,7 +5,7 @@
 //! prints writes, bit for bit.
 
 use crate::support::{in_ci, scene_path, skip_without, temp_dir};
-use crate::view::{assert_same_channels, start, words};
+use crate::view::{rerun_saved, start};
 use serde_json::{Value, json};
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -246,19 +246,7 @@ fn save_and_compare(d: &Driver, dir: &Path, again: &str) -> String {
         .unwrap()
         .trim()
         .to_string();
-    let mut args = words(&command);
-    let o = args.iter().position(|a| a == "-o").unwrap();
-    let saved = dir.join(&args[o + 1]);
-    assert!(saved.is_file(), "{}", saved.display());
-    args[o + 1] = again.into();
-    let r = Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
-        .current_dir(dir)
-        .args(&args[1..])
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_same_channels(&saved, &dir.join(again));
+    rerun_saved(dir, &command, again);
     command
 }
 

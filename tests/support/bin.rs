@@ -79,6 +79,28 @@ pub fn assert_resume_keeps<T: PartialEq + std::fmt::Debug>(
     assert_eq!(&read(), one_go, "resumed equals one go");
 }
 
+/// A run in `dir` of the 12² slice z = 0 of the shipped Cornell box, radiance-weighted, 8 samples
+/// in 4 passes, quiet and without previews, plus `extra` flags: the small run of the file tests.
+pub fn cornell_12_in(dir: &Path, extra: &[&str]) -> Run {
+    let scene = crate::support::scene_path("cornell_mirror.obj");
+    let mut args = vec![
+        "--scene",
+        scene.to_str().unwrap(),
+        "--slice",
+        "z=0",
+        "--res",
+        "12",
+        "--spp",
+        "8",
+        "--batches",
+        "4",
+        "--quiet",
+        "--no-png",
+    ];
+    args.extend_from_slice(extra);
+    ftpd3d_in(dir, &args)
+}
+
 /// Runs the ftpd3d binary with `args` in `dir`.
 pub fn ftpd3d_in(dir: &Path, args: &[&str]) -> Run {
     run(Command::new(env!("CARGO_BIN_EXE_ftpd3d"))
