@@ -231,7 +231,12 @@ impl Candidate {
         if !(sigma.is_finite() && q1.is_finite() && q2.is_finite()) {
             return None;
         }
-        let reps: Vec<[f64; 3]> = reps.map(|m| [m[0][j], m[1][j], m[2][j]]).collect();
+        // On the stack: this runs for every cell, twice.
+        let mut at = [[0.0; 3]; REPLICATES];
+        for (a, m) in at.iter_mut().zip(reps) {
+            *a = [m[0][j], m[1][j], m[2][j]];
+        }
+        let reps = at;
         let mut units = Moments::default();
         if complete {
             for m in &reps {
