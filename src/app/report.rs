@@ -36,10 +36,11 @@ pub fn summary(field: &Field, stats: &RunStats, error: &ErrorStats, params: &Par
             "\nfield reconstructed from each cell's samples and its neighbours' replayed \
              differences (gradient domain, screened Poisson in L2, α {}); its standard errors \
              come from {} independent replicates and include the correlation between cells \
-             (each sample above was also traced at {} neighbours)",
+             (each sample above was also traced at {} neighbours){}",
             s.alpha,
             crate::gradient_domain::REPLICATES,
-            s.axes
+            s.axes,
+            difference_share_note(s, field.dims())
         ),
         None => String::new(),
     };
@@ -284,6 +285,35 @@ pub fn power(p: f64) -> String {
     } else {
         text
     }
+}
+
+/// What the replayed differences gained ([`crate::gradient_domain::difference_share`]), and
+/// whether that pays for tracing each sample at the neighbours too.
+fn difference_share_note(
+    shift: &crate::gradient_domain::Shift,
+    dims: (usize, usize, usize),
+) -> String {
+    let Some(share) = crate::gradient_domain::difference_share(shift, dims) else {
+        return String::new();
+    };
+    let even = 1.0 / (1.0 + shift.axes as f64);
+    let verdict = if share.iter().all(|&x| x < even) {
+        "it pays"
+    } else if share.iter().all(|&x| x >= even) {
+        "it does not pay here: a plain run of the same time estimates the differences at least \
+         as well"
+    } else {
+        "it pays for some moments only"
+    };
+    format!(
+        "\nneighbour differences: {:.2}, {:.2}, {:.2} (m0, m1, m2) of the per-sample variance of \
+         independent cells' differences; the replay pays below {even:.2}, as each sample is \
+         traced from {} starts: {verdict}",
+        share[0],
+        share[1],
+        share[2],
+        1 + shift.axes
+    )
 }
 
 #[cfg(test)]

@@ -142,6 +142,71 @@ pub fn phase(dims: (usize, usize, usize), idx: usize) -> u64 {
 
 impl Shift {}
 
+/// How much the replayed differences gain over those of independent cells: per moment (m0, m1,
+/// m2), the variance of one replayed pair's difference over the sum of the two cells' variances
+/// per sample (what the difference of two independent samples would have), pooled over every
+/// neighbour pair. 0 where the replayed walks never part, about 1 where they always do. Each
+/// variance is read off the spread of the [`REPLICATES`] replicates' means, weighted by their
+/// counts. `None` without two replicates that sampled a pair.
+///
+/// A sample is traced at the cell and at `axes` neighbours, so at equal time the direct
+/// differences beat those of independent cells only where this is below 1 / (1 + axes): the
+/// summary of a gradient-domain run reports it so that a scene where the replay does not pay says
+/// so (docs/performance.md#gradient-domain).
+pub fn difference_share(shift: &Shift, dims: (usize, usize, usize)) -> Option<[f64; 3]> {
+    let (stride, block, axes) = (shift.stride(), shift.block(), shift.axes);
+    let n = dims.0 * dims.1 * dims.2;
+    let rep =
+        |j: usize, r: usize| &shift.data[j * stride + r * block..j * stride + (r + 1) * block];
+    // The count-weighted spread of per-replicate means about their pooled mean: Σᵣ nᵣ (xᵣ − x̄)²
+    // over (R − 1) estimates the variance of one sample.
+    let spread = |items: &mut dyn Iterator<Item = (f64, f64)>| -> Option<f64> {
+        let (mut cnt, mut sum, mut k) = (0.0, 0.0, 0usize);
+        let mut seen = [(0.0, 0.0); REPLICATES];
+        for (c, s) in items {
+            if c > 0.0 {
+                seen[k] = (c, s);
+                k += 1;
+                cnt += c;
+                sum += s;
+            }
+        }
+        if k < 2 {
+            return None;
+        }
+        let mean = sum / cnt;
+        let ss: f64 = seen[..k]
+            .iter()
+            .map(|&(c, s)| c * (s / c - mean).powi(2))
+            .sum();
+        Some(ss / (k - 1) as f64)
+    };
+    let (mut num, mut den) = ([0.0; 3], [0.0; 3]);
+    let mut any = false;
+    for j in 0..n {
+        for a in 0..axes {
+            let Some(nb) = neighbour(dims, j, a) else {
+                continue;
+            };
+            for m in 0..3 {
+                let d = spread(&mut (0..REPLICATES).map(|r| {
+                    let b = rep(j, r);
+                    (b[0], b[4 + 3 * a + m] - b[1 + m])
+                }));
+                let pj = spread(&mut (0..REPLICATES).map(|r| (rep(j, r)[0], rep(j, r)[1 + m])));
+                let pn = spread(&mut (0..REPLICATES).map(|r| (rep(nb, r)[0], rep(nb, r)[1 + m])));
+                if let (Some(d), Some(pj), Some(pn)) = (d, pj, pn) {
+                    num[m] += d;
+                    den[m] += pj + pn;
+                    any = true;
+                }
+            }
+        }
+    }
+    let share: [f64; 3] = std::array::from_fn(|m| if den[m] > 0.0 { num[m] / den[m] } else { 0.0 });
+    (any && share.iter().all(|x| x.is_finite())).then_some(share)
+}
+
 /// The upper neighbour of cell `idx` along `axis` in a grid of `dims` (x fastest), if any.
 #[inline]
 pub fn neighbour(dims: (usize, usize, usize), idx: usize, axis: usize) -> Option<usize> {
@@ -180,6 +245,66 @@ mod tests {
             }
         }
         assert!(seen.iter().all(|&s| s), "{seen:?}");
+    }
+
+    /// A grid whose replicates hold, per cell, `k` samples of unit variance: the replays of a
+    /// cell either equal the cell's own sums (`same`: walks that never part, in a field without
+    /// gradient) or are independent of everything (`!same`).
+    fn grid(same: bool, seed: u64) -> (Shift, (usize, usize, usize)) {
+        let dims = (12, 10, 1);
+        let cells = dims.0 * dims.1;
+        let mut s = Shift::new(cells, 2, 0.5);
+        let (stride, block) = (s.stride(), s.block());
+        let mut rng = crate::rng::Sampler::new(seed, 0, 0);
+        let k: f64 = 16.0;
+        // The sum of k unit-variance samples: normal with variance k (Box-Muller).
+        let mut normal = move || {
+            let (u, v) = (rng.next_f64().max(1e-300), rng.next_f64());
+            (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos() * k.sqrt()
+        };
+        for j in 0..cells {
+            for r in 0..REPLICATES {
+                let b = &mut s.data[j * stride + r * block..j * stride + (r + 1) * block];
+                b[0] = k;
+                for m in 0..3 {
+                    b[1 + m] = 5.0 * k + normal();
+                }
+            }
+        }
+        for j in 0..cells {
+            for a in 0..2 {
+                for r in 0..REPLICATES {
+                    for m in 0..3 {
+                        let v = match neighbour(dims, j, a) {
+                            Some(_) if same => s.data[j * stride + r * block + 1 + m],
+                            Some(_) => 5.0 * k + normal(),
+                            None => 0.0,
+                        };
+                        s.data[j * stride + r * block + 4 + 3 * a + m] = v;
+                    }
+                }
+            }
+        }
+        (s, dims)
+    }
+
+    /// Replays equal to the cell's own samples: their difference has no variance. Independent
+    /// replays: the difference has the variance of two independent samples, within what 15
+    /// degrees of freedom over the grid's pairs and cells allow (relative standard errors of
+    /// about √(2 / (15 · pairs)) for the numerator and √(2 / (15 · cells)) for the denominator,
+    /// whose cells recur in up to four pairs; 4 of them).
+    #[test]
+    fn difference_share_is_zero_for_equal_replays_and_one_for_independent_ones() {
+        let (s, dims) = grid(true, 3);
+        assert_eq!(difference_share(&s, dims), Some([0.0; 3]));
+        let (s, dims) = grid(false, 4);
+        let share = difference_share(&s, dims).unwrap();
+        let pairs = (11 * 10 + 12 * 9) as f64;
+        let tol = 4.0 * (2.0 / (15.0 * pairs) + 2.0 / (15.0 * 120.0)).sqrt();
+        for x in share {
+            assert!((x - 1.0).abs() <= tol, "{share:?} (tolerance {tol})");
+        }
+        assert_eq!(difference_share(&Shift::new(4, 2, 0.5), (2, 2, 1)), None);
     }
 
     #[test]
