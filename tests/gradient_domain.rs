@@ -154,11 +154,11 @@ fn reconstructed_volume_agrees_with_an_independent_long_run() {
     assert_calibrated(&z, cells);
 }
 
-/// The summary says how much the replayed differences gained over independent cells' and
+/// The summary says how much the replayed differences of σ gained over independent cells' and
 /// whether that pays for the replay: in the Cornell box, where walks from neighbouring points
-/// mostly stay together, every moment's share is below the break-even of 1/3 at 48² (0.18-0.24
-/// at 32 spp over seeds 1, 3, 4; 0.14-0.19 at 128 spp). At 24² it was 0.26-0.39: walks from
-/// points twice as far apart part more often.
+/// mostly stay together, the share is well below the break-even of 1/3 at 48² (0.12 at 64 spp).
+/// On every shipped scene the verdict agreed with the equal-time errors
+/// (docs/performance.md#gradient-domain).
 #[test]
 fn the_summary_says_whether_the_replay_pays() {
     let dir = temp_dir("gradient_domain", "share");
@@ -183,18 +183,17 @@ fn the_summary_says_whether_the_replay_pays() {
     ]);
     assert!(r.ok, "{}", r.err);
     let text = format!("{}{}", r.out, r.err);
+    let prefix = "neighbour differences of σ: ";
     let line = text
         .lines()
-        .find(|l| l.starts_with("neighbour differences: "))
+        .find(|l| l.starts_with(prefix))
         .unwrap_or_else(|| panic!("no difference share in\n{text}"));
-    let shares: Vec<f64> = line["neighbour differences: ".len()..]
-        .split(" (")
+    let share: f64 = line[prefix.len()..]
+        .split(' ')
         .next()
         .unwrap()
-        .split(", ")
-        .map(|x| x.parse().unwrap())
-        .collect();
-    assert_eq!(shares.len(), 3, "{line}");
-    assert!(shares.iter().all(|&x| (0.0..0.3).contains(&x)), "{line}");
-    assert!(line.ends_with(": it pays"), "{line}");
+        .parse()
+        .unwrap();
+    assert!((0.0..0.25).contains(&share), "{line}");
+    assert!(line.ends_with(": it pays here"), "{line}");
 }

@@ -287,8 +287,8 @@ pub fn power(p: f64) -> String {
     }
 }
 
-/// What the replayed differences gained ([`crate::gradient_domain::difference_share`]), and
-/// whether that pays for tracing each sample at the neighbours too.
+/// What the replayed differences of σ gained ([`crate::gradient_domain::difference_share`]), and
+/// whether that pays for tracing each sample from the neighbours' starts too.
 fn difference_share_note(
     shift: &crate::gradient_domain::Shift,
     dims: (usize, usize, usize),
@@ -297,21 +297,16 @@ fn difference_share_note(
         return String::new();
     };
     let even = 1.0 / (1.0 + shift.axes as f64);
-    let verdict = if share.iter().all(|&x| x < even) {
-        "it pays"
-    } else if share.iter().all(|&x| x >= even) {
+    let verdict = if share < even {
+        "it pays here"
+    } else {
         "it does not pay here: a plain run of the same time estimates the differences at least \
          as well"
-    } else {
-        "it pays for some moments only"
     };
     format!(
-        "\nneighbour differences: {:.2}, {:.2}, {:.2} (m0, m1, m2) of the per-sample variance of \
-         independent cells' differences; the replay pays below {even:.2}, as each sample is \
-         traced from {} starts: {verdict}",
-        share[0],
-        share[1],
-        share[2],
+        "\nneighbour differences of σ: {share:.2} of the variance per sample that independent \
+         cells' differences would have; the replay pays below {even:.2} (each sample is traced \
+         from {} starts): {verdict}",
         1 + shift.axes
     )
 }

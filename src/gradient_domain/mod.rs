@@ -28,7 +28,7 @@
 pub mod recon;
 pub mod solve;
 
-use crate::ftpd::moments::GroupSums;
+use crate::ftpd::moments::{GroupSums, sigma_from};
 
 /// Independent replicates the samples are dealt into (by QMC group, round robin): the units of the
 /// reconstructed field's standard error. 16 replicates give the error estimate 15 degrees of
@@ -142,69 +142,73 @@ pub fn phase(dims: (usize, usize, usize), idx: usize) -> u64 {
 
 impl Shift {}
 
-/// How much the replayed differences gain over those of independent cells: per moment (m0, m1,
-/// m2), the variance of one replayed pair's difference over the sum of the two cells' variances
-/// per sample (what the difference of two independent samples would have), pooled over every
-/// neighbour pair. 0 where the replayed walks never part, about 1 where they always do. Each
-/// variance is read off the spread of the [`REPLICATES`] replicates' means, weighted by their
-/// counts. `None` without two replicates that sampled a pair.
+/// How much the replayed differences of σ gain over those of independent cells: the variance of
+/// σ's difference across a replayed neighbour pair over the sum of the two cells' variances of σ
+/// (what independent cells' difference would have), each per sample and summed over every
+/// neighbour pair, so that the pairs weigh as much as their σ's errors do in the field's error.
+/// 0 where the replayed walks never part, about 1 where they always do. Per replicate, σ (eq.
+/// 14) of the cell's own sums, of their replays into the neighbour, and of the neighbour's own;
+/// each variance is the spread of the [`REPLICATES`] replicates' values weighted by their sample
+/// counts. σ, not the moments: near a point light m0 differs wildly between neighbours while σ,
+/// a ratio of moments, does not. `None` without a pair that two replicates sampled.
 ///
 /// A sample is traced at the cell and at `axes` neighbours, so at equal time the direct
 /// differences beat those of independent cells only where this is below 1 / (1 + axes): the
 /// summary of a gradient-domain run reports it so that a scene where the replay does not pay says
 /// so (docs/performance.md#gradient-domain).
-pub fn difference_share(shift: &Shift, dims: (usize, usize, usize)) -> Option<[f64; 3]> {
+pub fn difference_share(shift: &Shift, dims: (usize, usize, usize)) -> Option<f64> {
     let (stride, block, axes) = (shift.stride(), shift.block(), shift.axes);
     let n = dims.0 * dims.1 * dims.2;
     let rep =
         |j: usize, r: usize| &shift.data[j * stride + r * block..j * stride + (r + 1) * block];
-    // The count-weighted spread of per-replicate means about their pooled mean: Σᵣ nᵣ (xᵣ − x̄)²
-    // over (R − 1) estimates the variance of one sample.
-    let spread = |items: &mut dyn Iterator<Item = (f64, f64)>| -> Option<f64> {
+    // σ of one replicate's sums at offset `o` (the cell's own at 1, a replay's at 4 + 3a).
+    let sigma = |b: &[f64], o: usize| -> Option<f64> {
+        let m0 = b[o];
+        if !(b[0] > 0.0 && m0 > 0.0) {
+            return None;
+        }
+        let s = sigma_from(b[o + 1] / m0, b[o + 2] / m0);
+        s.is_finite().then_some(s)
+    };
+    // The count-weighted spread of per-replicate values about their weighted mean:
+    // Σᵣ nᵣ (xᵣ − x̄)² over (R − 1), the variance of one sample's worth.
+    let spread = |items: &mut dyn Iterator<Item = Option<(f64, f64)>>| -> Option<f64> {
         let (mut cnt, mut sum, mut k) = (0.0, 0.0, 0usize);
         let mut seen = [(0.0, 0.0); REPLICATES];
-        for (c, s) in items {
-            if c > 0.0 {
-                seen[k] = (c, s);
-                k += 1;
-                cnt += c;
-                sum += s;
-            }
+        for (c, x) in items.flatten() {
+            seen[k] = (c, x);
+            k += 1;
+            cnt += c;
+            sum += c * x;
         }
         if k < 2 {
             return None;
         }
         let mean = sum / cnt;
-        let ss: f64 = seen[..k]
-            .iter()
-            .map(|&(c, s)| c * (s / c - mean).powi(2))
-            .sum();
+        let ss: f64 = seen[..k].iter().map(|&(c, x)| c * (x - mean).powi(2)).sum();
         Some(ss / (k - 1) as f64)
     };
-    let (mut num, mut den) = ([0.0; 3], [0.0; 3]);
-    let mut any = false;
+    let (mut num, mut den) = (0.0, 0.0);
     for j in 0..n {
         for a in 0..axes {
             let Some(nb) = neighbour(dims, j, a) else {
                 continue;
             };
-            for m in 0..3 {
-                let d = spread(&mut (0..REPLICATES).map(|r| {
-                    let b = rep(j, r);
-                    (b[0], b[4 + 3 * a + m] - b[1 + m])
-                }));
-                let pj = spread(&mut (0..REPLICATES).map(|r| (rep(j, r)[0], rep(j, r)[1 + m])));
-                let pn = spread(&mut (0..REPLICATES).map(|r| (rep(nb, r)[0], rep(nb, r)[1 + m])));
-                if let (Some(d), Some(pj), Some(pn)) = (d, pj, pn) {
-                    num[m] += d;
-                    den[m] += pj + pn;
-                    any = true;
-                }
+            let d = spread(&mut (0..REPLICATES).map(|r| {
+                let b = rep(j, r);
+                Some((b[0], sigma(b, 4 + 3 * a)? - sigma(b, 1)?))
+            }));
+            let own = |c: usize| {
+                spread(&mut (0..REPLICATES).map(|r| Some((rep(c, r)[0], sigma(rep(c, r), 1)?))))
+            };
+            if let (Some(d), Some(pj), Some(pn)) = (d, own(j), own(nb)) {
+                num += d;
+                den += pj + pn;
             }
         }
     }
-    let share: [f64; 3] = std::array::from_fn(|m| if den[m] > 0.0 { num[m] / den[m] } else { 0.0 });
-    (any && share.iter().all(|x| x.is_finite())).then_some(share)
+    let share = num / den;
+    (den > 0.0 && share.is_finite()).then_some(share)
 }
 
 /// The upper neighbour of cell `idx` along `axis` in a grid of `dims` (x fastest), if any.
@@ -247,10 +251,12 @@ mod tests {
         assert!(seen.iter().all(|&s| s), "{seen:?}");
     }
 
-    /// A grid whose replicates hold, per cell, `k` samples of unit variance: the replays of a
+    /// A grid whose replicates hold, per cell, `k` samples of unit variance per sum: the replays of a
     /// cell either equal the cell's own sums (`same`: walks that never part, in a field without
     /// gradient) or are independent of everything (`!same`).
     fn grid(same: bool, seed: u64) -> (Shift, (usize, usize, usize)) {
+        // Per-sample means of c, cΔ, cΔ² where σ is nearly linear in the sums' noise.
+        const MEAN: [f64; 3] = [10.0, 2.0, 5.0];
         let dims = (12, 10, 1);
         let cells = dims.0 * dims.1;
         let mut s = Shift::new(cells, 2, 0.5);
@@ -266,18 +272,18 @@ mod tests {
             for r in 0..REPLICATES {
                 let b = &mut s.data[j * stride + r * block..j * stride + (r + 1) * block];
                 b[0] = k;
-                for m in 0..3 {
-                    b[1 + m] = 5.0 * k + normal();
+                for (v, mean) in b[1..4].iter_mut().zip(MEAN) {
+                    *v = mean * k + normal();
                 }
             }
         }
         for j in 0..cells {
             for a in 0..2 {
                 for r in 0..REPLICATES {
-                    for m in 0..3 {
+                    for (m, mean) in MEAN.into_iter().enumerate() {
                         let v = match neighbour(dims, j, a) {
                             Some(_) if same => s.data[j * stride + r * block + 1 + m],
-                            Some(_) => 5.0 * k + normal(),
+                            Some(_) => mean * k + normal(),
                             None => 0.0,
                         };
                         s.data[j * stride + r * block + 4 + 3 * a + m] = v;
@@ -289,21 +295,19 @@ mod tests {
     }
 
     /// Replays equal to the cell's own samples: their difference has no variance. Independent
-    /// replays: the difference has the variance of two independent samples, within what 15
-    /// degrees of freedom over the grid's pairs and cells allow (relative standard errors of
-    /// about √(2 / (15 · pairs)) for the numerator and √(2 / (15 · cells)) for the denominator,
-    /// whose cells recur in up to four pairs; 4 of them).
+    /// replays: the pooled ratio is 1 within 4 of its standard errors: numerator and
+    /// denominator, sums of per-pair spreads of 15 degrees of freedom over the grid's 218 pairs
+    /// and (the denominator's cells recur in up to four pairs) its 120 cells, have relative
+    /// errors of about √(2 / (15 · pairs)) and √(2 / (15 · cells)).
     #[test]
     fn difference_share_is_zero_for_equal_replays_and_one_for_independent_ones() {
         let (s, dims) = grid(true, 3);
-        assert_eq!(difference_share(&s, dims), Some([0.0; 3]));
+        assert_eq!(difference_share(&s, dims), Some(0.0));
         let (s, dims) = grid(false, 4);
         let share = difference_share(&s, dims).unwrap();
         let pairs = (11 * 10 + 12 * 9) as f64;
         let tol = 4.0 * (2.0 / (15.0 * pairs) + 2.0 / (15.0 * 120.0)).sqrt();
-        for x in share {
-            assert!((x - 1.0).abs() <= tol, "{share:?} (tolerance {tol})");
-        }
+        assert!((share - 1.0).abs() <= tol, "{share} (tolerance {tol})");
         assert_eq!(difference_share(&Shift::new(4, 2, 0.5), (2, 2, 1)), None);
     }
 
