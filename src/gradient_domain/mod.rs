@@ -140,8 +140,6 @@ pub fn phase(dims: (usize, usize, usize), idx: usize) -> u64 {
     (5 * i as u64 + 11 * j as u64 + 7 * k as u64) % REPLICATES as u64
 }
 
-impl Shift {}
-
 /// How much the replayed differences of σ gain over those of independent cells: the variance of
 /// σ's difference across a replayed neighbour pair over the sum of the two cells' variances of σ
 /// (what independent cells' difference would have), each per sample and summed over every
@@ -188,6 +186,10 @@ pub fn difference_share(shift: &Shift, dims: (usize, usize, usize)) -> Option<f6
         let ss: f64 = seen[..k].iter().map(|&(c, x)| c * (x - mean).powi(2)).sum();
         Some(ss / (k - 1) as f64)
     };
+    // Each cell's own spread, read by up to 2 · axes pairs.
+    let own: Vec<Option<f64>> = (0..n)
+        .map(|c| spread(&mut (0..REPLICATES).map(|r| Some((rep(c, r)[0], sigma(rep(c, r), 1)?)))))
+        .collect();
     let (mut num, mut den) = (0.0, 0.0);
     for j in 0..n {
         for a in 0..axes {
@@ -198,10 +200,7 @@ pub fn difference_share(shift: &Shift, dims: (usize, usize, usize)) -> Option<f6
                 let b = rep(j, r);
                 Some((b[0], sigma(b, 4 + 3 * a)? - sigma(b, 1)?))
             }));
-            let own = |c: usize| {
-                spread(&mut (0..REPLICATES).map(|r| Some((rep(c, r)[0], sigma(rep(c, r), 1)?))))
-            };
-            if let (Some(d), Some(pj), Some(pn)) = (d, own(j), own(nb)) {
+            if let (Some(d), Some(pj), Some(pn)) = (d, own[j], own[nb]) {
                 num += d;
                 den += pj + pn;
             }
@@ -251,9 +250,9 @@ mod tests {
         assert!(seen.iter().all(|&s| s), "{seen:?}");
     }
 
-    /// A grid whose replicates hold, per cell, `k` samples of unit variance per sum: the replays of a
-    /// cell either equal the cell's own sums (`same`: walks that never part, in a field without
-    /// gradient) or are independent of everything (`!same`).
+    /// A grid whose replicates hold, per cell, `k` samples of unit variance per sum: the replays
+    /// of a cell either equal the cell's own sums (`same`: walks that never part, in a field
+    /// without gradient) or are independent of everything (`!same`).
     fn grid(same: bool, seed: u64) -> (Shift, (usize, usize, usize)) {
         // Per-sample means of c, cΔ, cΔ² where σ is nearly linear in the sums' noise.
         const MEAN: [f64; 3] = [10.0, 2.0, 5.0];
