@@ -11,10 +11,12 @@
 //! it adds to the neighbour's primal estimate: nothing traced is wasted.
 //!
 //! The field is then the screened Poisson reconstruction of the moments in the L2 norm
-//! ([`recon`]): per moment, the values I minimising Σ α²·nⱼ (Iⱼ − Pⱼ)² + Σₑ nₑ (I_b − I_a − Dₑ)²
+//! ([`recon`]): per moment, the values I minimising Σ α²·nⱼ (Iⱼ − Pⱼ)² + Σₑ fₑ·nₑ (I_b − I_a − Dₑ)²
 //! over cells j (primal estimates P from nⱼ samples) and neighbour edges e (difference estimates D
-//! from nₑ replayed pairs). The solution is linear in the estimates with weights that are sample
-//! counts, so each cell keeps its expectation (the reconstruction is unbiased); σ is eq. 14 of the
+//! from nₑ replayed pairs). The factor fₑ weighs each edge by how far the walks of its pairs part
+//! ([`edge_weights`]), measured on the other half of the replicates than the one it weighs, so
+//! the solution of each half is linear in its estimates with weights that do not depend on them:
+//! each cell keeps its expectation (the reconstruction is unbiased); σ is eq. 14 of the
 //! reconstructed moments. Where a cell's replicates say the reconstruction is less precise than
 //! the cell's own samples (with those replayed into it), as at a cell of little weight beside
 //! bright ones whose moments the neighbours' differences swamp, the cell keeps its own estimate.
@@ -155,59 +157,167 @@ pub fn phase(dims: (usize, usize, usize), idx: usize) -> u64 {
 /// summary of a gradient-domain run reports it so that a scene where the replay does not pay says
 /// so (docs/performance.md#gradient-domain).
 pub fn difference_share(shift: &Shift, dims: (usize, usize, usize)) -> Option<f64> {
-    let (stride, block, axes) = (shift.stride(), shift.block(), shift.axes);
-    let n = dims.0 * dims.1 * dims.2;
-    let rep =
-        |j: usize, r: usize| &shift.data[j * stride + r * block..j * stride + (r + 1) * block];
-    // σ of one replicate's sums at offset `o` (the cell's own at 1, a replay's at 4 + 3a).
-    let sigma = |b: &[f64], o: usize| -> Option<f64> {
-        let m0 = b[o];
-        if !(b[0] > 0.0 && m0 > 0.0) {
-            return None;
-        }
-        let s = sigma_from(b[o + 1] / m0, b[o + 2] / m0);
-        s.is_finite().then_some(s)
-    };
-    // The count-weighted spread of per-replicate values about their weighted mean:
-    // Σᵣ nᵣ (xᵣ − x̄)² over (R − 1), the variance of one sample's worth.
-    let spread = |items: &mut dyn Iterator<Item = Option<(f64, f64)>>| -> Option<f64> {
-        let (mut cnt, mut sum, mut k) = (0.0, 0.0, 0usize);
-        let mut seen = [(0.0, 0.0); REPLICATES];
-        for (c, x) in items.flatten() {
-            seen[k] = (c, x);
-            k += 1;
-            cnt += c;
-            sum += c * x;
-        }
-        if k < 2 {
-            return None;
-        }
-        let mean = sum / cnt;
-        let ss: f64 = seen[..k].iter().map(|&(c, x)| c * (x - mean).powi(2)).sum();
-        Some(ss / (k - 1) as f64)
-    };
-    // Each cell's own spread, read by up to 2 · axes pairs.
-    let own: Vec<Option<f64>> = (0..n)
-        .map(|c| spread(&mut (0..REPLICATES).map(|r| Some((rep(c, r)[0], sigma(rep(c, r), 1)?)))))
-        .collect();
+    let all: Vec<usize> = (0..REPLICATES).collect();
+    let sp = Spreads::of(shift, dims, &all);
     let (mut num, mut den) = (0.0, 0.0);
-    for j in 0..n {
-        for a in 0..axes {
-            let Some(nb) = neighbour(dims, j, a) else {
-                continue;
-            };
-            let d = spread(&mut (0..REPLICATES).map(|r| {
-                let b = rep(j, r);
-                Some((b[0], sigma(b, 4 + 3 * a)? - sigma(b, 1)?))
-            }));
-            if let (Some(d), Some(pj), Some(pn)) = (d, own[j], own[nb]) {
+    for j in 0..sp.own.len() {
+        for a in 0..shift.axes {
+            if let Some((d, own)) = sp.pair(dims, j, a) {
                 num += d;
-                den += pj + pn;
+                den += own;
             }
         }
     }
     let share = num / den;
     (den > 0.0 && share.is_finite()).then_some(share)
+}
+
+/// Per-sample spreads of σ over a set of replicates: each cell's own, and per axis that of the
+/// difference across each replayed pair (indexed by the pair's lower cell).
+struct Spreads {
+    own: Vec<Option<f64>>,
+    diff: Vec<Vec<Option<f64>>>,
+}
+
+impl Spreads {
+    /// The spreads of the replicates `reps` of `shift`: per replicate, σ (eq. 14) of the cell's
+    /// own sums, of their replays into the neighbour and of the neighbour's own, each variance the
+    /// spread of the replicates' values weighted by their sample counts.
+    fn of(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -> Spreads {
+        let (stride, block, axes) = (shift.stride(), shift.block(), shift.axes);
+        let n = dims.0 * dims.1 * dims.2;
+        let rep =
+            |j: usize, r: usize| &shift.data[j * stride + r * block..j * stride + (r + 1) * block];
+        // σ of one replicate's sums at offset `o` (the cell's own at 1, a replay's at 4 + 3a).
+        let sigma = |b: &[f64], o: usize| -> Option<f64> {
+            let m0 = b[o];
+            if !(b[0] > 0.0 && m0 > 0.0) {
+                return None;
+            }
+            let s = sigma_from(b[o + 1] / m0, b[o + 2] / m0);
+            s.is_finite().then_some(s)
+        };
+        // The count-weighted spread of per-replicate values about their weighted mean:
+        // Σᵣ nᵣ (xᵣ − x̄)² over (R − 1), the variance of one sample's worth.
+        let spread = |items: &mut dyn Iterator<Item = Option<(f64, f64)>>| -> Option<f64> {
+            let (mut cnt, mut sum, mut k) = (0.0, 0.0, 0usize);
+            let mut seen = [(0.0, 0.0); REPLICATES];
+            for (c, x) in items.flatten() {
+                seen[k] = (c, x);
+                k += 1;
+                cnt += c;
+                sum += c * x;
+            }
+            if k < 2 {
+                return None;
+            }
+            let mean = sum / cnt;
+            let ss: f64 = seen[..k].iter().map(|&(c, x)| c * (x - mean).powi(2)).sum();
+            Some(ss / (k - 1) as f64)
+        };
+        let own = (0..n)
+            .map(|c| {
+                spread(
+                    &mut reps
+                        .iter()
+                        .map(|&r| Some((rep(c, r)[0], sigma(rep(c, r), 1)?))),
+                )
+            })
+            .collect();
+        let diff = (0..axes)
+            .map(|a| {
+                (0..n)
+                    .map(|j| {
+                        neighbour(dims, j, a)?;
+                        spread(&mut reps.iter().map(|&r| {
+                            let b = rep(j, r);
+                            Some((b[0], sigma(b, 4 + 3 * a)? - sigma(b, 1)?))
+                        }))
+                    })
+                    .collect()
+            })
+            .collect();
+        Spreads { own, diff }
+    }
+
+    /// The pair (j, its upper neighbour along `a`): its difference's spread and the sum of the two
+    /// cells' own, where all three are known.
+    fn pair(&self, dims: (usize, usize, usize), j: usize, a: usize) -> Option<(f64, f64)> {
+        let nb = neighbour(dims, j, a)?;
+        Some((self.diff[a][j]?, self.own[j]? + self.own[nb]?))
+    }
+}
+
+/// Cells each side of an edge, along every axis of the grid, whose pairs' spreads are pooled into
+/// the edge's share in [`edge_weights`]: 1 (a 3×3 window of parallel edges in a plane, 3×3×3 in a
+/// volume) halves the error of measured shares, wider windows blur the edges where walks part
+/// (docs/performance.md#gradient-domain).
+const SHARE_WINDOW: usize = 1;
+
+/// Bounds of [`edge_weights`]' factors: an edge never weighs more than 8 times or less than an
+/// eighth of what the uniform α gives it, so that a share measured as nearly 0 from few
+/// replicates does not pin two cells together.
+const WEIGHT_BOUND: f64 = 8.0;
+
+/// The factor each replayed edge's weight in the reconstruction gets from the share of σ's
+/// difference across it (as [`difference_share`], pooled over a window of parallel edges,
+/// [`SHARE_WINDOW`]) measured from the replicates `reps`: α² / (2 · share), clamped to
+/// [1/[`WEIGHT_BOUND`], [`WEIGHT_BOUND`]], 1 where no share is known. With the primal weight α²
+/// per sample, a difference of per-pair variance `share` × (the two cells' variance) then weighs
+/// as its variance says (the least-squares weights of independent estimates), where a uniform
+/// weight over-trusts the differences where walks part (edges, mirrors) and under-trusts them
+/// where walks stay together. The reconstruction reads weights measured on other replicates than
+/// the sums it weighs ([`recon`]), so that the weights never depend on the estimates they weigh
+/// and each cell keeps its expectation. Per axis, indexed by the edge's lower cell.
+pub fn edge_weights(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -> Vec<Vec<f64>> {
+    let sp = Spreads::of(shift, dims, reps);
+    let target = shift.alpha * shift.alpha / 2.0;
+    let (w, h, d) = dims;
+    let r = SHARE_WINDOW as isize;
+    // A window reaches along the axes the grid has: a plane's depth is 1.
+    let rz = if d > 1 { r } else { 0 };
+    let at = |x: isize, y: isize, z: isize| -> Option<usize> {
+        let inside = (0..w as isize).contains(&x)
+            && (0..h as isize).contains(&y)
+            && (0..d as isize).contains(&z);
+        inside.then(|| x as usize + w * (y as usize + h * z as usize))
+    };
+    (0..shift.axes)
+        .map(|a| {
+            (0..sp.own.len())
+                .map(|j| {
+                    if neighbour(dims, j, a).is_none() {
+                        return 1.0;
+                    }
+                    let (x, y, z) = (
+                        (j % w) as isize,
+                        ((j / w) % h) as isize,
+                        (j / (w * h)) as isize,
+                    );
+                    let (mut num, mut den) = (0.0, 0.0);
+                    for dz in -rz..=rz {
+                        for dy in -r..=r {
+                            for dx in -r..=r {
+                                let pair =
+                                    at(x + dx, y + dy, z + dz).and_then(|q| sp.pair(dims, q, a));
+                                if let Some((dd, own)) = pair {
+                                    num += dd;
+                                    den += own;
+                                }
+                            }
+                        }
+                    }
+                    let share = num / den;
+                    if den > 0.0 && share.is_finite() {
+                        (target / share.max(target / WEIGHT_BOUND))
+                            .clamp(1.0 / WEIGHT_BOUND, WEIGHT_BOUND)
+                    } else {
+                        1.0
+                    }
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// The upper neighbour of cell `idx` along `axis` in a grid of `dims` (x fastest), if any.
@@ -251,9 +361,9 @@ mod tests {
     }
 
     /// A grid whose replicates hold, per cell, `k` samples of unit variance per sum: the replays
-    /// of a cell either equal the cell's own sums (`same`: walks that never part, in a field
-    /// without gradient) or are independent of everything (`!same`).
-    fn grid(same: bool, seed: u64) -> (Shift, (usize, usize, usize)) {
+    /// of cell j either equal the cell's own sums (`same(j)`: walks that never part, in a field
+    /// without gradient) or are independent of everything.
+    fn grid(same: impl Fn(usize) -> bool, seed: u64) -> (Shift, (usize, usize, usize)) {
         // Per-sample means of c, cΔ, cΔ² where σ is nearly linear in the sums' noise.
         const MEAN: [f64; 3] = [10.0, 2.0, 5.0];
         let dims = (12, 10, 1);
@@ -281,7 +391,7 @@ mod tests {
                 for r in 0..REPLICATES {
                     for (m, mean) in MEAN.into_iter().enumerate() {
                         let v = match neighbour(dims, j, a) {
-                            Some(_) if same => s.data[j * stride + r * block + 1 + m],
+                            Some(_) if same(j) => s.data[j * stride + r * block + 1 + m],
                             Some(_) => mean * k + normal(),
                             None => 0.0,
                         };
@@ -300,14 +410,46 @@ mod tests {
     /// errors of about √(2 / (15 · pairs)) and √(2 / (15 · cells)).
     #[test]
     fn difference_share_is_zero_for_equal_replays_and_one_for_independent_ones() {
-        let (s, dims) = grid(true, 3);
+        let (s, dims) = grid(|_| true, 3);
         assert_eq!(difference_share(&s, dims), Some(0.0));
-        let (s, dims) = grid(false, 4);
+        let (s, dims) = grid(|_| false, 4);
         let share = difference_share(&s, dims).unwrap();
         let pairs = (11 * 10 + 12 * 9) as f64;
         let tol = 4.0 * (2.0 / (15.0 * pairs) + 2.0 / (15.0 * 120.0)).sqrt();
         assert!((share - 1.0).abs() <= tol, "{share} (tolerance {tol})");
         assert_eq!(difference_share(&Shift::new(4, 2, 0.5), (2, 2, 1)), None);
+    }
+
+    /// Replays equal to the cell's own sums in the grid's left half and independent in its right:
+    /// the edges of the left half weigh the most they may, those of the right the least (α² / 2
+    /// over a share of 1 is 1/8 at α = 0.5, the lower bound; the window's share is 1 within 4 of
+    /// its standard errors, √(2 / (15 · 4)) for at least 4 pairs of 15 degrees of freedom), and
+    /// no edge without an upper neighbour has a factor other than 1.
+    #[test]
+    fn edges_weigh_as_their_replays_follow_the_cell() {
+        let left = |j: usize| j % 12 < 6;
+        let (s, dims) = grid(left, 5);
+        let all: Vec<usize> = (0..REPLICATES).collect();
+        let w = edge_weights(&s, dims, &all);
+        let low = 1.0 / WEIGHT_BOUND;
+        let high = low / (1.0 - 4.0 * (2.0 / (15.0 * 4.0_f64)).sqrt());
+        for (a, edges) in w.iter().enumerate() {
+            for (j, &f) in edges.iter().enumerate() {
+                let (x, y) = (j % 12, j / 12);
+                match neighbour(dims, j, a) {
+                    None => assert_eq!(f, 1.0),
+                    // The window reaches one cell each way: edges whose window keeps to one
+                    // half pool pairs of one kind only.
+                    Some(_) if x < 5 => {
+                        assert_eq!(f, WEIGHT_BOUND, "edge {a} at ({x}, {y})")
+                    }
+                    Some(_) if x > 6 => {
+                        assert!((low..=high).contains(&f), "edge {a} at ({x}, {y}): {f}")
+                    }
+                    Some(_) => assert!((low..=WEIGHT_BOUND).contains(&f)),
+                }
+            }
+        }
     }
 
     #[test]

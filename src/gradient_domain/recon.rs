@@ -1,6 +1,9 @@
 //! The field of a gradient-domain run: the moments reconstructed from the primal sums and the
 //! replayed differences ([`super::solve`]), σ from them (eq. 14), and its standard error from the
-//! spread of the replicates' reconstructions.
+//! spread of the replicates' reconstructions. Each half of the replicates (even, odd) is
+//! reconstructed with the edge weights the other half measures ([`super::edge_weights`]): the
+//! field is the two halves' moments weighted by their sample counts, and each replicate's spread
+//! is taken with its half's weights.
 
 use super::solve::System;
 use super::{REPLICATES, Shift, neighbour};
@@ -19,10 +22,19 @@ pub struct Moments3 {
     /// The plain per-sample moments of the samples that started in the cell or were replayed
     /// into it (their sums over their count): each cell's own estimate, without its neighbours.
     pub plain: [Vec<f64>; 3],
+    /// The samples that started in the cell or were replayed into it.
+    pub count: Vec<f64>,
 }
 
-/// Reconstructs the moments of the replicates in `reps` of `shift` over a grid of `dims`.
-pub fn reconstruct(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -> Moments3 {
+/// Reconstructs the moments of the replicates in `reps` of `shift` over a grid of `dims`, each
+/// replayed edge's weight (its pair count) multiplied by its factor in `factors` (per axis, by
+/// the edge's lower cell; [`super::edge_weights`]), or by 1 without them.
+pub fn reconstruct(
+    shift: &Shift,
+    dims: (usize, usize, usize),
+    reps: &[usize],
+    factors: Option<&[Vec<f64>]>,
+) -> Moments3 {
     let n = dims.0 * dims.1 * dims.2;
     let (stride, block, axes) = (shift.stride(), shift.block(), shift.axes);
     let a2 = shift.alpha * shift.alpha;
@@ -51,11 +63,12 @@ pub fn reconstruct(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -
                     continue;
                 };
                 pn[nb] += cnt;
-                edges[a][j] += cnt;
+                let f = factors.map_or(1.0, |f| f[a][j]);
+                edges[a][j] += f * cnt;
                 for m in 0..3 {
                     let s = b[4 + 3 * a + m];
                     ps[m][nb] += s;
-                    diffs[m][a][j] += s - b[1 + m];
+                    diffs[m][a][j] += f * (s - b[1 + m]);
                 }
             }
         }
@@ -82,6 +95,7 @@ pub fn reconstruct(shift: &Shift, dims: (usize, usize, usize), reps: &[usize]) -
         sampled: pn.iter().map(|&p| p > 0.0).collect(),
         weight: std::mem::take(&mut ps[0]),
         plain,
+        count: pn,
     }
 }
 
@@ -157,18 +171,46 @@ fn compute(
     dims: (usize, usize, usize),
     base: &[Moments],
 ) -> (Vec<CellValue>, Vec<Vec<f64>>) {
+    // Cross-fitted edge weights: the even replicates are reconstructed with the weights the odd
+    // ones measure and the odd with the even ones', so that no weight depends on the sums it
+    // weighs and each half's reconstruction is linear in its sums with fixed weights (unbiased).
+    let halves: [Vec<usize>; 2] = [
+        (0..REPLICATES).step_by(2).collect(),
+        (1..REPLICATES).step_by(2).collect(),
+    ];
+    let weights: [Vec<Vec<f64>>; 2] = [
+        super::edge_weights(shift, dims, &halves[1]),
+        super::edge_weights(shift, dims, &halves[0]),
+    ];
     let all: Vec<usize> = (0..REPLICATES).collect();
-    let mut runs: Vec<Moments3> = (0..=REPLICATES)
+    // The replicates one by one (the field's spread), both halves, and every replicate unweighted
+    // (each cell's plain estimate, its count and weight).
+    let mut runs: Vec<Moments3> = (0..REPLICATES + 3)
         .into_par_iter()
-        .map(|r| {
-            if r == REPLICATES {
-                reconstruct(shift, dims, &all)
-            } else {
-                reconstruct(shift, dims, &[r])
+        .map(|r| match r {
+            r if r < REPLICATES => reconstruct(shift, dims, &[r], Some(&weights[r % 2])),
+            r if r < REPLICATES + 2 => {
+                let k = r - REPLICATES;
+                reconstruct(shift, dims, &halves[k], Some(&weights[k]))
             }
+            _ => reconstruct(shift, dims, &all, None),
         })
         .collect();
-    let full = runs.pop().expect("the full reconstruction");
+    let mut full = runs.pop().expect("the unweighted reconstruction");
+    let odd = runs.pop().expect("the odd half");
+    let even = runs.pop().expect("the even half");
+    // The field: the halves' moments weighted by their sample counts at the cell (counts that
+    // the sampling plan fixes, not the estimates).
+    for j in 0..full.count.len() {
+        let (a, b) = (even.count[j], odd.count[j]);
+        for m in 0..3 {
+            full.m[m][j] = if a + b > 0.0 {
+                (a * even.m[m][j] + b * odd.m[m][j]) / (a + b)
+            } else {
+                0.5 * (even.m[m][j] + odd.m[m][j])
+            };
+        }
+    }
     let n = base.len();
     let mut dev = vec![vec![0.0; n]; REPLICATES];
     let values = (0..n)
@@ -319,6 +361,27 @@ mod tests {
             })
             .collect();
         (s, base)
+    }
+
+    /// Every edge's weight times c is the primal weight over c: K and r both scale by c, so the
+    /// field at α with factors c is the field at α / √c without (to the solver's tolerance), and
+    /// factors of 1 change nothing at all.
+    #[test]
+    fn edge_factors_weigh_the_differences_against_the_primal() {
+        let dims = (4, 3, 1);
+        let (mut s, _) = field();
+        let all: Vec<usize> = (0..REPLICATES).collect();
+        let ones = vec![vec![1.0; 12]; 2];
+        let fours = vec![vec![4.0; 12]; 2];
+        let plain = reconstruct(&s, dims, &all, None).m;
+        assert_eq!(reconstruct(&s, dims, &all, Some(&ones)).m, plain);
+        let weighted = reconstruct(&s, dims, &all, Some(&fours)).m;
+        assert_ne!(weighted, plain);
+        s.alpha = 0.25;
+        let lower_alpha = reconstruct(&s, dims, &all, None).m;
+        for (w, l) in weighted.iter().flatten().zip(lower_alpha.iter().flatten()) {
+            assert!((w - l).abs() <= 1e-9 * l.abs(), "{w} against {l}");
+        }
     }
 
     #[test]
