@@ -42,14 +42,17 @@ pub const REPLICATES: usize = 16;
 pub const DEFAULT_ALPHA: f64 = 0.5;
 
 /// Bytes a cell of a gradient-domain grid with `axes` axes needs besides an ordinary one's, at
-/// most: its replicates' sums ([`Shift::stride`] f64), and what finishing the field holds at once
-/// when all [`REPLICATES`] + 1 reconstructions ([`recon::values`]) run together: each keeps per
-/// cell the sample counts, primal sums, edge weights and difference sums (5 + 4·axes f64), the
-/// finished moments and the arrays of the solve in progress (11 f64), and one flag.
+/// most: its replicates' sums ([`Shift::stride`] f64), the two halves' edge weights (2·axes f64)
+/// and the spreads they are measured from ((1 + axes) `Option<f64>`), and what finishing the
+/// field holds at once when all [`REPLICATES`] + 3 reconstructions ([`recon::values`]: one per
+/// replicate, one per half, one unweighted) run together: each keeps per cell the sample counts,
+/// primal sums, edge weights and difference sums (5 + 4·axes f64), the finished moments, the
+/// plain ones and the arrays of the solve in progress (11 f64), and one flag.
 pub const fn bytes_per_cell(axes: usize) -> usize {
     let stored = REPLICATES * (1 + 3 * (1 + axes)) * size_of::<f64>();
+    let weights = 2 * axes * size_of::<f64>() + (1 + axes) * size_of::<Option<f64>>();
     let per_reconstruction = (5 + 4 * axes + 11) * size_of::<f64>() + size_of::<bool>();
-    stored + (REPLICATES + 1) * per_reconstruction
+    stored + weights + (REPLICATES + 3) * per_reconstruction
 }
 
 /// The sums of a gradient-domain run, per cell and replicate: the sample count, the sums
@@ -152,10 +155,10 @@ pub fn phase(dims: (usize, usize, usize), idx: usize) -> u64 {
 /// counts. σ, not the moments: near a point light m0 differs wildly between neighbours while σ,
 /// a ratio of moments, does not. `None` without a pair that two replicates sampled.
 ///
-/// A sample is traced at the cell and at `axes` neighbours, so at equal time the direct
-/// differences beat those of independent cells only where this is below 1 / (1 + axes): the
-/// summary of a gradient-domain run reports it so that a scene where the replay does not pay says
-/// so (docs/performance.md#gradient-domain).
+/// The summary of a gradient-domain run reports it as how far the scene's walks part. Whether the
+/// replay pays is read from the field instead ([`recon::gain`]): the edges weigh by their own
+/// share ([`edge_weights`]), so a scene whose pooled share is high can still gain where its walks
+/// stay together (docs/performance.md#gradient-domain).
 pub fn difference_share(shift: &Shift, dims: (usize, usize, usize)) -> Option<f64> {
     let all: Vec<usize> = (0..REPLICATES).collect();
     let sp = Spreads::of(shift, dims, &all);
