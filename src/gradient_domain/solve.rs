@@ -16,8 +16,10 @@ pub struct System<'a> {
     pub edges: &'a [Vec<f64>],
 }
 
-/// Relative residual at which the solve stops: far below any sampling error.
-const TOLERANCE: f64 = 1e-12;
+/// Relative residual at which the solve stops: far below any sampling error. Against 1e-12 it
+/// moved a 256² Cornell box's σ by at most 1e-5 of a cell's standard error, for a quarter fewer
+/// iterations (the reconstruction runs after every pass of a run).
+const TOLERANCE: f64 = 1e-9;
 
 impl System<'_> {
     fn steps(&self) -> [usize; 3] {
