@@ -9,7 +9,7 @@
 #
 #   scripts/efficiency.sh                      # a few minutes: 64² slices, 8..128 spp
 #   scripts/efficiency.sh --long               # the published table: 128² slices, 16..512 spp
-#                                              # (docs/performance.md#against-the-older-estimator)
+#                                              # (docs/performance.md#convergence)
 #   FTPD3D_BASELINE=/path/to/ftpd3d scripts/efficiency.sh   # an existing baseline build
 #   scripts/efficiency.sh -- --scene scenes/glass_sphere.obj --weight radiance   # other xtask flags
 #
