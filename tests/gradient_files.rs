@@ -511,7 +511,7 @@ fn gradient_domain_volumes_count_their_memory() {
     // The stored sums alone: 16 replicates × 13 f64.
     assert!(gradient >= ordinary + REPLICATES * 13 * 8, "{gradient}");
     // As docs/guide.md (Volumes) states it.
-    assert_eq!(gradient - ordinary, 5489);
+    assert_eq!(gradient - ordinary, 6051);
     // A grid that fits as an ordinary volume and not as a gradient-domain one is refused, with
     // the bytes each voxel needs.
     let size = glam::DVec3::splat(2.0);
