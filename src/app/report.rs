@@ -287,10 +287,6 @@ pub fn power(p: f64) -> String {
     }
 }
 
-/// What the replayed differences of σ gained: their share of independent cells' variance
-/// ([`crate::gradient_domain::difference_share`]), and how much lower the reconstructed field's
-/// variance is than the same samples' without the differences
-/// ([`crate::gradient_domain::recon::gain`]), which is what the replay buys at equal time.
 /// The gain from which the summary says the replay pays: on 9 of the 11 shipped scenes in each of
 /// two rounds the gain a run reads from itself was 0.6-1.7 times the one measured at equal time
 /// against a plain run (the cells' own samples lose some of their QMC stratification to the
@@ -298,6 +294,10 @@ pub fn power(p: f64) -> String {
 /// below 1.5 the flag may buy nothing (docs/performance.md#gradient-domain).
 const PAYS: f64 = 1.5;
 
+/// What the replayed differences of σ gained: their share of independent cells' variance
+/// ([`crate::gradient_domain::difference_share`]), and how much lower the reconstructed field's
+/// variance is than the same samples' without the differences
+/// ([`crate::gradient_domain::recon::gain`]), which is what the replay buys at equal time.
 fn difference_share_note(field: &Field, shift: &crate::gradient_domain::Shift) -> String {
     let dims = field.dims();
     let share = crate::gradient_domain::difference_share(shift, dims)

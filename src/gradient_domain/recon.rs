@@ -26,6 +26,36 @@ pub struct Moments3 {
     pub count: Vec<f64>,
 }
 
+impl Moments3 {
+    /// The field of two disjoint sets of replicates: their moments weighted by their sample
+    /// counts at each cell (counts that the sampling plan fixes, not the estimates), their plain
+    /// estimates likewise (the plain estimate of both sets' samples), their counts and weights
+    /// added.
+    fn joined(a: &Moments3, b: &Moments3) -> Moments3 {
+        let n = a.count.len();
+        let mix = |x: &[f64], y: &[f64]| -> Vec<f64> {
+            (0..n)
+                .map(|j| {
+                    let (ca, cb) = (a.count[j], b.count[j]);
+                    if ca + cb > 0.0 {
+                        (ca * x[j] + cb * y[j]) / (ca + cb)
+                    } else {
+                        0.5 * (x[j] + y[j])
+                    }
+                })
+                .collect()
+        };
+        let count: Vec<f64> = a.count.iter().zip(&b.count).map(|(x, y)| x + y).collect();
+        Moments3 {
+            m: std::array::from_fn(|k| mix(&a.m[k], &b.m[k])),
+            sampled: count.iter().map(|&c| c > 0.0).collect(),
+            weight: a.weight.iter().zip(&b.weight).map(|(x, y)| x + y).collect(),
+            plain: std::array::from_fn(|k| mix(&a.plain[k], &b.plain[k])),
+            count,
+        }
+    }
+}
+
 /// Reconstructs the moments of the replicates in `reps` of `shift` over a grid of `dims`, each
 /// replayed edge's weight (its pair count) multiplied by its factor in `factors` (per axis, by
 /// the edge's lower cell; [`super::edge_weights`]), or by 1 without them.
@@ -199,35 +229,20 @@ fn compute(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> Fini
         super::edge_weights(shift, dims, &halves[1]),
         super::edge_weights(shift, dims, &halves[0]),
     ];
-    let all: Vec<usize> = (0..REPLICATES).collect();
-    // The replicates one by one (the field's spread), both halves, and every replicate unweighted
-    // (each cell's plain estimate, its count and weight).
-    let mut runs: Vec<Moments3> = (0..REPLICATES + 3)
+    // The replicates one by one (the field's spread) and both halves.
+    let mut runs: Vec<Moments3> = (0..REPLICATES + 2)
         .into_par_iter()
         .map(|r| match r {
             r if r < REPLICATES => reconstruct(shift, dims, &[r], Some(&weights[r % 2])),
-            r if r < REPLICATES + 2 => {
+            r => {
                 let k = r - REPLICATES;
                 reconstruct(shift, dims, &halves[k], Some(&weights[k]))
             }
-            _ => reconstruct(shift, dims, &all, None),
         })
         .collect();
-    let mut full = runs.pop().expect("the unweighted reconstruction");
     let odd = runs.pop().expect("the odd half");
     let even = runs.pop().expect("the even half");
-    // The field: the halves' moments weighted by their sample counts at the cell (counts that
-    // the sampling plan fixes, not the estimates).
-    for j in 0..full.count.len() {
-        let (a, b) = (even.count[j], odd.count[j]);
-        for m in 0..3 {
-            full.m[m][j] = if a + b > 0.0 {
-                (a * even.m[m][j] + b * odd.m[m][j]) / (a + b)
-            } else {
-                0.5 * (even.m[m][j] + odd.m[m][j])
-            };
-        }
-    }
+    let full = Moments3::joined(&even, &odd);
     let n = base.len();
     let mut dev = vec![vec![0.0; n]; REPLICATES];
     let (mut plain_var, mut field_var) = (0.0, 0.0);
