@@ -10,15 +10,9 @@
 #
 # Writes its EXRs to gradient-domain-scenes/ in cargo's target directory (scripts/target-dir.sh).
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
-cd "$root"
-. "$root/scripts/target-dir.sh"
 base=${1:?usage: scripts/gradient-domain-scenes.sh BASELINE_BIN [OLDER_BIN]}
 older=${2:-}
-cargo build --release --quiet --bin ftpd3d
-gd=$target/release/ftpd3d
-out=$target/gradient-domain-scenes
-mkdir -p "$out"
+. "$(dirname "$0")/gradient-domain-setup.sh" gradient-domain-scenes
 common="--res 48 --threads 2 --uniform --no-png --quiet"
 for path in scenes/*.obj scenes/*.gltf scenes/courtyard/courtyard.toml; do
   name=$(basename "${path%.*}")

@@ -8,19 +8,9 @@
 #
 # Writes its EXRs to gradient-domain/ in cargo's target directory (scripts/target-dir.sh).
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
-cd "$root"
-. "$root/scripts/target-dir.sh"
 base=${1:?usage: scripts/gradient-domain.sh BASELINE_BIN [OLDER_BIN]}
 older=${2:-}
-cargo build --release --quiet --bin ftpd3d
-gd=$target/release/ftpd3d
-out=$target/gradient-domain
-mkdir -p "$out"
-declare -A scene=(
-  [cornell]="--scene scenes/cornell_mirror.obj --slice z=0 --weight radiance"
-  [flat_stair]="--scene scenes/flat_stair_wall.obj --slice z=0 --flatland --weight radiance"
-)
+. "$(dirname "$0")/gradient-domain-setup.sh" gradient-domain
 common="--res 48 --threads 2 --uniform --no-png --quiet"
 for s in cornell flat_stair; do
   [ -f "$out/ref_$s.exr" ] || "$gd" ${scene[$s]} $common --seed 2 --time 160 --gradient-domain -o "$out/ref_$s.exr"

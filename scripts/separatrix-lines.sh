@@ -9,20 +9,10 @@
 #
 # Writes its EXRs to separatrix-lines/ in cargo's target directory (scripts/target-dir.sh).
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
-cd "$root"
-. "$root/scripts/target-dir.sh"
 base=${1:?usage: [SEED=N] scripts/separatrix-lines.sh BASELINE_BIN}
 seed=${SEED:-1}
 [ "$seed" != 2 ] || { echo "separatrix-lines.sh: seed 2 is the reference's" >&2; exit 2; }
-cargo build --release --quiet --bin ftpd3d
-gd=$target/release/ftpd3d
-out=$target/separatrix-lines
-mkdir -p "$out"
-declare -A scene=(
-  [flat_stair]="--scene scenes/flat_stair_wall.obj --slice z=0 --flatland --weight radiance"
-  [cornell]="--scene scenes/cornell_mirror.obj --slice z=0 --weight radiance"
-)
+. "$(dirname "$0")/gradient-domain-setup.sh" separatrix-lines
 common="--res 96 --threads 2 --uniform --no-png --quiet --separatrices"
 for s in flat_stair cornell; do
   [ -f "$out/ref_$s.exr" ] || "$gd" ${scene[$s]} $common --seed 2 --time 160 --gradient-domain -o "$out/ref_$s.exr"
