@@ -257,7 +257,7 @@ fn compute(shift: &Shift, dims: (usize, usize, usize), base: &[Moments]) -> Fini
             // The reconstruction where it is the more precise, the cell's own samples where it
             // is not (a cell of little weight beside bright ones, whose moments the neighbours'
             // differences would swamp): either estimates the cell's σ.
-            let pick = match (rec.clone(), plain.clone()) {
+            let pick = match (rec, plain.clone()) {
                 (Some(a), Some(b))
                     if b.value.estimated
                         && !(a.value.estimated && a.value.stderr <= b.value.stderr) =>
